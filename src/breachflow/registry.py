@@ -1,0 +1,80 @@
+"""Small named registries for the pluggable parts (readers, solvers, drag laws, integrators).
+
+Modelled on xarray's backend entry points: built-ins register themselves with the
+:meth:`Registry.register` decorator; third-party packages add theirs through a Python entry point
+group (``[project.entry-points."breachflow.drag_laws"]`` in their ``pyproject.toml``), loaded lazily
+the first time a name is looked up.
+"""
+from __future__ import annotations
+
+from importlib.metadata import entry_points
+from typing import Generic, TypeVar
+
+from .errors import InputError
+
+T = TypeVar("T")
+
+
+class Registry(Generic[T]):
+    """A name → class (or factory) mapping with entry-point discovery.
+
+    >>> laws = Registry("drag law", "breachflow.drag_laws")
+    >>> @laws.register("constant")
+    ... class Constant: ...
+    >>> laws.get("constant") is Constant
+    True
+    """
+
+    def __init__(self, kind: str, group: str):
+        self.kind = kind
+        self.group = group
+        self._items: dict[str, T] = {}
+        self._loaded_entry_points = False
+
+    def register(self, name: str, obj: T | None = None, *, overwrite: bool = False):
+        """Register *obj* under *name*; usable as a decorator when *obj* is omitted."""
+
+        def deco(o):
+            key = name.lower()
+            if key in self._items and not overwrite and self._items[key] is not o:
+                raise InputError(f"{self.kind} {name!r} is already registered")
+            self._items[key] = o
+            return o
+
+        return deco if obj is None else deco(obj)
+
+    def _load_entry_points(self) -> None:
+        if self._loaded_entry_points:
+            return
+        self._loaded_entry_points = True
+        for ep in entry_points(group=self.group):
+            if ep.name.lower() not in self._items:
+                try:
+                    self._items[ep.name.lower()] = ep.load()
+                except Exception as exc:  # a broken plug-in must not break the built-ins
+                    import warnings
+
+                    warnings.warn(f"could not load {self.kind} plug-in {ep.name!r} ({ep.value}): {exc}")
+
+    def get(self, name: str) -> T:
+        """Return the entry called *name* (case-insensitive) or raise InputError listing the choices."""
+        key = str(name).lower()
+        if key not in self._items:
+            self._load_entry_points()
+        try:
+            return self._items[key]
+        except KeyError:
+            raise InputError(
+                f"unknown {self.kind} {name!r}; available: {', '.join(self.available())}"
+            ) from None
+
+    def available(self) -> list[str]:
+        self._load_entry_points()
+        return sorted(self._items)
+
+    def __contains__(self, name: str) -> bool:
+        self._load_entry_points()
+        return str(name).lower() in self._items
+
+    def __iter__(self):
+        return iter(self.available())

@@ -1,0 +1,75 @@
+#!/usr/bin/env python3
+"""One-file bootstrap for breachflow: needs only Python >= 3.11 and pip.
+
+    python3 tasks.py run  [ARGS...]   # create .venv if needed, install, run `breachflow run ARGS...`
+    python3 tasks.py test [--slow] [PYTEST ARGS...]   # same set-up, then the test suite
+    python3 tasks.py bench [NAME]     # same set-up, then the benchmarks in benchmarks/
+    python3 tasks.py shell CMD...     # run CMD inside the environment
+
+The environment is re-installed only when pyproject.toml changes (a stamp file records its hash).
+"""
+from __future__ import annotations
+
+import hashlib
+import os
+import subprocess
+import sys
+import venv
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent
+VENV = Path(os.environ.get("BREACHFLOW_VENV", ROOT / ".venv"))
+BIN = VENV / ("Scripts" if os.name == "nt" else "bin")
+PY = BIN / "python"
+STAMP = VENV / ".breachflow-installed"
+
+
+def _pyproject_hash() -> str:
+    return hashlib.sha256((ROOT / "pyproject.toml").read_bytes()).hexdigest()
+
+
+def ensure_env() -> None:
+    if not PY.exists():
+        print(f"[tasks] creating virtual environment in {VENV}", flush=True)
+        venv.EnvBuilder(with_pip=True).create(VENV)
+    want = _pyproject_hash()
+    if STAMP.exists() and STAMP.read_text().strip() == want:
+        return
+    print("[tasks] installing breachflow and its dependencies (first run takes a minute)", flush=True)
+    subprocess.run(
+        [str(PY), "-m", "pip", "install", "--disable-pip-version-check", "-q", "-e", f"{ROOT}[test]"],
+        check=True,
+    )
+    STAMP.write_text(want)
+
+
+def main(argv: list[str]) -> int:
+    if not argv or argv[0] in {"-h", "--help"}:
+        print(__doc__)
+        return 0
+    task, rest = argv[0], argv[1:]
+    ensure_env()
+    env = dict(os.environ)
+    # numba's on-disk cache lives next to the sources (cache=True); keep it out of the way of read-only trees
+    env.setdefault("NUMBA_CACHE_DIR", str(ROOT / ".numba_cache"))
+    if task == "run":
+        cmd = [str(BIN / "breachflow"), "run", *rest]
+    elif task == "test":
+        markers = ["-m", "not slow"]
+        if "--slow" in rest:
+            rest.remove("--slow")
+            markers = []
+        cmd = [str(PY), "-m", "pytest", *markers, *rest]
+    elif task == "bench":
+        cmd = [str(PY), str(ROOT / "benchmarks" / "run.py"), *rest]
+    elif task == "shell":
+        cmd = rest
+        env["PATH"] = f"{BIN}{os.pathsep}{env.get('PATH', '')}"
+    else:
+        print(f"unknown task {task!r}; use run, test, bench or shell", file=sys.stderr)
+        return 2
+    return subprocess.call(cmd, cwd=ROOT, env=env)
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
