@@ -21,6 +21,11 @@ app = typer.Typer(
     pretty_exceptions_enable=False,
 )
 
+@app.callback()
+def _root() -> None:
+    """Levee-breach closure simulation (see `breachflow COMMAND --help`)."""
+
+
 for _mod in sorted(pkgutil.iter_modules(__path__), key=lambda m: m.name):
     if not _mod.name.startswith("_"):
         importlib.import_module(f"{__name__}.{_mod.name}").register(app)
