@@ -1,0 +1,100 @@
+"""CF-1.10 Datasets for what a closure run writes: particle states and particle trajectories.
+
+Particle states at equilibrium are plain variables along a ``particle`` dimension (they share a file
+with the cycle's hydrodynamic grid). Trajectories of the moving particles of a cycle are a CF
+discrete sampling geometry, ``featureType = "trajectory"``, in the multidimensional array
+representation (CF §H.4.1): dims ``(trajectory, obs)``, ``trajectory_id`` with ``cf_role``, and
+``time``/``x``/``y``/``z`` as coordinates, unused observations filled with ``_FillValue``.
+"""
+from __future__ import annotations
+
+import numpy as np
+import xarray as xr
+
+#: CF time units of model time; t = 0 is the moment of the breach (SPEC §2, t_F = 0)
+TIME_UNITS = "seconds since 2000-01-01 00:00:00"
+TIME_ATTRS = {"standard_name": "time", "long_name": "model time since the breach (t = 0 at 2000-01-01)",
+              "calendar": "standard", "axis": "T"}
+
+_POS_ATTRS = (
+    {"long_name": "particle centre x coordinate", "units": "m"},
+    {"long_name": "particle centre y coordinate", "units": "m"},
+    {"standard_name": "altitude", "long_name": "particle centre elevation above datum", "units": "m", "positive": "up"},
+)
+
+
+def particles_dataset(state, *, placed_cycle, particle_id=None, resting=None, grid_mapping: str | None = None) -> xr.Dataset:
+    """Particle states (positions, velocities, sizes, masses) along dim ``particle``.
+
+    *state* is a :class:`breachflow.dem.state.ParticleState`; ``placed_cycle`` the cycle ``<g>`` in
+    which each particle was released; ``resting`` whether it counts as resting at equilibrium.
+    """
+    n = state.n
+    pid = np.arange(n, dtype="i4") if particle_id is None else np.asarray(particle_id, dtype="i4")
+    ds = xr.Dataset(coords={"particle": ("particle", pid, {"long_name": "particle index", "units": "1"})})
+    for k, attrs in enumerate(_POS_ATTRS):
+        name = "xyz"[k]
+        a = dict(attrs)
+        if grid_mapping and k < 2:
+            a["grid_mapping"] = grid_mapping
+        ds[f"particle_{name}"] = ("particle", state.pos[:, k].astype(float), a)
+    for k, name in enumerate("xyz"):
+        ds[f"particle_velocity_{name}"] = ("particle", state.vel[:, k].astype(float),
+                                           {"long_name": f"particle velocity, {name} component", "units": "m s-1"})
+    ds["particle_diameter"] = ("particle", 2.0 * state.radius, {"long_name": "particle (mass) diameter", "units": "m"})
+    ds["particle_density"] = ("particle", state.density.astype(float), {"long_name": "particle material density", "units": "kg m-3"})
+    ds["particle_mass"] = ("particle", state.mass.astype(float), {"long_name": "particle mass", "units": "kg"})
+    ds["particle_placed_cycle"] = ("particle", np.asarray(placed_cycle, dtype="i4"),
+                                   {"long_name": "cycle <g> in which the particle was released", "units": "1"})
+    ds["particle_active"] = ("particle", state.active.astype("i1"),
+                             {"long_name": "particle inside the domain", "units": "1",
+                              "flag_values": np.array([0, 1], "i1"), "flag_meanings": "left_domain inside"})
+    if resting is not None:
+        ds["particle_resting"] = ("particle", np.asarray(resting).astype("i1"),
+                                  {"long_name": "particle at rest (remapped as an obstruction)", "units": "1",
+                                   "flag_values": np.array([0, 1], "i1"), "flag_meanings": "moving resting"})
+    return ds
+
+
+def trajectories_dataset(trajectory_id, time, pos, vel=None, *, cycle: int, title: str = "") -> xr.Dataset:
+    """CF trajectory DSG from ``time`` (n_traj, n_obs) s and ``pos`` (n_traj, n_obs, 3) m.
+
+    NaN marks observations past the end of a trajectory (they become ``_FillValue`` on write).
+    """
+    time = np.asarray(time, dtype=float)
+    pos = np.asarray(pos, dtype=float)
+    ntraj, nobs = time.shape
+    ds = xr.Dataset(
+        coords={
+            "time": (("trajectory", "obs"), time, {**TIME_ATTRS, "units": TIME_UNITS}),
+            "x": (("trajectory", "obs"), pos[..., 0], {"long_name": "particle centre x coordinate", "units": "m"}),
+            "y": (("trajectory", "obs"), pos[..., 1], {"long_name": "particle centre y coordinate", "units": "m"}),
+            "z": (("trajectory", "obs"), pos[..., 2], {"standard_name": "altitude", "long_name": "particle centre elevation",
+                                                      "units": "m", "positive": "up", "axis": "Z"}),
+        },
+    )
+    ds["trajectory_id"] = ("trajectory", np.asarray(trajectory_id, dtype="i4"),
+                           {"cf_role": "trajectory_id", "long_name": "particle index"})
+    if vel is not None:
+        vel = np.asarray(vel, dtype=float)
+        speed = np.sqrt(np.sum(vel**2, axis=-1))
+        ds["speed"] = (("trajectory", "obs"), speed, {"long_name": "particle speed", "units": "m s-1",
+                                                     "coordinates": "time x y z"})
+    else:
+        ds["elevation"] = (("trajectory", "obs"), pos[..., 2], {"long_name": "particle centre elevation", "units": "m",
+                                                                "coordinates": "time x y z"})
+    ds.attrs.update(Conventions="CF-1.10", featureType="trajectory",
+                    title=title or f"breachflow trajectories of the moving particles in cycle {cycle}",
+                    cycle=np.int32(cycle))
+    return ds
+
+
+def netcdf_encoding(ds: xr.Dataset) -> dict:
+    """Encoding that writes NaN as ``_FillValue`` for float variables and none for integer ones."""
+    enc = {}
+    for name, da in ds.variables.items():
+        if np.issubdtype(da.dtype, np.floating) and name not in ds.dims:
+            enc[name] = {"_FillValue": np.nan}
+        elif name in ds.dims or not np.issubdtype(da.dtype, np.floating):
+            enc[name] = {"_FillValue": None}
+    return enc

@@ -1,0 +1,224 @@
+"""A run directory: one CF NetCDF file per completed cycle, a restart file, and a manifest.
+
+Layout::
+
+    RUN/manifest.json                  what the run is (scenario text + hash, seed) and which cycles are complete
+    RUN/cycle_0001.nc                  hydrodynamic grid + particle states at equilibrium (CF-1.10)
+    RUN/cycle_0001_trajectories.nc     trajectories of the cycle's moving particles (CF DSG trajectory)
+    RUN/restart_0001.npz               everything needed to continue bit-identically from this cycle
+
+Every file is written atomically, and the manifest — rewritten atomically *after* a cycle's files —
+is the commit point: a crash leaves at worst stray temp files or files of a cycle the manifest does not
+list, which a resumed run overwrites.
+"""
+from __future__ import annotations
+
+import hashlib
+import io
+import json
+from datetime import datetime, timezone
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+from ..errors import InputError
+from .atomic import _atomic, atomic_write_json, atomic_write_netcdf
+from .cf import netcdf_encoding
+
+MANIFEST = "manifest.json"
+FORMAT_VERSION = 1
+
+
+def scenario_hash(text: str) -> str:
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()
+
+
+def file_sha256(path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for chunk in iter(lambda: fh.read(1 << 20), b""):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+class RunDirectory:
+    """Create, resume and read a closure run's directory (see module docstring)."""
+
+    def __init__(self, path):
+        self.path = Path(path)
+
+    # ----------------------------------------------------------------- manifest
+    @property
+    def manifest_path(self) -> Path:
+        return self.path / MANIFEST
+
+    def manifest(self) -> dict:
+        try:
+            return json.loads(self.manifest_path.read_text())
+        except FileNotFoundError:
+            raise InputError(f"{self.path}: not a breachflow run directory (no {MANIFEST})") from None
+        except json.JSONDecodeError as exc:
+            raise InputError(f"{self.manifest_path}: corrupt manifest ({exc})") from None
+
+    def exists(self) -> bool:
+        return self.manifest_path.exists()
+
+    def start(self, scenario_text: str, *, seed: int, resume: bool = False, overwrite: bool = False,
+              metadata: dict | None = None) -> dict:
+        """Begin a run, or check that *resume* continues the same scenario; returns the manifest.
+
+        A new run in a directory holding another run is refused unless *overwrite*.
+        """
+        digest = scenario_hash(scenario_text)
+        if self.exists():
+            man = self.manifest()
+            if resume:
+                if man["scenario_sha256"] != digest or man["seed"] != seed:
+                    raise InputError(
+                        f"{self.path}: cannot resume: the run was started with another scenario or seed "
+                        f"(scenario sha256 {man['scenario_sha256'][:12]}…, seed {man['seed']})")
+                return man
+            if not overwrite:
+                raise InputError(f"{self.path}: holds a run already; use resume or overwrite")
+            for p in self.path.glob("cycle_*.nc"):
+                p.unlink()
+            for p in self.path.glob("restart_*.npz"):
+                p.unlink()
+        elif resume:
+            raise InputError(f"{self.path}: nothing to resume (no {MANIFEST})")
+        self.path.mkdir(parents=True, exist_ok=True)
+        (self.path / "scenario.toml").write_text(scenario_text)
+        man = {
+            "format_version": FORMAT_VERSION,
+            "created": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+            "scenario_sha256": digest,
+            "seed": int(seed),
+            "metadata": metadata or {},
+            "cycles": [],
+            "finished": False,
+        }
+        atomic_write_json(man, self.manifest_path)
+        return man
+
+    def completed_cycles(self) -> list[int]:
+        return [c["cycle"] for c in self.manifest()["cycles"]]
+
+    def last_cycle(self) -> int:
+        done = self.completed_cycles()
+        return done[-1] if done else 0
+
+    # ----------------------------------------------------------------- cycles
+    def cycle_path(self, g: int) -> Path:
+        return self.path / f"cycle_{g:04d}.nc"
+
+    def trajectories_path(self, g: int) -> Path:
+        return self.path / f"cycle_{g:04d}_trajectories.nc"
+
+    def restart_path(self, g: int) -> Path:
+        return self.path / f"restart_{g:04d}.npz"
+
+    def write_cycle(self, g: int, field: xr.Dataset, trajectories: xr.Dataset | None, restart: dict,
+                    summary: dict) -> None:
+        """Write cycle *g*'s files atomically, then commit it to the manifest."""
+        man = self.manifest()
+        if man["cycles"] and g != man["cycles"][-1]["cycle"] + 1:
+            raise InputError(f"{self.path}: cycle {g} does not follow the last complete cycle {man['cycles'][-1]['cycle']}")
+        files = {}
+        atomic_write_netcdf(field, self.cycle_path(g), encoding=netcdf_encoding(field))
+        files["field"] = self.cycle_path(g).name
+        if trajectories is not None:
+            atomic_write_netcdf(trajectories, self.trajectories_path(g), encoding=netcdf_encoding(trajectories))
+            files["trajectories"] = self.trajectories_path(g).name
+
+        def write_npz(tmp):
+            buf = io.BytesIO()
+            np.savez(buf, **restart)
+            Path(tmp).write_bytes(buf.getvalue())
+
+        _atomic(self.restart_path(g), write_npz)
+        files["restart"] = self.restart_path(g).name
+        entry = {"cycle": int(g), "files": files,
+                 "sha256": {k: file_sha256(self.path / v) for k, v in files.items()},
+                 "completed": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+                 "summary": summary}
+        man["cycles"].append(entry)
+        atomic_write_json(man, self.manifest_path)
+        # a previous crashed attempt may have left restart files of later cycles: they are not committed
+        for p in self.path.glob("restart_*.npz"):
+            if int(p.stem.split("_")[1]) > g:
+                p.unlink()
+
+    def finish(self, summary: dict) -> None:
+        man = self.manifest()
+        man["finished"] = True
+        man["final"] = summary
+        atomic_write_json(man, self.manifest_path)
+
+    def load_restart(self, g: int) -> dict:
+        with np.load(self.restart_path(g), allow_pickle=False) as data:
+            return {k: data[k] for k in data.files}
+
+    def verify(self) -> list[str]:
+        """Checksums of every committed file; returns the list of problems (empty when intact)."""
+        problems = []
+        for c in self.manifest()["cycles"]:
+            for kind, name in c["files"].items():
+                p = self.path / name
+                if not p.exists():
+                    problems.append(f"{p}: missing")
+                elif file_sha256(p) != c["sha256"][kind]:
+                    problems.append(f"{p}: checksum mismatch")
+        return problems
+
+    # ----------------------------------------------------------------- archive
+    def open_cycle(self, g: int) -> xr.Dataset:
+        return xr.open_dataset(self.cycle_path(g))
+
+    def combine(self, out) -> Path:
+        """Combine all complete cycles into one NetCDF archive readable with ``xr.open_dataset``.
+
+        The root group holds the per-cycle grids stacked along ``cycle`` and the final particle states;
+        the group ``trajectories`` holds every cycle's trajectories concatenated (with their cycle).
+        """
+        cycles = self.completed_cycles()
+        if not cycles:
+            raise InputError(f"{self.path}: no complete cycle to combine")
+        fields = []
+        for g in cycles:
+            with xr.open_dataset(self.cycle_path(g), decode_times=False) as ds:
+                fields.append(ds.load())
+        grid_vars = [v for v in fields[-1].data_vars if "particle" not in fields[-1][v].dims]
+        stacked = xr.concat([f[grid_vars] for f in fields], dim="cycle", data_vars="all", coords="minimal",
+                            compat="override", join="override")
+        stacked = stacked.assign_coords(cycle=("cycle", np.asarray(cycles, "i4"), {"long_name": "closure cycle <g>", "units": "1"}))
+        last = fields[-1]
+        part_vars = [v for v in last.data_vars if "particle" in last[v].dims]
+        archive = xr.merge([stacked, last[part_vars]], combine_attrs="override")
+        archive.attrs = dict(last.attrs)
+        archive.attrs["title"] = "breachflow closure run archive"
+        archive.attrs["cycles"] = f"{cycles[0]}..{cycles[-1]}"
+        out = Path(out)
+        atomic_write_netcdf(archive, out, encoding=netcdf_encoding(archive))
+        trajs = []
+        for g in cycles:
+            p = self.trajectories_path(g)
+            if p.exists():
+                with xr.open_dataset(p, decode_times=False) as t:
+                    t = t.load()
+                t["trajectory_cycle"] = ("trajectory", np.full(t.sizes["trajectory"], g, "i4"),
+                                         {"long_name": "cycle <g> of the trajectory", "units": "1"})
+                trajs.append(t)
+        if trajs:
+            nobs = max(t.sizes["obs"] for t in trajs)
+            trajs = [t.pad(obs=(0, nobs - t.sizes["obs"])) if t.sizes["obs"] < nobs else t for t in trajs]
+            tr = xr.concat(trajs, dim="trajectory", combine_attrs="override")
+            tr.attrs["title"] = "breachflow trajectories of all cycles"
+            tr.attrs.pop("cycle", None)
+            # append the group to the archive just written (still atomic: rewrite via temp copy)
+            def write_both(tmp):
+                archive.to_netcdf(tmp, engine="netcdf4", encoding=netcdf_encoding(archive))
+                tr.to_netcdf(tmp, mode="a", group="trajectories", engine="netcdf4", encoding=netcdf_encoding(tr))
+
+            _atomic(out, write_both)
+        return out
