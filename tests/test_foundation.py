@@ -105,3 +105,16 @@ def test_schema_validator_reports_every_problem():
 def test_parse_error_names_file_and_line():
     e = ParseError("bad", path="a.dat", line=3)
     assert str(e) == "a.dat:3: bad" and e.line == 3
+
+
+@pytest.mark.parametrize("text, kind, expected", [
+    ("1 m3/s", "discharge", 1.0), ("2 m s-1", "speed", 2.0), ("3 m2", "area", 3.0),
+    ("1e-3 m", "length", 1e-3), ("-2.5e+1 m", "length", -25.0), ("7060 ft3/s", "discharge", 7060 * 0.3048**3),
+])
+def test_udunits_style_exponents(text, kind, expected):
+    assert to_si(text, name="q", kind=kind) == pytest.approx(expected)
+
+
+def test_dataarray_with_cf_units():
+    da = xr.DataArray([1.0], dims="i", attrs={"units": "m s-1"})
+    assert float(to_si(da, name="u", kind="speed")[0]) == 1.0

@@ -10,6 +10,7 @@ its unit, or a bare number / array where a documented default unit exists.
 from __future__ import annotations
 
 import math
+import re
 from typing import Any
 
 import numpy as np
@@ -47,12 +48,29 @@ SI_UNITS = {
 }
 
 
+_NUMBER = re.compile(r"^\s*[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?")
+_UDUNITS_POWER = re.compile(r"(?<=[A-Za-z])(-?\d+)")
+
+
+def normalise_unit_text(unit: str) -> str:
+    """Accept UDUNITS/CF exponent style: ``m3/s`` → ``m**3/s``, ``m s-1`` → ``m s**-1``."""
+    return _UDUNITS_POWER.sub(r"**\1", unit)
+
+
+def _parse_text(text: str):
+    m = _NUMBER.match(text)
+    if m:
+        number, unit = text[: m.end()], text[m.end():]
+        return ureg.Quantity(float(number), normalise_unit_text(unit.strip()) or "")
+    return ureg.Quantity(normalise_unit_text(text))
+
+
 def _dimensionality(kind: str):
     try:
         unit = SI_UNITS[kind]
     except KeyError:  # an explicit unit expression
         unit = kind
-    return ureg.Quantity(1.0, unit).dimensionality, unit
+    return ureg.Quantity(1.0, normalise_unit_text(unit)).dimensionality, unit
 
 
 def parse_quantity(value: Any, *, name: str, kind: str, default_unit: str | None = None) -> pint.Quantity:
@@ -67,7 +85,7 @@ def parse_quantity(value: Any, *, name: str, kind: str, default_unit: str | None
     elif isinstance(value, str):
         text = value.strip()
         try:
-            q = ureg.Quantity(text)
+            q = _parse_text(text)
         except Exception as exc:  # pint raises several types for bad strings
             raise UnitError(f"{name}: cannot read {value!r} as a quantity ({exc})") from None
         if not isinstance(q, pint.Quantity):
@@ -81,7 +99,7 @@ def parse_quantity(value: Any, *, name: str, kind: str, default_unit: str | None
                 raise UnitError(f"{name}: DataArray has no 'units' attribute; expected {_dim_text(dim)} (e.g. {si_unit or '1'})")
             units = default_unit
         try:
-            q = Q_(np.asarray(value.values, dtype=float), units)
+            q = Q_(np.asarray(value.values, dtype=float), normalise_unit_text(str(units)))
         except Exception as exc:
             raise UnitError(f"{name}: unknown unit {units!r} ({exc})") from None
     else:

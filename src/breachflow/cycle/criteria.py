@@ -1,0 +1,289 @@
+"""End criteria of the closure cycle (SPEC §7, report §4.4), each a named class with a threshold.
+
+A criterion's ``evaluate(context)`` returns a :class:`CriterionResult` (value, threshold, units,
+satisfied). The registry ``breachflow.criteria`` holds them by name; :class:`EndCriteria` combines a
+list with ``"any"`` or ``"all"`` and a maximum number of cycles.
+
+=====  ======================  ===============================================================
+SPEC   name                    satisfied when
+=====  ======================  ===============================================================
+1      ``blocked_fraction``    resting masses block ≥ threshold of the breach cross-section
+1      ``placed_volume``       solid volume of resting masses ≥ threshold (m³)
+2      ``max_speed``           maximum fluid speed anywhere < threshold (m/s)
+3      ``discharge_proxy``     max over subdomains of (max speed × open flow area) < threshold (m³/s)
+4      ``head_gradient``       max total-head gradient between neighbouring wet cells < threshold
+5      ``stability``           re-running the assembly in the new flow moves no mass more than threshold (m)
+6      ``speed_change``        change of the maximum speed since the previous cycle < threshold (m/s)
+=====  ======================  ===============================================================
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import InputError
+from ..registry import Registry
+from ..units import to_si
+
+G = 9.80665
+
+criteria: Registry = Registry("end criterion", "breachflow.criteria")
+
+
+@dataclass
+class CycleContext:
+    """What the criteria look at after cycle ``<g>``'s re-solve.
+
+    ``snapshot``/``previous`` grid snapshots (SI); ``pos``/``radius``/``resting`` particle centres (N, 3),
+    radii and rest mask; ``breach_x`` (x_min, x_max) and ``levee_y`` the breach cross-section at the
+    levee centreline; ``flood_level`` the flood-side water-surface elevation; ``bottom`` the breach
+    bottom elevation; ``stability_displacement`` the largest displacement of the stability re-run (m),
+    None when it was not run.
+    """
+
+    cycle: int
+    snapshot: object
+    previous: object = None
+    pos: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    radius: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    resting: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
+    breach_x: tuple = (0.0, 0.0)
+    levee_y: float = 0.0
+    flood_level: float = 0.0
+    bottom: float = 0.0
+    stability_displacement: float | None = None
+
+
+@dataclass(frozen=True)
+class CriterionResult:
+    name: str
+    value: float
+    threshold: float
+    units: str
+    satisfied: bool
+    description: str = ""
+
+
+class Criterion:
+    """Base: subclasses set ``name``, ``kind`` (unit kind of the threshold), ``units`` and ``compare``."""
+
+    name = ""
+    kind = "dimensionless"
+    units = "1"
+    compare = "below"  # or "above"
+    description = ""
+
+    def __init__(self, threshold):
+        self.threshold = to_si(threshold, name=f"criteria.{self.name}", kind=self.kind,
+                               default_unit=None if self.kind != "dimensionless" else "", nonnegative=True)
+
+    def value(self, ctx: CycleContext) -> float:
+        raise NotImplementedError
+
+    def evaluate(self, ctx: CycleContext) -> CriterionResult:
+        v = float(self.value(ctx))
+        ok = bool(np.isfinite(v) and (v < self.threshold if self.compare == "below" else v >= self.threshold))
+        return CriterionResult(self.name, v, self.threshold, self.units, ok, self.description)
+
+
+def _speed(ds):
+    return np.hypot(np.asarray(ds["u"].values, float), np.asarray(ds["v"].values, float))
+
+
+def _open_wet(ds):
+    wet = np.asarray(ds["wet"].values, bool)
+    if "obstacle" in ds:
+        wet &= ~np.asarray(ds["obstacle"].values, bool)
+    return wet
+
+
+@criteria.register("blocked_fraction")
+class BlockedFraction(Criterion):
+    """SPEC §7 criterion 1: fraction of the breach cross-section (the trapezoid between the breach
+    bottom and the flood level at the levee centreline) covered by the sections of resting spheres
+    with the plane y = levee_y (circles of radius sqrt(r² − dy²)), by rasterising the section."""
+
+    name, kind, units, compare = "blocked_fraction", "dimensionless", "1", "above"
+    description = "fraction of the breach cross-section blocked by resting masses"
+    resolution = 200
+
+    def value(self, ctx):
+        x0, x1 = ctx.breach_x
+        if not (x1 > x0 and ctx.flood_level > ctx.bottom):
+            raise InputError("blocked_fraction: breach section has no area (breach_x or levels wrong)")
+        xs = np.linspace(x0, x1, self.resolution)
+        zs = np.linspace(ctx.bottom, ctx.flood_level, max(self.resolution // 4, 20))
+        X, Z = np.meshgrid(xs, zs)
+        blocked = np.zeros(X.shape, bool)
+        sel = ctx.resting & (np.abs(ctx.pos[:, 1] - ctx.levee_y) < ctx.radius) if len(ctx.radius) else np.zeros(0, bool)
+        for p, r in zip(ctx.pos[sel], ctx.radius[sel]):
+            rc2 = r * r - (p[1] - ctx.levee_y) ** 2
+            blocked |= (X - p[0]) ** 2 + (Z - p[2]) ** 2 <= rc2
+        # below ground inside the section nothing flows: the section is the rectangle above the bottom
+        return blocked.mean()
+
+
+@criteria.register("placed_volume")
+class PlacedVolume(Criterion):
+    """SPEC §7 criterion 1 (volume form): solid volume of resting masses, sum of 4/3 π r³ (m³)."""
+
+    name, kind, units, compare = "placed_volume", "volume", "m3", "above"
+    description = "solid volume of the resting masses"
+
+    def value(self, ctx):
+        return float(np.sum(4.0 / 3.0 * np.pi * ctx.radius[ctx.resting] ** 3))
+
+
+@criteria.register("max_speed")
+class MaxSpeed(Criterion):
+    """SPEC §7 criterion 2: max over wet open cells of |u| (m/s); e.g. 0.2 m/s for fine sands/silts."""
+
+    name, kind, units = "max_speed", "speed", "m s-1"
+    description = "maximum depth-averaged fluid speed"
+
+    def value(self, ctx):
+        s = _speed(ctx.snapshot)[_open_wet(ctx.snapshot)]
+        return float(s.max()) if s.size else 0.0
+
+
+@criteria.register("discharge_proxy")
+class DischargeProxy(Criterion):
+    """SPEC §7 criterion 3: max over subdomains of (max speed × open flow area) (m³/s).
+
+    Subdomains are boxes ``(x0, x1, y0, y1)`` (default: one box spanning the breach, ±2 breach lengths
+    across the levee); the open flow area of a box is the largest over its grid rows of
+    Σ h Δx over wet, unobstructed cells — the wetted cross-section transverse to the breach flow.
+    """
+
+    name, kind, units = "discharge_proxy", "discharge", "m3 s-1"
+    description = "max over subdomains of (speed × open area)"
+
+    def __init__(self, threshold, subdomains=None):
+        super().__init__(threshold)
+        self.subdomains = None if subdomains is None else [tuple(map(float, b)) for b in subdomains]
+
+    def value(self, ctx):
+        ds = ctx.snapshot
+        x = np.asarray(ds["x"].values, float)
+        y = np.asarray(ds["y"].values, float)
+        dx = abs(x[1] - x[0]) if x.size > 1 else 1.0
+        boxes = self.subdomains
+        if boxes is None:
+            x0, x1 = ctx.breach_x
+            w = x1 - x0
+            boxes = [(x0, x1, ctx.levee_y - 2 * w, ctx.levee_y + 2 * w)]
+        speed = _speed(ds)
+        depth = np.asarray(ds["depth"].values, float)
+        open_wet = _open_wet(ds)
+        best = 0.0
+        for bx0, bx1, by0, by1 in boxes:
+            ix = (x >= bx0) & (x <= bx1)
+            iy = (y >= by0) & (y <= by1)
+            if not ix.any() or not iy.any():
+                continue
+            sub = np.ix_(iy, ix)
+            ow = open_wet[sub]
+            if not ow.any():
+                continue
+            area = float(np.max(np.sum(np.where(ow, depth[sub], 0.0), axis=1) * dx))
+            best = max(best, float(speed[sub][ow].max()) * area)
+        return best
+
+
+@criteria.register("head_gradient")
+class HeadGradient(Criterion):
+    """SPEC §7 criterion 4: max |ΔH| / Δs between neighbouring wet open cells, H = η + |u|²/(2g)."""
+
+    name, kind, units = "head_gradient", "dimensionless", "1"
+    description = "maximum total-head gradient between neighbouring gridpoints"
+
+    def value(self, ctx):
+        ds = ctx.snapshot
+        H = np.asarray(ds["water_surface"].values, float) + _speed(ds) ** 2 / (2 * G)
+        ok = _open_wet(ds)
+        x = np.asarray(ds["x"].values, float)
+        y = np.asarray(ds["y"].values, float)
+        best = 0.0
+        if x.size > 1:
+            both = ok[:, 1:] & ok[:, :-1]
+            g = np.abs(np.diff(H, axis=1)) / np.abs(np.diff(x))[None, :]
+            if both.any():
+                best = max(best, float(g[both].max()))
+        if y.size > 1:
+            both = ok[1:, :] & ok[:-1, :]
+            g = np.abs(np.diff(H, axis=0)) / np.abs(np.diff(y))[:, None]
+            if both.any():
+                best = max(best, float(g[both].max()))
+        return best
+
+
+@criteria.register("stability")
+class Stability(Criterion):
+    """SPEC §7 criterion 5: after remapping, re-running the DEM of the existing assembly in the new flow
+    moves no mass more than the threshold (m). Not satisfied while the re-run has not been made."""
+
+    name, kind, units = "stability", "length", "m"
+    description = "largest displacement of the assembly re-run in the new flow"
+
+    def value(self, ctx):
+        return np.inf if ctx.stability_displacement is None else ctx.stability_displacement
+
+
+@criteria.register("speed_change")
+class SpeedChange(Criterion):
+    """SPEC §7 criterion 6: |max speed(g) − max speed(g−1)| (m/s): one more mass no longer helps."""
+
+    name, kind, units = "speed_change", "speed", "m s-1"
+    description = "change of the maximum fluid speed since the previous cycle"
+
+    def value(self, ctx):
+        if ctx.previous is None:
+            return np.inf
+        a = _speed(ctx.snapshot)[_open_wet(ctx.snapshot)]
+        b = _speed(ctx.previous)[_open_wet(ctx.previous)]
+        return abs((a.max() if a.size else 0.0) - (b.max() if b.size else 0.0))
+
+
+class EndCriteria:
+    """A combination of criteria: closure when ``any`` / ``all`` are satisfied; stop at ``max_cycles``.
+
+    >>> ec = EndCriteria.from_config({"mode": "any", "max_cycles": 20, "max_speed": "0.2 m/s"})
+    >>> [c.name for c in ec.items], ec.max_cycles
+    (['max_speed'], 20)
+    """
+
+    def __init__(self, items, mode: str = "any", max_cycles: int = 50):
+        if mode not in ("any", "all"):
+            raise InputError(f"criteria.mode must be 'any' or 'all', got {mode!r}")
+        if int(max_cycles) < 1:
+            raise InputError(f"criteria.max_cycles must be >= 1, got {max_cycles}")
+        self.items = list(items)
+        self.mode = mode
+        self.max_cycles = int(max_cycles)
+
+    @classmethod
+    def from_config(cls, cfg: dict) -> "EndCriteria":
+        cfg = dict(cfg)
+        mode = cfg.pop("mode", "any")
+        max_cycles = cfg.pop("max_cycles", 50)
+        items = []
+        for name, spec in cfg.items():
+            c = criteria.get(name)
+            items.append(c(**spec) if isinstance(spec, dict) else c(spec))
+        return cls(items, mode, max_cycles)
+
+    def needs(self, name: str) -> bool:
+        return any(c.name == name for c in self.items)
+
+    def evaluate(self, ctx: CycleContext) -> tuple[bool, list[CriterionResult], str]:
+        """Return (closure achieved, results, governing criterion name or '')."""
+        results = [c.evaluate(ctx) for c in self.items]
+        ok = [r.satisfied for r in results]
+        if not results:
+            return False, results, ""
+        done = any(ok) if self.mode == "any" else all(ok)
+        governing = ""
+        if done:
+            governing = next(r.name for r in results if r.satisfied) if self.mode == "any" else "+".join(r.name for r in results)
+        return done, results, governing

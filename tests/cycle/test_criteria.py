@@ -1,0 +1,80 @@
+"""End criteria (SPEC §7) on fields with hand-computable values."""
+import numpy as np
+import pytest
+
+from breachflow import InputError, UnitError
+from breachflow.cycle.criteria import CycleContext, EndCriteria, criteria
+from breachflow.hydro.snapshot import grid_snapshot
+
+DX = 0.5
+
+
+def field(depth=2.0, u=1.0, v=0.0, slope=0.0, nx=41, ny=21):
+    x = np.arange(nx) * DX - 10.0
+    y = np.arange(ny) * DX - 5.0
+    X, Y = np.meshgrid(x, y)
+    bed = -slope * X
+    return grid_snapshot(x, y, bed, np.full(X.shape, depth), np.full(X.shape, u), np.full(X.shape, v))
+
+
+def ctx(snapshot, **kw):
+    base = dict(cycle=1, snapshot=snapshot, breach_x=(-5.0, 5.0), levee_y=0.0, flood_level=2.0, bottom=0.0)
+    base.update(kw)
+    return CycleContext(**base)
+
+
+def test_max_speed_and_units():
+    c = criteria.get("max_speed")("0.2 m/s")
+    r = c.evaluate(ctx(field(u=3.0, v=4.0)))
+    assert r.value == pytest.approx(5.0) and not r.satisfied
+    assert criteria.get("max_speed")("20 ft/s").evaluate(ctx(field(u=3.0, v=4.0))).satisfied  # 6.1 m/s > 5
+    with pytest.raises(UnitError, match="criteria.max_speed"):
+        criteria.get("max_speed")("3 m")
+
+
+def test_discharge_proxy_equals_speed_times_wetted_section():
+    # uniform h=2, U=1.5 over a 10 m wide box (21 cells of 0.5 m from -5 to 5): 1.5 * 2 * 21 * 0.5
+    c = criteria.get("discharge_proxy")("1 m3/s")
+    assert c.evaluate(ctx(field(depth=2.0, u=1.5))).value == pytest.approx(1.5 * 2.0 * 21 * DX)
+    # obstacles across half the box halve the open area
+    ds = field(depth=2.0, u=1.5)
+    ob = np.zeros(ds.depth.shape, "i1")
+    ob[:, ds.x.values < 0] = 1
+    ds["obstacle"] = (("y", "x"), ob, {"units": "1"})
+    assert c.evaluate(ctx(ds)).value == pytest.approx(1.5 * 2.0 * 11 * DX)
+
+
+def test_head_gradient_of_a_sloping_still_surface():
+    # still water over a sloping bed with constant depth: eta slope = bed slope
+    c = criteria.get("head_gradient")(1e-3)
+    r = c.evaluate(ctx(field(u=0.0, slope=0.01)))
+    assert r.value == pytest.approx(0.01, rel=1e-9) and not r.satisfied
+
+
+def test_blocked_fraction_of_one_sphere_in_the_section():
+    r = 0.8
+    pos = np.array([[0.0, 0.3, 1.0]])  # 0.3 m off the centreline: section radius sqrt(r^2-0.09)
+    c = criteria.get("blocked_fraction")(0.5)
+    res = c.evaluate(ctx(field(), pos=pos, radius=np.array([r]), resting=np.array([True])))
+    expected = np.pi * (r**2 - 0.09) / (10.0 * 2.0)
+    assert res.value == pytest.approx(expected, rel=0.03) and not res.satisfied
+    # a moving particle does not count
+    res = c.evaluate(ctx(field(), pos=pos, radius=np.array([r]), resting=np.array([False])))
+    assert res.value == 0.0
+
+
+def test_stability_speed_change_and_combination():
+    f1, f2 = field(u=2.0), field(u=1.9)
+    assert not criteria.get("stability")("0.05 m").evaluate(ctx(f1)).satisfied  # not run yet
+    assert criteria.get("stability")("0.05 m").evaluate(ctx(f1, stability_displacement=0.01)).satisfied
+    sc = criteria.get("speed_change")("0.2 m/s").evaluate(ctx(f2, previous=f1))
+    assert sc.value == pytest.approx(0.1) and sc.satisfied
+    ec = EndCriteria.from_config({"mode": "all", "max_cycles": 3, "max_speed": "1 m/s", "speed_change": "0.2 m/s"})
+    done, results, gov = ec.evaluate(ctx(f2, previous=f1))
+    assert not done and [r.satisfied for r in results] == [False, True]
+    ec_any = EndCriteria.from_config({"mode": "any", "max_speed": "1 m/s", "speed_change": "0.2 m/s"})
+    assert ec_any.evaluate(ctx(f2, previous=f1))[2] == "speed_change"
+    with pytest.raises(InputError, match="unknown end criterion"):
+        EndCriteria.from_config({"max_sped": "1 m/s"})
+    with pytest.raises(InputError, match="mode"):
+        EndCriteria([], mode="most")
