@@ -1,0 +1,63 @@
+"""Remapping resting spheres to obstacles / raised bed, and the seeded placement plan."""
+import numpy as np
+import pytest
+
+from breachflow import InputError
+from breachflow.cycle.placement import PlacementPlan
+from breachflow.cycle.remap import remap
+
+
+def grid(n=41, h=0.25):
+    x = (np.arange(n) - n // 2) * h
+    return x, x.copy()
+
+
+def test_no_flow_footprint_is_the_disc_of_cell_centres():
+    x, y = grid()
+    bed = np.zeros((y.size, x.size))
+    pos = np.array([[0.1, -0.2, 0.5], [3.0, 3.0, 0.5]])
+    r = np.array([1.0, 1.0])
+    obst, newbed = remap(x, y, bed, bed + 2.0, pos, r, np.array([True, False]))
+    X, Y = np.meshgrid(x, y)
+    np.testing.assert_array_equal(obst, (X - 0.1) ** 2 + (Y + 0.2) ** 2 <= 1.0)
+    np.testing.assert_array_equal(newbed, bed)
+
+
+def test_raised_bed_is_the_sphere_top_and_emergent_cells_block():
+    x, y = grid()
+    bed = np.zeros((y.size, x.size))
+    pos = np.array([[0.0, 0.0, 0.2]])
+    r = np.array([1.0])
+    obst, newbed = remap(x, y, bed, np.full(bed.shape, 1.0), pos, r, np.array([True]), mode="raised_bed")
+    X, Y = np.meshgrid(x, y)
+    d2 = X**2 + Y**2
+    top = np.where(d2 <= 1.0, 0.2 + np.sqrt(np.clip(1.0 - d2, 0, None)), -np.inf)
+    np.testing.assert_allclose(newbed, np.where(top > 0, top, 0.0))
+    np.testing.assert_array_equal(obst, top >= 1.0)  # emergent where the top reaches the surface (1 m)
+    assert obst.any() and (newbed > 0).sum() > obst.sum()
+    with pytest.raises(InputError, match="remap mode"):
+        remap(x, y, bed, bed, pos, r, np.array([True]), mode="sandbags")
+
+
+def test_placement_is_seeded_per_cycle_and_respects_units():
+    plan = PlacementPlan.from_config({"diameter": ["0.8 m", "1.2 m"], "batch": 3, "positions": "line",
+                                      "start": [-10, 0], "stop": [10, 0], "release_height": "2 m", "rate": "30 1/hr"})
+    surface = lambda x, y: np.full_like(x, 5.0)
+    a = plan.release(4, seed=11, surface_at=surface)
+    b = plan.release(4, seed=11, surface_at=surface)
+    c = plan.release(4, seed=12, surface_at=surface)
+    np.testing.assert_array_equal(a.pos, b.pos)
+    assert not np.allclose(a.radius, c.radius)
+    assert np.all((a.radius >= 0.4) & (a.radius <= 0.6))
+    assert np.all(np.abs(a.pos[:, 0]) <= 10.5)
+    # 12 masses after cycle 4 at 30 per hour: 24 minutes
+    assert a.time == pytest.approx(12 / 30 * 3600)
+    # no two masses of a batch overlap; each is >= 2 m above the surface
+    for i in range(3):
+        assert a.pos[i, 2] - a.radius[i] >= 5.0 + 2.0 - 1e-12
+        for j in range(i):
+            assert np.linalg.norm(a.pos[i] - a.pos[j]) >= a.radius[i] + a.radius[j]
+    with pytest.raises(InputError, match="unknown key"):
+        PlacementPlan.from_config({"diamter": "1 m"})
+    with pytest.raises(InputError, match="outside the field"):
+        plan.release(1, 0, lambda x, y: np.full_like(x, np.nan))
