@@ -12,7 +12,18 @@ from .units import ureg, Q_, to_si
 
 __version__ = "0.1.0"
 
-__all__ = [
+
+
+def __getattr__(name):
+    # lazy: importing the readers (numba kernels) only when asked for
+    if name == "open_snapshot":
+        from .hydro.io import open_snapshot
+
+        return open_snapshot
+    raise AttributeError(f"module 'breachflow' has no attribute {name!r}")
+
+
+__all__ = ["open_snapshot", 
     "BreachflowError", "InputError", "ParseError", "SchemaError", "UnitError", "PhysicsError",
     "ureg", "Q_", "to_si", "__version__",
 ]

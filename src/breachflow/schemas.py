@@ -85,8 +85,8 @@ def _check_var(where: str, da, spec: dict, problems: list[str]) -> None:
         problems.append(f"{where}: dtype {da.dtype} is not {spec['dtype']}")
     _check_attrs(where, da.attrs, spec.get("attributes", {}), problems)
     if ("min" in spec or "max" in spec) and np.issubdtype(da.dtype, np.number) and da.size:
-        vals = np.asarray(da.values, dtype=float)
-        finite = vals[np.isfinite(vals)]
+        vals = np.asarray(da.values)
+        finite = vals[np.isfinite(vals)] if np.issubdtype(vals.dtype, np.floating) else vals.ravel()
         if finite.size and "min" in spec and finite.min() < spec["min"]:
             problems.append(f"{where}: minimum {finite.min():g} below {spec['min']:g}")
         if finite.size and "max" in spec and finite.max() > spec["max"]:

@@ -1,0 +1,107 @@
+"""``breachflow ingest`` (model exports → snapshot NetCDF) and ``breachflow inspect`` (summary of one)."""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import List, Optional
+
+import typer
+
+
+def summary_rows(ds) -> list[tuple[str, str]]:
+    """(label, text) rows describing a snapshot: kind, size, extent, time steps and value ranges."""
+    import numpy as np
+
+    from ..hydro.snapshot import is_mesh, node_coordinates
+
+    rows = []
+    if is_mesh(ds):
+        x, y = node_coordinates(ds)
+        rows.append(("kind", "UGRID mesh (values at nodes)"))
+        rows.append(("size", f"{ds.sizes['node']} nodes, {ds.sizes['face']} faces"))
+    else:
+        x, y = ds["x"].values, ds["y"].values
+        rows.append(("kind", "structured grid (cell centres)"))
+        rows.append(("size", f"{ds.sizes['x']} x {ds.sizes['y']} = {ds.sizes['x'] * ds.sizes['y']} cells"))
+    rows.append(("extent", f"x {x.min():.6g} .. {x.max():.6g} m, y {y.min():.6g} .. {y.max():.6g} m"))
+    if "time" in ds.dims:
+        t = ds["time"].values
+        rows.append(("time steps", f"{t.size}: {t[0]} .. {t[-1]}" + (f" {ds['time'].attrs.get('units', '')}" if t.dtype.kind in "if" else "")))
+    else:
+        rows.append(("time steps", "1 (no time axis)"))
+    for name, label in (("bed_elevation", "bed elevation"), ("depth", "depth"), ("water_surface", "water surface")):
+        a = ds[name].values
+        rows.append((label, f"{np.nanmin(a):.4g} .. {np.nanmax(a):.4g} {ds[name].attrs.get('units', '')}"))
+    speed = np.hypot(ds["u"].values, ds["v"].values)
+    rows.append(("speed", f"{speed.min():.4g} .. {speed.max():.4g} m s-1"))
+    rows.append(("wet", f"{100 * ds['wet'].values.mean():.1f} % of values"))
+    rows.append(("CRS", "yes (grid_mapping 'crs')" if "crs" in ds.variables else "unknown"))
+    for key in ("breachflow_reader", "source_length_unit", "source_length_unit_from", "source_files"):
+        if ds.attrs.get(key):
+            rows.append((key.replace("_", " "), str(ds.attrs[key]).replace(";", "; ")))
+    return rows
+
+
+def _print(title: str, ds) -> None:
+    from rich.console import Console
+    from rich.table import Table
+
+    table = Table(title=title, show_header=False)
+    table.add_column(style="bold")
+    table.add_column()
+    for k, v in summary_rows(ds):
+        table.add_row(k, v)
+    Console().print(table)
+
+
+def register(app: typer.Typer) -> None:
+    @app.command()
+    def ingest(
+        files: List[Path] = typer.Argument(..., help="Model export files forming one snapshot (mesh + .dat + .bc; .asc grids; one .sdf)."),
+        output: Path = typer.Option(..., "-o", "--output", help="Snapshot NetCDF file to write (atomically)."),
+        format: Optional[str] = typer.Option(None, "--format", "-f", help="Reader name (default: from the extensions)."),
+        units: Optional[str] = typer.Option(None, "--units", help="Length unit of files that carry none: m or ft."),
+        crs: Optional[str] = typer.Option(None, "--crs", help="CRS as WKT text or a .prj file (overrides the files)."),
+        strict: bool = typer.Option(False, "--strict", help="Reject unknown cards instead of warning."),
+        time_units: Optional[str] = typer.Option(None, "--time-units", help="Time unit of .dat steps (overrides TIMEUNITS)."),
+        plausibility: str = typer.Option("raise", "--plausibility", help="raise | warn | off"),
+        bed: Optional[str] = typer.Option(None, "--bed", help="Bed elevation with unit when no terrain grid is given (asc)."),
+        velocity_direction: Optional[float] = typer.Option(None, "--velocity-direction", help="Degrees anticlockwise from +x for speed-only grids (asc)."),
+        role: List[str] = typer.Option([], "--role", help="FILE=ROLE for .asc grids (depth, water_surface, bed, u, v, speed)."),
+    ) -> None:
+        """Read hydrodynamic model exports, check them and write one SI snapshot NetCDF (CF, UGRID for meshes)."""
+        from ..errors import InputError
+        from ..hydro.io import open_snapshot
+        from ..hydro.snapshot import write_snapshot
+
+        options = {}
+        if strict:
+            options["strict"] = True
+        if time_units:
+            options["time_units"] = time_units
+        if bed is not None:
+            options["bed"] = bed
+        if velocity_direction is not None:
+            options["velocity_direction"] = velocity_direction
+        if role:
+            roles = {}
+            for r in role:
+                if "=" not in r:
+                    raise InputError(f"--role {r!r}: expected FILE=ROLE")
+                f, v = r.rsplit("=", 1)
+                roles[f] = v
+            options["roles"] = roles
+        if crs and Path(crs).is_file():
+            from ..hydro.io import read_prj
+
+            crs = read_prj(crs)
+        ds = open_snapshot(files, format=format, units=units, crs=crs, plausibility=plausibility, **options)
+        write_snapshot(ds, output)
+        _print(f"wrote {output}", ds)
+
+    @app.command()
+    def inspect(snapshot: Path = typer.Argument(..., help="Snapshot NetCDF written by `breachflow ingest` or the solver.")) -> None:
+        """Validate a snapshot NetCDF and print its summary."""
+        from ..hydro.snapshot import read_snapshot
+
+        ds = read_snapshot(snapshot)
+        _print(str(snapshot), ds)

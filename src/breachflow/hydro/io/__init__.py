@@ -1,0 +1,120 @@
+"""Readers of hydrodynamic model exports, by name (registry ``breachflow.readers``, like xarray backends).
+
+>>> ds = open_snapshot(["run.3dm", "run_dep.dat", "run_vel.dat", "run.bc"])       # doctest: +SKIP
+>>> ds = open_snapshot(["depth.asc", "velocity.asc"], units="ft", bed="0 ft")        # doctest: +SKIP
+
+Built-in readers (a reader is a class with one method ``open(paths, **options) -> xr.Dataset``):
+
+``adh``     ADH / SMS ``.3dm``/``.2dm`` mesh + ``.dat`` datasets (+ ``.bc`` for units, ``.prj``) → mesh snapshot
+``sdf``     HEC-RAS GIS export ``.sdf`` (cross sections) → mesh snapshot over the cut lines
+``asc``     ESRI ASCII grids (``.asc`` + ``.prj``) of depth / velocity / water surface / terrain → grid snapshot
+
+HEC-RAS HDF5 plan files are not read yet (a reader built on the optional ``rashdf`` package would
+register here as ``rashdf``; third-party readers register through the ``breachflow.readers`` entry
+point group).
+
+Every reader converts to SI once (pint), validates against the snapshot schema and runs the
+plausibility checks (``plausibility="raise" | "warn" | "off"``).
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import xarray as xr
+
+from ...errors import InputError
+from ...registry import Registry
+
+READERS: Registry = Registry("snapshot reader", "breachflow.readers")
+
+
+def unknown_options(reader: str, options: dict) -> None:
+    if options:
+        raise InputError(f"reader {reader!r} does not take option(s) {', '.join(sorted(options))}")
+
+
+def read_prj(path) -> str:
+    """The WKT text of an ESRI ``.prj`` file (one line of WKT1)."""
+    from ...errors import ParseError
+
+    try:
+        text = Path(path).read_text(encoding="utf-8", errors="replace").strip()
+    except OSError as exc:
+        raise ParseError(f"cannot read projection file ({exc.strerror})", path=path) from None
+    if not text or "[" not in text:
+        raise ParseError("not a WKT projection (.prj) file", path=path, line=1)
+    return text
+
+
+@READERS.register("adh")
+class AdhReader:
+    """ADH / SMS meshes and ASCII datasets."""
+
+    extensions = (".3dm", ".2dm", ".dat", ".bc")
+
+    def open(self, paths, **options) -> xr.Dataset:
+        from .adh import open_adh
+
+        return open_adh(paths, **options)
+
+
+@READERS.register("sdf")
+class SdfReader:
+    """HEC-RAS GIS export (RASExport.sdf)."""
+
+    extensions = (".sdf",)
+
+    def open(self, paths, **options) -> xr.Dataset:
+        from .sdf import open_sdf
+
+        return open_sdf(paths, **options)
+
+
+@READERS.register("asc")
+class AscReader:
+    """ESRI ASCII grids (RAS Mapper maps converted to text)."""
+
+    extensions = (".asc",)
+
+    def open(self, paths, **options) -> xr.Dataset:
+        from .asc import open_asc
+
+        return open_asc(paths, **options)
+
+
+def guess_format(paths) -> str:
+    """Reader name from the files' extensions (``.prj`` and ``.bc`` are companions, not decisive)."""
+    exts = {Path(p).suffix.lower() for p in paths} - {".prj"}
+    for name in READERS.available():
+        cls = READERS.get(name)
+        primary = [e for e in getattr(cls, "extensions", ()) if e not in (".bc", ".dat")]
+        if exts & set(primary):
+            return name
+    raise InputError(f"cannot tell the format of {', '.join(map(str, paths))} from the extension(s); "
+                     f"pass format= one of {', '.join(READERS.available())}")
+
+
+def open_snapshot(paths, format: str | None = None, units=None, crs: str | None = None, *,
+                  plausibility: str = "raise", **options) -> xr.Dataset:
+    """Read model output files into a validated SI snapshot Dataset (grid or UGRID mesh).
+
+    *paths*: a file or a list of files that together form one snapshot (mesh + datasets + .bc;
+    several .asc grids; one .sdf). *format*: reader name (default: from the extensions).
+    *units*: the length unit of files that carry none (``"m"``, ``"ft"``; velocities are then in
+    unit/s). *crs*: WKT overriding a ``.prj`` or header. Reader-specific *options* are documented in
+    each reader module (e.g. ``strict=True`` rejects unknown cards; ``time_units=`` for .dat files).
+    """
+    if isinstance(paths, (str, Path)):
+        paths = [paths]
+    paths = [Path(p) for p in paths]
+    if not paths:
+        raise InputError("open_snapshot: no files given")
+    for p in paths:
+        if not p.exists():
+            raise InputError(f"file {str(p)!r} does not exist")
+    name = format or guess_format(paths)
+    reader = READERS.get(name)()
+    return reader.open(paths, units=units, crs=crs, plausibility=plausibility, **options)
+
+
+__all__ = ["READERS", "open_snapshot", "guess_format", "read_prj"]

@@ -1,0 +1,456 @@
+"""HEC-RAS GIS export (``RASExport.sdf``) → mesh snapshot over the cross-section cut lines.
+
+Grammar (HEC-RAS user manual, RASImport/RASExport spatial data format; parsers in ANUGA ``sdf2pts.py``
+and HABBY): ``BEGIN HEADER:``/``END HEADER:`` (``UNITS: US CUSTOMARY | METRIC``, ``PROFILE NAMES:`` then
+one name per line...), ``BEGIN STREAM NETWORK:`` (``ENDPOINT:``, ``REACH:`` ... ``CENTERLINE:`` points
+``END:``), ``BEGIN CROSS-SECTIONS:`` (``CROSS-SECTION:`` ... ``END:`` with ``CUT LINE:``, ``SURFACE LINE:``,
+``WATER ELEVATION:`` one value per profile, ``PROFILE ID:`` + ``VELOCITIES:`` lines ``fraction, value``),
+``BEGIN STORAGE AREAS:`` and ``BEGIN BOUNDS:`` (skipped). A keyword is the text before the *first* colon
+and must match a known keyword exactly (no substring matching); ``NULL`` marks an unknown value;
+stations may carry a ``*`` (interpolated section).
+
+How the 1-D results become a 2-D snapshot (the interpolation method):
+
+* nodes: on each cut line, at the surface-line points and at every velocity fraction of any profile;
+  fractions are measured along the cut line's plan length;
+* bed: linear in fraction between surface-line points (``NULL`` elevations dropped);
+* depth per profile: ``WATER ELEVATION − bed`` (≤ 0 is dry);
+* velocity: magnitude linear in fraction between the listed ``VELOCITIES`` points (0 outside them),
+  directed along the cut line's normal pointing downstream (1-D flow is normal to the section;
+  downstream from the reach centerline, else from decreasing river station);
+* faces: triangles zipped between consecutive cross sections (by station) of the same reach, so values
+  between sections are barycentric (linear) interpolations of the two sections' values;
+* time: one step per profile; timestamps (``01JAN2020 0100``) become datetimes, other names
+  (``PF 1``) keep an integer profile index and are listed in ``profile_name``.
+"""
+from __future__ import annotations
+
+import re
+import warnings
+from dataclasses import dataclass, field
+from datetime import datetime
+from pathlib import Path
+
+import numpy as np
+
+from ...errors import BreachflowWarning, InputError, ParseError
+from ._text import LineReader, as_text
+
+KEYWORDS = {
+    "BEGIN HEADER", "END HEADER", "UNITS", "DTM TYPE", "DTM", "STREAM LAYER", "NUMBER OF REACHES",
+    "CROSS-SECTION LAYER", "NUMBER OF CROSS-SECTIONS", "MAP PROJECTION", "PROJECTION ZONE", "DATUM",
+    "VERTICAL DATUM", "BEGIN SPATIAL EXTENT", "END SPATIAL EXTENT", "XMIN", "YMIN", "XMAX", "YMAX",
+    "NUMBER OF PROFILES", "PROFILE NAMES", "BEGIN STREAM NETWORK", "END STREAM NETWORK", "ENDPOINT",
+    "REACH", "STREAM ID", "REACH ID", "FROM POINT", "TO POINT", "CENTERLINE", "END", "BEGIN CROSS-SECTIONS",
+    "END CROSS-SECTIONS", "CROSS-SECTION", "STATION", "NODE NAME", "BANK POSITIONS", "REACH LENGTHS",
+    "CUT LINE", "SURFACE LINE", "WATER ELEVATION", "PROFILE ID", "VELOCITIES", "BEGIN STORAGE AREAS",
+    "END STORAGE AREAS", "STORAGE AREA", "SA ID", "SURFACE", "BEGIN BOUNDS", "END BOUNDS", "PROFILE LIMITS",
+    "POLYGON", "LEFT BANK", "RIGHT BANK", "LEVEE POSITIONS", "INEFFECTIVE POSITIONS", "BLOCKED POSITIONS",
+    "MANNINGS N", "ROUGHNESS", "BRIDGE", "CULVERT", "INLINE STRUCTURE", "LATERAL STRUCTURE",
+    "BEGIN STREAM NETWORK", "BEGIN LATERAL STRUCTURES", "END LATERAL STRUCTURES", "BEGIN INLINE STRUCTURES",
+    "END INLINE STRUCTURES", "NUMBER OF STORAGE AREAS", "BEGIN BREAKLINES", "END BREAKLINES",
+}
+_HEADER_ONLY = {"UNITS", "DTM TYPE", "DTM", "STREAM LAYER", "NUMBER OF REACHES", "CROSS-SECTION LAYER",
+                "NUMBER OF CROSS-SECTIONS", "MAP PROJECTION", "PROJECTION ZONE", "DATUM", "VERTICAL DATUM",
+                "NUMBER OF PROFILES", "XMIN", "YMIN", "XMAX", "YMAX"}
+_SKIP_BLOCKS = {"BEGIN STORAGE AREAS": "END STORAGE AREAS", "BEGIN BOUNDS": "END BOUNDS",
+                "BEGIN LATERAL STRUCTURES": "END LATERAL STRUCTURES", "BEGIN INLINE STRUCTURES": "END INLINE STRUCTURES",
+                "BEGIN BREAKLINES": "END BREAKLINES"}
+
+
+@dataclass
+class CrossSection:
+    line: int
+    stream: str = ""
+    reach: str = ""
+    station: float | None = None
+    station_text: str = ""
+    cut: list = field(default_factory=list)          # [(x, y)]
+    surface: list = field(default_factory=list)      # [(x, y, z or nan)]
+    water: list = field(default_factory=list)        # per profile (nan = NULL)
+    water_line: int = 0
+    velocities: dict = field(default_factory=dict)   # profile name -> [(fraction, value)]
+
+
+@dataclass
+class Reach:
+    stream: str = ""
+    reach: str = ""
+    centerline: list = field(default_factory=list)   # [(x, y)]
+
+
+@dataclass
+class SdfData:
+    path: Path
+    header: dict
+    profiles: list
+    reaches: list
+    sections: list
+
+
+def _split(text: str):
+    """``(KEYWORD, value)`` when the text before the first colon is a known keyword, else None."""
+    if ":" not in text:
+        return None
+    key, value = text.split(":", 1)
+    key = re.sub(r"\s+", " ", key.strip().upper())
+    return (key, value.strip()) if key in KEYWORDS else None
+
+
+def _numbers(text: str, n_min: int, n_max: int, path, line, what: str, allow_null=False):
+    toks = [t.strip() for t in re.split(r"[,\s]+", text.strip()) if t.strip()]
+    if not n_min <= len(toks) <= n_max:
+        raise ParseError(f"{what}: expected {n_min}{'' if n_min == n_max else f'-{n_max}'} values, found {len(toks)} "
+                         f"({text.strip()[:60]!r})", path=path, line=line)
+    out = []
+    for t in toks:
+        if t.upper() == "NULL" and allow_null:
+            out.append(np.nan)
+            continue
+        try:
+            v = float(t)
+        except ValueError:
+            raise ParseError(f"{what}: non-numeric value {t[:30]!r}", path=path, line=line) from None
+        if not np.isfinite(v):
+            raise ParseError(f"{what}: value {t!r} is not finite", path=path, line=line)
+        out.append(v)
+    return out
+
+
+def read_sdf(path, *, strict: bool = False) -> SdfData:
+    """Parse a HEC-RAS ``.sdf`` GIS export (see module doc); ParseError names the line of bad input."""
+    path = Path(path)
+    header: dict[str, str] = {}
+    profiles: list[str] = []
+    reaches: list[Reach] = []
+    sections: list[CrossSection] = []
+    block = None          # HEADER, NETWORK, XS, or a skip end keyword
+    list_mode = None      # PROFILE NAMES, CENTERLINE, CUT LINE, SURFACE LINE, VELOCITIES
+    cur_xs: CrossSection | None = None
+    cur_reach: Reach | None = None
+    cur_profile = None
+    seen_header = False
+    with LineReader(path) as rd:
+        while True:
+            raw = rd.readline()
+            if raw is None:
+                break
+            ln = rd.line_no
+            text = as_text(raw, path, ln).strip()
+            if not text or text.startswith("#"):
+                continue
+            kv = _split(text)
+            if block in _SKIP_BLOCKS.values():
+                if kv and kv[0] == block:
+                    block = None
+                continue
+            if kv is None:
+                if list_mode == "PROFILE NAMES":
+                    profiles.append(text)
+                elif list_mode == "CENTERLINE":
+                    vals = _numbers(text, 2, 4, path, ln, "centerline point", allow_null=True)
+                    cur_reach.centerline.append((vals[0], vals[1]))
+                elif list_mode == "CUT LINE":
+                    cur_xs.cut.append(tuple(_numbers(text, 2, 2, path, ln, "cut-line point")))
+                elif list_mode == "SURFACE LINE":
+                    cur_xs.surface.append(tuple(_numbers(text, 3, 3, path, ln, "surface-line point (x, y, z)", allow_null=True)))
+                elif list_mode == "VELOCITIES":
+                    f, v = _numbers(text, 2, 2, path, ln, "velocity point (fraction, value)")
+                    if not -1e-9 <= f <= 1 + 1e-9:
+                        raise ParseError(f"velocity position {f:g} is not a fraction of the cut line (0..1)", path=path, line=ln)
+                    cur_xs.velocities[cur_profile].append((f, v))
+                else:
+                    if strict or block in (None,):
+                        raise ParseError(f"unexpected line {text[:60]!r}", path=path, line=ln)
+                continue
+            key, value = kv
+            list_mode = None
+            if key == "BEGIN HEADER":
+                block, seen_header = "HEADER", True
+            elif key == "END HEADER":
+                _expect(block, "HEADER", key, path, ln)
+                block = None
+            elif key in ("BEGIN STREAM NETWORK", "BEGIN CROSS-SECTIONS"):
+                if block is not None:
+                    raise ParseError(f"{key} inside another block (missing END?)", path=path, line=ln)
+                block = "NETWORK" if "STREAM" in key else "XS"
+            elif key in ("END STREAM NETWORK", "END CROSS-SECTIONS"):
+                _expect(block, "NETWORK" if "STREAM" in key else "XS", key, path, ln)
+                if cur_xs is not None or cur_reach is not None:
+                    raise ParseError(f"{key} before the END: of the open {'CROSS-SECTION' if cur_xs else 'REACH'}", path=path, line=ln)
+                block = None
+            elif key in _SKIP_BLOCKS:
+                block = _SKIP_BLOCKS[key]
+            elif key == "PROFILE NAMES":
+                _expect(block, "HEADER", key, path, ln)
+                list_mode = key
+            elif block == "HEADER":
+                header[key] = value
+            elif key in _HEADER_ONLY and strict:
+                raise ParseError(f"{key} outside its block (header keyword)", path=path, line=ln)
+            elif key == "REACH":
+                _expect(block, "NETWORK", key, path, ln)
+                cur_reach = Reach()
+            elif key == "CROSS-SECTION":
+                _expect(block, "XS", key, path, ln)
+                if cur_xs is not None:
+                    raise ParseError(f"CROSS-SECTION before the END: of the one at line {cur_xs.line}", path=path, line=ln)
+                cur_xs = CrossSection(line=ln)
+            elif key == "END":
+                if cur_xs is not None:
+                    sections.append(cur_xs)
+                    cur_xs = None
+                elif cur_reach is not None:
+                    reaches.append(cur_reach)
+                    cur_reach = None
+            elif key in ("STREAM ID", "REACH ID"):
+                target = cur_xs or cur_reach
+                if target is not None:
+                    setattr(target, "stream" if key == "STREAM ID" else "reach", value)
+            elif key == "CENTERLINE":
+                if cur_reach is None:
+                    raise ParseError("CENTERLINE outside a REACH", path=path, line=ln)
+                list_mode = key
+            elif cur_xs is not None and key == "STATION":
+                cur_xs.station_text = value
+                try:
+                    cur_xs.station = float(value.rstrip("*").strip())
+                except ValueError:
+                    raise ParseError(f"river station {value[:30]!r} is not a number", path=path, line=ln) from None
+            elif cur_xs is not None and key in ("CUT LINE", "SURFACE LINE"):
+                list_mode = key
+            elif cur_xs is not None and key == "WATER ELEVATION":
+                cur_xs.water = _numbers(value, 1, 10**6, path, ln, "WATER ELEVATION", allow_null=True)
+                cur_xs.water_line = ln
+            elif cur_xs is not None and key == "PROFILE ID":
+                cur_profile = value
+                if cur_profile in cur_xs.velocities:
+                    raise ParseError(f"profile {value!r} listed twice in this cross section", path=path, line=ln)
+                cur_xs.velocities[cur_profile] = []
+            elif cur_xs is not None and key == "VELOCITIES":
+                if cur_profile is None or cur_profile not in cur_xs.velocities:
+                    raise ParseError("VELOCITIES without a preceding PROFILE ID", path=path, line=ln)
+                list_mode = key
+            # other known keywords carry information we do not need
+        if block is not None or cur_xs is not None:
+            raise ParseError("file ends inside a block (missing END:)", path=path, line=rd.line_no)
+    if not seen_header:
+        raise ParseError("no BEGIN HEADER: block (not a HEC-RAS GIS export?)", path=path, line=1)
+    n_prof = header.get("NUMBER OF PROFILES")
+    if n_prof is not None:
+        try:
+            n = int(n_prof)
+        except ValueError:
+            raise ParseError(f"NUMBER OF PROFILES {n_prof!r} is not an integer", path=path) from None
+        if profiles and n != len(profiles):
+            raise ParseError(f"NUMBER OF PROFILES is {n} but {len(profiles)} names are listed", path=path)
+        if not profiles:
+            profiles = [f"PF {k + 1}" for k in range(n)]
+    for xs in sections:
+        if len(xs.water) != len(profiles):
+            raise ParseError(f"cross section {xs.station_text or '?'}: {len(xs.water)} water elevations for "
+                             f"{len(profiles)} profiles", path=path, line=xs.water_line or xs.line)
+        if len(xs.cut) < 2:
+            raise ParseError(f"cross section {xs.station_text or '?'}: cut line needs at least 2 points", path=path, line=xs.line)
+        if xs.station is None:
+            raise ParseError("cross section without STATION", path=path, line=xs.line)
+        for name in xs.velocities:
+            if name not in profiles:
+                raise ParseError(f"cross section {xs.station_text}: velocities for unknown profile {name!r}", path=path, line=xs.line)
+    return SdfData(path, header, profiles, reaches, sections)
+
+
+def _expect(block, want, key, path, line):
+    if block != want:
+        raise ParseError(f"{key} outside its block", path=path, line=line)
+
+
+def _polyline_at(points: np.ndarray, fractions: np.ndarray) -> np.ndarray:
+    seg = np.hypot(*np.diff(points, axis=0).T)
+    cum = np.concatenate([[0.0], np.cumsum(seg)])
+    s = fractions * cum[-1]
+    return np.column_stack([np.interp(s, cum, points[:, 0]), np.interp(s, cum, points[:, 1])])
+
+
+def _fractions_along(points: np.ndarray) -> np.ndarray:
+    seg = np.hypot(*np.diff(points, axis=0).T)
+    cum = np.concatenate([[0.0], np.cumsum(seg)])
+    return cum / cum[-1] if cum[-1] > 0 else cum
+
+
+def _merge_fractions(exact, approx, tol: float = 1e-3) -> np.ndarray:
+    """Union of node fractions; a surface-line fraction within *tol* of another one (coordinates are
+    rounded in the file) is the same node, exact velocity fractions taking precedence."""
+    out = list(exact)
+    for f in approx:
+        if not out or np.min(np.abs(np.asarray(out) - f)) > tol:
+            out.append(float(f))
+    return np.array(sorted(out))
+
+
+def _zip(a: np.ndarray, b: np.ndarray, ia: np.ndarray, ib: np.ndarray) -> list:
+    """Triangulate the strip between two node rows with fractions *a*, *b* (both sorted)."""
+    tris = []
+    i = j = 0
+    while i < len(a) - 1 or j < len(b) - 1:
+        if j == len(b) - 1 or (i < len(a) - 1 and a[i + 1] <= b[j + 1]):
+            tris.append((ia[i], ib[j], ia[i + 1]))
+            i += 1
+        else:
+            tris.append((ia[i], ib[j], ib[j + 1]))
+            j += 1
+    return tris
+
+
+def _parse_profile_times(names):
+    out = []
+    for n in names:
+        for fmt in ("%d%b%Y %H%M", "%d%b%Y %H:%M", "%d%b%Y %H%M%S", "%d%b%Y"):
+            try:
+                out.append(datetime.strptime(n.strip().upper().title().replace(" ", " "), fmt))
+                break
+            except ValueError:
+                continue
+        else:
+            return None
+    return np.array(out, dtype="datetime64[ns]")
+
+
+def open_sdf(paths, *, units=None, crs=None, plausibility="raise", strict=False, **unused):
+    """HEC-RAS ``.sdf`` → mesh snapshot (SI); see the module doc for the interpolation method."""
+    from ...units import ureg
+    from ..snapshot import check_plausibility, mesh_snapshot
+    from . import read_prj, unknown_options
+
+    unknown_options("sdf", unused)
+    paths = [Path(p) for p in paths]
+    sdfs = [p for p in paths if p.suffix.lower() == ".sdf"]
+    prjs = [p for p in paths if p.suffix.lower() == ".prj"]
+    if len(sdfs) != 1 or len(sdfs) + len(prjs) != len(paths):
+        raise InputError("sdf reader: give exactly one .sdf file (and optionally a .prj)")
+    data = read_sdf(sdfs[0], strict=strict)
+    file_unit = {"US CUSTOMARY": "ft", "METRIC": "m"}.get(data.header.get("UNITS", "").strip().upper())
+    if "UNITS" in data.header and file_unit is None:
+        raise ParseError(f"UNITS {data.header['UNITS']!r} is neither US CUSTOMARY nor METRIC", path=data.path)
+    if units is not None:
+        if file_unit and ureg.Quantity(1, str(units)).to("m").magnitude != ureg.Quantity(1, file_unit).to("m").magnitude:
+            warnings.warn(f"units={units!r} overrides the file's UNITS: {data.header['UNITS']}", BreachflowWarning, stacklevel=2)
+        unit = str(units)
+    elif file_unit:
+        unit = file_unit
+    else:
+        raise InputError(f"{data.path}: no UNITS in the header; pass units='m' or 'ft'")
+    to_m = float(ureg.Quantity(1.0, unit).to("m").magnitude)
+    if not data.sections:
+        raise InputError(f"{data.path}: no cross sections")
+    if not data.profiles:
+        raise InputError(f"{data.path}: no profiles (NUMBER OF PROFILES / PROFILE NAMES)")
+    nprof = len(data.profiles)
+    xs_nodes = []  # per XS: (fractions, xy, bed, wse per profile, speed per profile, normal)
+    for xs in data.sections:
+        cut = np.asarray(xs.cut, dtype=float)
+        surf = np.asarray(xs.surface, dtype=float) if xs.surface else np.empty((0, 3))
+        ok = np.isfinite(surf[:, 2]) if surf.size else np.zeros(0, bool)
+        if ok.sum() < 2:
+            raise ParseError(f"cross section {xs.station_text}: surface line needs at least 2 points with elevations",
+                             path=data.path, line=xs.line)
+        sf = _fractions_along(surf[:, :2])
+        vel_fr = sorted({f for pts in xs.velocities.values() for f, _ in pts})
+        fr = _merge_fractions(vel_fr, sf)
+        xy = _polyline_at(cut, fr)
+        bed = np.interp(fr, sf[ok], surf[ok, 2])
+        speed = np.zeros((nprof, fr.size))
+        for k, name in enumerate(data.profiles):
+            pts = xs.velocities.get(name)
+            if pts:
+                pf = np.array([p[0] for p in pts])
+                pv = np.array([p[1] for p in pts])
+                order = np.argsort(pf)
+                speed[k] = np.interp(fr, pf[order], pv[order], left=0.0, right=0.0)
+        wse = np.asarray(xs.water, dtype=float)
+        d = cut[-1] - cut[0]
+        normal = np.array([d[1], -d[0]]) / np.hypot(*d)  # right-hand normal of the cut line
+        xs_nodes.append(dict(fr=fr, xy=xy, bed=bed, wse=wse, speed=speed, normal=normal, xs=xs))
+    _orient_downstream(xs_nodes, data)
+    # nodes and faces
+    offsets = np.cumsum([0] + [n["fr"].size for n in xs_nodes])
+    groups: dict[tuple, list[int]] = {}
+    for i, n in enumerate(xs_nodes):
+        groups.setdefault((n["xs"].stream, n["xs"].reach), []).append(i)
+    tris = []
+    for members in groups.values():
+        members.sort(key=lambda i: -xs_nodes[i]["xs"].station)
+        for a, b in zip(members[:-1], members[1:]):
+            na, nb = xs_nodes[a], xs_nodes[b]
+            tris += _zip(na["fr"], nb["fr"], offsets[a] + np.arange(na["fr"].size), offsets[b] + np.arange(nb["fr"].size))
+    if not tris:
+        raise InputError(f"{data.path}: need at least two cross sections on one reach to span a mesh")
+    xy = np.concatenate([n["xy"] for n in xs_nodes]) * to_m
+    bed = np.concatenate([n["bed"] for n in xs_nodes]) * to_m
+    faces = np.asarray(tris, dtype=np.int64)
+    a, b, c = faces.T
+    area2 = (xy[b, 0] - xy[a, 0]) * (xy[c, 1] - xy[a, 1]) - (xy[c, 0] - xy[a, 0]) * (xy[b, 1] - xy[a, 1])
+    faces[area2 < 0] = faces[area2 < 0][:, ::-1]
+    faces = faces[np.abs(area2) > 0]
+    wse = np.concatenate([np.repeat(n["wse"][:, None], n["fr"].size, axis=1) for n in xs_nodes], axis=1) * to_m
+    raw_depth = np.where(np.isfinite(wse), wse - bed[None, :], 0.0)
+    speed = np.concatenate([n["speed"] for n in xs_nodes], axis=1) * to_m
+    nrm = np.concatenate([np.repeat(n["normal"][None, :], n["fr"].size, axis=0) for n in xs_nodes])
+    u, v = speed * nrm[None, :, 0], speed * nrm[None, :, 1]
+    times = _parse_profile_times(data.profiles)
+    time = times if times is not None else np.arange(nprof)
+    crs_wkt = crs or (read_prj(prjs[0]) if prjs else None)
+    ds = mesh_snapshot(
+        xy[:, 0], xy[:, 1], faces, bed, raw_depth, u, v, time=time, crs_wkt=crs_wkt,
+        source="HEC-RAS GIS export (sdf) read by breachflow (reader 'sdf')",
+        source_files=[str(p) for p in [*sdfs, *prjs]], check=False,
+    )
+    if times is None:
+        ds["time"].attrs.update(long_name="profile number (steady-flow profiles, not times)", units="1")
+        ds["time"].attrs.pop("axis", None)
+    ds["profile_name"] = (("time",), np.array(data.profiles, dtype=object), {"long_name": "HEC-RAS profile name"})
+    ds["cross_section_station"] = (("node",), np.concatenate([np.full(n["fr"].size, n["xs"].station) for n in xs_nodes]) * to_m,
+                                   {"long_name": "HEC-RAS river station of the node's cross section", "units": "m",
+                                    "mesh": "mesh2d", "location": "node"})
+    ds.attrs.update(
+        breachflow_reader="sdf", source_length_unit=unit,
+        source_length_unit_from="user" if units else f"UNITS: {data.header.get('UNITS')}",
+        interpolation=("nodes on cut lines at surface-line points and velocity fractions; bed linear along the "
+                       "cut line; velocity normal to the cut line, downstream; triangles between consecutive "
+                       "cross sections of a reach (barycentric in between)"),
+    )
+    for key in ("MAP PROJECTION", "PROJECTION ZONE", "DATUM", "VERTICAL DATUM"):
+        if data.header.get(key):
+            ds.attrs[f"source_{key.lower().replace(' ', '_')}"] = data.header[key]
+    from ..snapshot import validate_snapshot
+
+    validate_snapshot(ds, source=str(data.path))
+    return check_plausibility(ds, mode=plausibility)
+
+
+def _orient_downstream(xs_nodes, data: SdfData) -> None:
+    """Flip each section's normal to point downstream (reach centerline, else decreasing station)."""
+    reach_lines = {(r.stream, r.reach): np.asarray(r.centerline, dtype=float) for r in data.reaches if len(r.centerline) >= 2}
+    for n in xs_nodes:
+        xs = n["xs"]
+        mid = n["xy"].mean(axis=0)
+        cl = reach_lines.get((xs.stream, xs.reach))
+        if cl is not None:
+            k = int(np.argmin(np.hypot(*(cl[:-1] - mid).T) + np.hypot(*(cl[1:] - mid).T)))
+            down = cl[k + 1] - cl[k]
+        else:
+            others = [m for m in xs_nodes if m is not n and (m["xs"].stream, m["xs"].reach) == (xs.stream, xs.reach)]
+            lower = [m for m in others if m["xs"].station < xs.station]
+            higher = [m for m in others if m["xs"].station > xs.station]
+            if lower:
+                tgt = max(lower, key=lambda m: m["xs"].station)
+                down = tgt["xy"].mean(axis=0) - mid
+            elif higher:
+                tgt = min(higher, key=lambda m: m["xs"].station)
+                down = mid - tgt["xy"].mean(axis=0)
+            else:
+                warnings.warn(f"cross section {xs.station_text}: no reach centerline or neighbour to tell downstream; "
+                              "velocity direction taken as the cut line's right-hand normal", BreachflowWarning, stacklevel=3)
+                continue
+        if float(np.dot(n["normal"], down)) < 0:
+            n["normal"] = -n["normal"]
