@@ -1,0 +1,91 @@
+"""Pluggable hydrodynamic solvers (SPEC §4, §7 step 2).
+
+A solver is a class with one method, ``solve(domain, obstacles=None, initial=None) -> xr.Dataset``,
+returning a grid snapshot (INTERFACES §1). Built-ins: ``"swe"`` (the embedded shallow-water solver,
+solved to incremental steady state) and ``"snapshot"`` (serves ingested ADH / HEC-RAS snapshots,
+unchanged or one per cycle from a sequence). Third-party solvers register through the entry point
+group ``breachflow.solvers``, as xarray backends do::
+
+    [project.entry-points."breachflow.solvers"]
+    mysolver = "mypkg.hydro:MySolver"
+
+>>> get_solver("swe", order=1).options.order
+1
+"""
+from __future__ import annotations
+
+import warnings
+from pathlib import Path
+from typing import Protocol, Sequence, runtime_checkable
+
+import xarray as xr
+
+from ..errors import BreachflowWarning, InputError
+from ..registry import Registry
+
+
+@runtime_checkable
+class HydroSolver(Protocol):
+    """Anything that turns a domain (+ obstacles, + a previous state) into a snapshot Dataset."""
+
+    def solve(self, domain, obstacles=None, initial=None) -> xr.Dataset: ...
+
+
+solvers: Registry = Registry("hydrodynamic solver", "breachflow.solvers")
+
+
+def get_solver(name: str = "swe", **options) -> HydroSolver:
+    """Instantiate the solver registered as *name* with *options*."""
+    cls = solvers.get(name)
+    try:
+        return cls(**options)
+    except TypeError as exc:
+        raise InputError(f"hydrodynamic solver {name!r}: bad options {sorted(options)} ({exc})") from None
+
+
+@solvers.register("swe")
+def _swe(**options):
+    from .swe.solver import SWESolver
+
+    return SWESolver(**options)
+
+
+@solvers.register("snapshot")
+class SnapshotSolver:
+    """Serve ingested snapshots: always the same one, or the next of a sequence on each ``solve`` call.
+
+    *snapshots*: a Dataset, a NetCDF path, or a sequence of them; a Dataset with a ``time`` dimension
+    is a sequence of its time steps. After the last one the last is repeated (with a warning).
+    The domain, obstacles and initial state are ignored: the external model already contains them.
+    """
+
+    def __init__(self, snapshots=None, *, repeat_last: bool = True):
+        if snapshots is None:
+            raise InputError("snapshot solver: give snapshots= (a Dataset, a NetCDF path or a list of them)")
+        items = list(snapshots) if isinstance(snapshots, (list, tuple)) else [snapshots]
+        seq = []
+        for item in items:
+            ds = xr.open_dataset(item) if isinstance(item, (str, Path)) else item
+            if not isinstance(ds, xr.Dataset):
+                raise InputError(f"snapshot solver: {item!r} is not a Dataset or a NetCDF path")
+            if "time" in ds.dims and ds.sizes["time"] > 1:
+                seq.extend(ds.isel(time=k) for k in range(ds.sizes["time"]))
+            else:
+                seq.append(ds.isel(time=0) if "time" in ds.dims else ds)
+        if not seq:
+            raise InputError("snapshot solver: empty sequence of snapshots")
+        self.sequence = seq
+        self.repeat_last = repeat_last
+        self.calls = 0
+
+    def solve(self, domain=None, obstacles=None, initial=None) -> xr.Dataset:
+        k = self.calls
+        self.calls += 1
+        if k >= len(self.sequence):
+            if not self.repeat_last:
+                raise InputError(f"snapshot solver: only {len(self.sequence)} snapshot(s) for cycle {k + 1}")
+            if len(self.sequence) > 1:
+                warnings.warn(f"snapshot solver: cycle {k + 1} reuses the last of {len(self.sequence)} snapshots",
+                              BreachflowWarning, stacklevel=2)
+            k = len(self.sequence) - 1
+        return self.sequence[k]

@@ -1,0 +1,313 @@
+"""Driver of the embedded shallow-water solver (SPEC §4): state, time marching, steady state, output.
+
+>>> from breachflow.hydro.terrain import uniform_grid, BoundaryCondition
+>>> dom = uniform_grid(0, 10, 0, 1, 0.5, initial_surface=1.0)
+>>> sim = SWESimulation(dom)
+>>> sim.advance_to(1.0).t
+1.0
+"""
+from __future__ import annotations
+
+import math
+import time as _time
+from dataclasses import dataclass, field
+
+import numpy as np
+import xarray as xr
+
+from ...errors import InputError, PhysicsError
+from .. import derived as _derived
+from ..snapshot import grid_snapshot
+from ..terrain import Domain, pack_boundaries
+from . import kernels as K
+
+GRAVITY = 9.81
+
+
+@dataclass(frozen=True)
+class SWEOptions:
+    """Numerical settings.
+
+    ``order`` 1 or 2 (MUSCL + SSP-RK2); ``courant`` the CFL number ``dt (|u|+c)/dx + dt (|v|+c)/dy``
+    (0 < C <= 1; depth positivity is guaranteed for C <= 0.5); ``limiter`` minmod / mc / vanleer;
+    ``riemann`` hll / hllc; ``h_dry`` depth (m) below which a cell's velocity is zero; ``threads`` the
+    number of numba threads (None: numba's default, all cores).
+    """
+
+    order: int = 2
+    courant: float = 0.45
+    limiter: str = "minmod"
+    riemann: str = "hllc"
+    gravity: float = GRAVITY
+    h_dry: float = 1e-8
+    dt_min: float = 1e-9
+    threads: int | None = 1
+
+    def __post_init__(self):
+        if self.order not in (1, 2):
+            raise InputError(f"order must be 1 or 2, got {self.order!r}")
+        if not (0.0 < self.courant <= 1.0):
+            raise InputError(f"courant must be in (0, 1], got {self.courant!r}")
+        if self.limiter not in K.LIMITERS:
+            raise InputError(f"limiter {self.limiter!r} unknown; use one of {sorted(K.LIMITERS)}")
+        if self.riemann not in K.RIEMANN:
+            raise InputError(f"riemann {self.riemann!r} unknown; use one of {sorted(K.RIEMANN)}")
+        if not (self.gravity > 0 and self.h_dry >= 0):
+            raise InputError("gravity must be > 0 and h_dry >= 0")
+
+
+@dataclass
+class ConvergenceHistory:
+    """Steady-state monitor: per check, simulated time (s), relative rates of change of depth and of
+    discharge (1/s, L1 over the open cells), steps and wall time (s)."""
+
+    time: list = field(default_factory=list)
+    depth_rate: list = field(default_factory=list)
+    discharge_rate: list = field(default_factory=list)
+    steps: list = field(default_factory=list)
+    wall_time: list = field(default_factory=list)
+    converged: bool = False
+    tolerance: float = float("nan")
+
+
+class SWESimulation:
+    """Time marching of one :class:`Domain` (plus extra obstacles) from a cold or warm start.
+
+    *initial* may be a grid snapshot Dataset (warm start: depth, u, v; its water surface is kept where
+    the bed changed) or a tuple ``(h, hu, hv)`` of ``(ny, nx)`` arrays. Cells that became obstacles are
+    emptied. Without *initial* the domain's ``initial_surface`` (or a dry bed) is used.
+    """
+
+    def __init__(self, domain: Domain, options: SWEOptions | None = None, *, obstacles=None, initial=None):
+        self.options = options or SWEOptions()
+        self.domain = domain if obstacles is None else domain.with_obstacles(_mask(obstacles, domain))
+        d = self.domain
+        ny, nx = d.shape
+        self.dx, self.dy = d.dx, d.dy
+        P = K.G
+        shape = (ny + 2 * P, nx + 2 * P)
+        self.kinds, self.times, self.levels, self.discharges = pack_boundaries(d)
+        self.z = np.zeros(shape)
+        self.z[P:-P, P:-P] = d.bed
+        self.manning = np.zeros(shape)
+        self.manning[P:-P, P:-P] = d.manning
+        self.obst = np.zeros(shape, np.int8)
+        self.obst[P:-P, P:-P] = d.obstacle
+        # wall sides: ghost cells flagged as obstacles make their faces reflective
+        # discharge inlets: code 2 makes their faces take the prescribed (ghost) state's flux
+        wall = np.where(self.kinds == K.BC_WALL, 1, np.where(self.kinds == K.BC_DISCHARGE, 2, 0))
+        for layer in range(P):
+            self.obst[P:-P, P - 1 - layer] = wall[K.WEST, :ny]
+            self.obst[P:-P, P + nx + layer] = wall[K.EAST, :ny]
+            self.obst[P - 1 - layer, P:-P] = wall[K.SOUTH, :nx]
+            self.obst[P + ny + layer, P:-P] = wall[K.NORTH, :nx]
+        self.h = np.zeros(shape)
+        self.hu = np.zeros(shape)
+        self.hv = np.zeros(shape)
+        self._work = [np.zeros(shape) for _ in range(9)]
+        self._faces = np.zeros((5,) + shape)
+        self.stats = np.array([0.0, np.inf, 0.0])
+        self.t = 0.0
+        self.steps = 0
+        self.history = ConvergenceHistory()
+        self._set_initial(initial)
+
+    # ------------------------------------------------------------------ state
+    def _set_initial(self, initial):
+        d = self.domain
+        inner = (slice(K.G, -K.G), slice(K.G, -K.G))
+        if initial is None:
+            if d.initial_surface is not None:
+                h = np.maximum(np.nan_to_num(d.initial_surface - d.bed, nan=0.0), 0.0)
+            else:
+                h = np.zeros(d.shape)
+            hu = np.zeros(d.shape)
+            hv = np.zeros(d.shape)
+        elif isinstance(initial, xr.Dataset):
+            if initial.depth.ndim != 2:
+                initial = initial.isel(time=-1)
+            if initial.depth.shape != d.shape:
+                raise InputError(f"warm start: snapshot shape {initial.depth.shape} differs from the domain {d.shape}")
+            h0 = np.asarray(initial.depth.values, float)
+            if "bed_elevation" in initial:
+                surface = np.asarray(initial.bed_elevation.values, float) + h0
+                h = np.where(h0 > 0, np.maximum(surface - d.bed, 0.0), 0.0)
+            else:
+                h = h0
+            hu = h * np.asarray(initial.u.values, float)
+            hv = h * np.asarray(initial.v.values, float)
+        else:
+            h, hu, hv = (np.asarray(a, float) for a in initial)
+            if h.shape != d.shape:
+                raise InputError(f"initial state shape {h.shape} differs from the domain {d.shape}")
+        for name, a in (("depth", h), ("hu", hu), ("hv", hv)):
+            if not np.all(np.isfinite(a)):
+                raise InputError(f"initial {name} has non-finite values")
+        if np.any(h < 0):
+            raise InputError("initial depth has negative values")
+        blocked = d.obstacle
+        self.h[inner] = np.where(blocked, 0.0, h)
+        self.hu[inner] = np.where(blocked, 0.0, hu)
+        self.hv[inner] = np.where(blocked, 0.0, hv)
+
+    @property
+    def depth(self) -> np.ndarray:
+        return self.h[K.G:-K.G, K.G:-K.G]
+
+    @property
+    def discharge(self) -> tuple[np.ndarray, np.ndarray]:
+        return self.hu[K.G:-K.G, K.G:-K.G], self.hv[K.G:-K.G, K.G:-K.G]
+
+    def velocity(self) -> tuple[np.ndarray, np.ndarray]:
+        h = self.depth
+        hu, hv = self.discharge
+        wet = h > self.options.h_dry
+        safe = np.where(wet, h, 1.0)
+        return np.where(wet, hu / safe, 0.0), np.where(wet, hv / safe, 0.0)
+
+    def volume(self) -> float:
+        """Water volume in the domain (m³)."""
+        return float(self.depth.sum() * self.dx * self.dy)
+
+    # ------------------------------------------------------------------ marching
+    def advance_to(self, t_end: float, max_steps: int = 10**9) -> "SWESimulation":
+        """March to time *t_end* (s). Raises :class:`PhysicsError` on a non-finite state or runaway step."""
+        import numba
+
+        o = self.options
+        w = self._work
+        previous_threads = numba.get_num_threads()
+        if o.threads:
+            numba.set_num_threads(max(1, min(int(o.threads), numba.config.NUMBA_NUM_THREADS)))
+        try:
+            t, steps, status = K.advance(
+                self.h, self.hu, self.hv, self.z, self.obst, self.manning,
+                self.kinds, self.times, self.levels, self.discharges,
+                self.dx, self.dy, o.gravity, o.order == 2, K.LIMITERS[o.limiter], K.RIEMANN[o.riemann],
+                o.courant, o.h_dry, float(self.t), float(t_end), int(max_steps), o.dt_min,
+                w[0], w[1], w[2], w[3], w[4], w[5], w[6], w[7], w[8], self._faces, self.stats)
+        finally:
+            numba.set_num_threads(previous_threads)
+        self.t = t
+        self.steps += steps
+        if status == 2 or not np.all(np.isfinite(self.depth)):
+            raise PhysicsError(
+                f"shallow-water solver: non-finite state or time step below {o.dt_min} s at t = {t:.6g} s "
+                f"(step {self.steps}) in domain {self.domain.name!r}")
+        if np.any(self.depth < 0):
+            raise PhysicsError(f"shallow-water solver: negative depth at t = {t:.6g} s")
+        return self
+
+    def run_to_steady(self, tolerance: float = 1e-4, t_max: float = 3600.0, check_interval: float | None = None,
+                      min_time: float = 0.0, region=None) -> ConvergenceHistory:
+        """March until the relative rates of change of depth and discharge fall below *tolerance* (1/s).
+
+        Rates over each check window Δt: ``sum|h - h_prev| / (sum h Δt)`` and the same with the
+        discharge magnitude, summed over the cells of *region* (a boolean mask; default all cells —
+        e.g. the breach vicinity when only the flow there matters). Stops at *t_max* (s) of simulated
+        time otherwise (``converged`` False).
+        """
+        sel = np.ones(self.domain.shape, bool) if region is None else _mask(region, self.domain)
+        if not sel.any():
+            raise InputError("run_to_steady: the monitoring region is empty")
+        if not tolerance > 0:
+            raise InputError(f"steady-state tolerance must be > 0, got {tolerance}")
+        if not t_max > 0:
+            raise InputError(f"t_max must be > 0 s, got {t_max}")
+        if check_interval is None:
+            # a few gravity-wave crossings of a cell band: 20 cells at the fastest wave speed, at least 1 s
+            hmax = max(float(self.depth.max()), float(np.nanmax(self.levels)) - float(self.domain.bed.min())
+                       if np.isfinite(self.levels).any() else 0.0, 1e-3)
+            check_interval = max(1.0, 20.0 * min(self.dx, self.dy) / math.sqrt(self.options.gravity * hmax))
+        hist = self.history
+        hist.tolerance = tolerance
+        t_start = self.t
+        wall0 = _time.perf_counter()
+        h_prev = self.depth[sel]
+        q_prev = np.hypot(*self.discharge)[sel]
+        while self.t < t_start + t_max - 1e-12:
+            t0 = self.t
+            self.advance_to(min(self.t + check_interval, t_start + t_max))
+            dt = self.t - t0
+            h = self.depth[sel]
+            q = np.hypot(*self.discharge)[sel]
+            rate_h = float(np.abs(h - h_prev).sum() / (max(h.sum(), 1e-300) * dt))
+            rate_q = float(np.abs(q - q_prev).sum() / (max(q.sum(), 1e-300) * dt)) if q.sum() > 0 else 0.0
+            hist.time.append(self.t)
+            hist.depth_rate.append(rate_h)
+            hist.discharge_rate.append(rate_q)
+            hist.steps.append(self.steps)
+            hist.wall_time.append(_time.perf_counter() - wall0)
+            h_prev = h
+            q_prev = q
+            if rate_h < tolerance and rate_q < tolerance and self.t - t_start >= min_time:
+                hist.converged = True
+                break
+        return hist
+
+    # ------------------------------------------------------------------ output
+    def snapshot(self, *, source: str = "breachflow shallow-water solver (swe)", derived: bool = True,
+                 **derived_kwargs) -> xr.Dataset:
+        """The grid snapshot Dataset (INTERFACES §1) with derived fields and the convergence history."""
+        d = self.domain
+        h = self.depth.copy()
+        u, v = self.velocity()
+        extra = {}
+        if derived:
+            fields = _derived.derived_fields(d.bed, h, u, v, d.manning, g=self.options.gravity, **derived_kwargs)
+            extra.update({k: (("y", "x"), a, attrs) for k, (a, attrs) in fields.items()})
+        hist = self.history
+        if hist.time:
+            extra["convergence_time"] = (("convergence_check",), np.array(hist.time),
+                                         {"long_name": "simulated time of the steady-state check", "units": "s"})
+            extra["convergence_depth_rate"] = (("convergence_check",), np.array(hist.depth_rate),
+                                               {"long_name": "relative rate of change of depth (L1)", "units": "s-1"})
+            extra["convergence_discharge_rate"] = (("convergence_check",), np.array(hist.discharge_rate),
+                                                   {"long_name": "relative rate of change of unit discharge (L1)", "units": "s-1"})
+        ds = grid_snapshot(d.x, d.y, d.bed, h, u, v, obstacle=d.obstacle.astype("i1"), crs_wkt=d.crs_wkt,
+                           source=source, extra=extra)
+        o = self.options
+        ds.attrs.update(
+            solver="swe", solver_order=o.order, solver_courant=o.courant, solver_limiter=o.limiter,
+            solver_riemann=o.riemann, simulated_time_s=float(self.t), time_steps=int(self.steps),
+            steady_state=int(hist.converged), steady_state_tolerance_per_s=float(hist.tolerance),
+            domain=d.name,
+        )
+        return ds
+
+
+def _mask(obstacles, domain: Domain) -> np.ndarray:
+    if isinstance(obstacles, xr.DataArray):
+        obstacles = obstacles.values
+    if isinstance(obstacles, xr.Dataset):
+        obstacles = obstacles["obstacle"].values
+    m = np.asarray(obstacles, dtype=bool)
+    if m.shape != domain.shape:
+        raise InputError(f"obstacles: mask shape {m.shape} differs from the domain {domain.shape}")
+    return m
+
+
+class SWESolver:
+    """The embedded solver as a :class:`~breachflow.hydro.solvers.HydroSolver`: solves to steady state.
+
+    ``solve(domain, obstacles=None, initial=None)`` returns the snapshot Dataset; the last
+    :class:`SWESimulation` is kept as ``last`` (its ``history`` is the convergence history).
+    """
+
+    def __init__(self, order: int = 2, courant: float = 0.45, limiter: str = "minmod", riemann: str = "hllc",
+                 tolerance: float = 1e-4, t_max: float = 3600.0, check_interval: float | None = None,
+                 h_dry: float = 1e-8, threads: int | None = 1, region=None, **derived_kwargs):
+        self.options = SWEOptions(order=order, courant=courant, limiter=limiter, riemann=riemann, h_dry=h_dry,
+                                  threads=threads)
+        self.region = region
+        self.tolerance = tolerance
+        self.t_max = t_max
+        self.check_interval = check_interval
+        self.derived_kwargs = derived_kwargs
+        self.last: SWESimulation | None = None
+
+    def solve(self, domain: Domain, obstacles=None, initial=None) -> xr.Dataset:
+        sim = SWESimulation(domain, self.options, obstacles=obstacles, initial=initial)
+        sim.run_to_steady(self.tolerance, self.t_max, self.check_interval, region=self.region)
+        self.last = sim
+        return sim.snapshot(**self.derived_kwargs)
