@@ -15,11 +15,13 @@ from .state import Material
 
 def _wall_props(material: Material) -> np.ndarray:
     m = material
-    return np.array([m.adhesion, m.friction, m.kn, m.ks_value, m.c_cn, m.c_cs, m.c_cf], dtype=float)
+    return np.array([m.adhesion, m.friction, m.kn, m.ks_value, m.c_cn, m.c_cs, m.c_cf, m.rolling_friction],
+                    dtype=float)
 
 
 class Boundary:
-    """Base: holds the material row and the per-particle shear history."""
+    """Base: holds the material row and the per-particle shear (``hist``, m) and rolling-moment
+    (``rhist``, N m) histories."""
 
     moving = False
 
@@ -27,12 +29,15 @@ class Boundary:
         self.material = material or Material()
         self.props = _wall_props(self.material)
         self.hist = np.zeros((0, 3))
+        self.rhist = np.zeros((0, 3))
 
     def resize(self, n: int) -> None:
         if self.hist.shape[0] < n:
-            new = np.zeros((n, 3))
-            new[: self.hist.shape[0]] = self.hist
-            self.hist = new
+            for name in ("hist", "rhist"):
+                old = getattr(self, name)
+                new = np.zeros((n, 3))
+                new[: old.shape[0]] = old
+                setattr(self, name, new)
 
     def advance(self, dt: float) -> None:
         """Move the boundary over one step (nothing for fixed ones)."""
@@ -71,8 +76,8 @@ class Plane(Boundary):
     def forces(self, idx, state, dt, force, torque) -> int:
         self.reaction[:] = 0.0
         return contacts.plane_forces(idx, self.point, self.normal, self.velocity, self.props, self.hist,
-                                     state.pos, state.vel, state.omega, state.radius, state._props, dt,
-                                     force, torque, self.reaction)
+                                     self.rhist, state.pos, state.vel, state.omega, state.radius, state.mass,
+                                     state.inertia, state._props, dt, force, torque, self.reaction)
 
     def advance(self, dt: float) -> None:
         if self.control == "force":
@@ -125,5 +130,6 @@ class HeightField(Boundary):
 
     def forces(self, idx, state, dt, force, torque) -> int:
         return contacts.heightfield_forces(idx, self.x0, self.y0, self.hx, self.hy, self.bed, self.props,
-                                           self.hist, state.pos, state.vel, state.omega, state.radius,
-                                           state._props, dt, force, torque)
+                                           self.hist, self.rhist, state.pos, state.vel, state.omega,
+                                           state.radius, state.mass, state.inertia, state._props, dt, force,
+                                           torque)

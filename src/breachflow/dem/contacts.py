@@ -14,7 +14,8 @@ Contact law (SPEC §5), ``n`` from particle i to its partner, overlap ``u_N > 0`
   rotated into the current tangent plane with its length kept), ``f_S = k_S u_S``;
   slip limit ``u_S_hat = (alpha + beta k_N u_N) / k_S``; beyond it ``u_S`` is cut back to
   ``u_S_hat`` (plastic slip); dashpot ``c_CS v_S`` while sticking, ``c_CF v_S`` while slipping;
-* torque ``(r n) x f_S`` on each partner (lever arm D/2).
+* torque ``(r n) x f_S`` on each partner (lever arm D/2);
+* rolling resistance (extension, ``rolling_friction`` mu_r > 0): :func:`rolling_law`.
 Properties of a contact are the minimum of the partners' values.
 """
 from __future__ import annotations
@@ -24,7 +25,11 @@ import math
 import numba
 import numpy as np
 
-OFFSET = 1 << 20  # cell-coordinate offset for packing three signed ints into one int64
+OFFSET = 1 << 20
+#: rolling stiffness ``k_r = ROLLING_STIFFNESS * k_N mu_r^2 R_r^2`` (Ai et al. 2011, 3-D value)
+ROLLING_STIFFNESS = 2.25
+#: rolling dashpot ``C_r = ROLLING_DAMPING_RATIO * 2 sqrt(I_r k_r)`` (Ai et al. 2011 eta_r)
+ROLLING_DAMPING_RATIO = 0.3  # cell-coordinate offset for packing three signed ints into one int64
 
 
 @numba.njit(cache=True, inline="always", error_model="numpy")
@@ -222,18 +227,105 @@ def contact_law(nx, ny, nz, overlap, vx, vy, vz, hist, p, kn, ks, c_cn, c_cs, c_
     out[3] = ftx
     out[4] = fty
     out[5] = ftz
+    out[6] = -fnm  # compressive normal force magnitude (N)
+
+
+@numba.njit(cache=True, inline="always", error_model="numpy")
+def rolling_law(nx, ny, nz, wx, wy, wz, fn, r_eff, mu_r, kn, i_eff, rhist, p, dt, out):
+    """Rolling resistance moment on particle i: elastic–plastic spring–dashpot ("type C", model EPSD of
+    Ai, Chen, Rotter & Ooi 2011, Powder Technol. 206:269). Updates the moment history ``rhist[p]``.
+
+    (wx, wy, wz) = ``w_i - w_j`` (partner's spin, 0 for a wall); only its tangential part rolls.
+    Spring ``M_k <- M_k - k_r w_t dt`` (history rotated into the current tangent plane, length kept),
+    ``k_r = 2.25 k_N mu_r^2 R_r^2``; capped at full mobilisation ``|M_k| <= M_m = mu_r R_r F_N``;
+    dashpot ``-C_r w_t``, ``C_r = 0.3 * 2 sqrt(I_r k_r)``, only below full mobilisation (Ai's f = 0),
+    ``I_r`` the inertia about the contact point (``(1/I_ri + 1/I_rj)^-1``, ``I_ri = I_i + m_i r_i^2``).
+    Unlike Ai et al., the total ``|M_k + M_d|`` is also capped at ``M_m``: otherwise the dashpot alone
+    exceeds the limit while the spring winds up at a newly formed rolling contact, and a rolling sphere
+    loses extra speed each time a contact forms. The partner gets ``-M``. Writes the moment into out[0:3].
+
+    Why type C and not the constant directional torque (type A, ``-mu_r R_r F_N w/|w|``): type A flips
+    sign every step around ``w = 0`` and cannot hold a sphere at rest on a slope or under a side load
+    (it chatters); the spring gives a true static moment up to ``M_m`` (rest iff the load needs less),
+    and while rolling (fully mobilised) it is exactly type A's constant ``M_m`` — so a rolling sphere on
+    a plane decelerates at ``a = -(5/7) mu_r g`` and one on an incline accelerates at
+    ``(5/7) g (sin t - mu_r cos t)``. Plastic capping only removes spring energy: no energy gain.
+    """
+    wn = wx * nx + wy * ny + wz * nz
+    tx = wx - wn * nx
+    ty = wy - wn * ny
+    tz = wz - wn * nz
+    h0x = rhist[p, 0]
+    h0y = rhist[p, 1]
+    h0z = rhist[p, 2]
+    h0 = math.sqrt(h0x * h0x + h0y * h0y + h0z * h0z)
+    hn = h0x * nx + h0y * ny + h0z * nz
+    hx = h0x - hn * nx
+    hy = h0y - hn * ny
+    hz = h0z - hn * nz
+    h1 = math.sqrt(hx * hx + hy * hy + hz * hz)
+    if h1 > 0.0:
+        sc = h0 / h1
+        hx *= sc
+        hy *= sc
+        hz *= sc
+    kr = ROLLING_STIFFNESS * kn * mu_r * mu_r * r_eff * r_eff
+    hx -= kr * tx * dt
+    hy -= kr * ty * dt
+    hz -= kr * tz * dt
+    m_max = mu_r * r_eff * max(fn, 0.0)
+    mk = math.sqrt(hx * hx + hy * hy + hz * hz)
+    if mk >= m_max:  # full mobilisation: plastic rolling at the limit moment, no dashpot
+        sc = m_max / mk if mk > 0.0 else 0.0
+        hx *= sc
+        hy *= sc
+        hz *= sc
+        cr = 0.0
+    else:
+        cr = ROLLING_DAMPING_RATIO * 2.0 * math.sqrt(i_eff * kr)
+    rhist[p, 0] = hx
+    rhist[p, 1] = hy
+    rhist[p, 2] = hz
+    mx = hx - cr * tx
+    my = hy - cr * ty
+    mz = hz - cr * tz
+    mt = math.sqrt(mx * mx + my * my + mz * mz)
+    if mt > m_max:  # the dashpot may not lift the moment above the limit (e.g. while the spring winds up)
+        sc = m_max / mt
+        mx *= sc
+        my *= sc
+        mz *= sc
+    out[0] = mx
+    out[1] = my
+    out[2] = mz
 
 
 @numba.njit(cache=True, error_model="numpy")
 def pair_forces(pa, pb, hist, touching, pos, vel, omega, radius, props, awake, active, geom, periodic,
                 dt, wake_speed, force, torque, wake, wake_ids, n_wake):
+    """:func:`pair_forces_rolling` without rolling histories (rolling resistance ignored)."""
+    rhist = np.zeros((pa.shape[0], 3))
+    ones = np.ones(radius.shape[0])
+    p = props.copy()
+    p[:, 7] = 0.0
+    return pair_forces_rolling(pa, pb, hist, rhist, touching, pos, vel, omega, radius, ones, ones, p, awake,
+                               active, geom, periodic, dt, wake_speed, force, torque, wake, wake_ids, n_wake)
+
+
+@numba.njit(cache=True, error_model="numpy")
+def pair_forces_rolling(pa, pb, hist, rhist, touching, pos, vel, omega, radius, mass, inertia, props, awake,
+                        active, geom, periodic, dt, wake_speed, force, torque, wake, wake_ids, n_wake):
     """Contact forces of all listed pairs; pairs of two sleeping particles are skipped (frozen).
+
+    *rhist* (npairs, 3): rolling moment histories (:func:`rolling_law`, if the contact's
+    rolling_friction, props column 7, is > 0); *mass*, *inertia* (N,) for the rolling dashpot.
 
     props (N, 8): adhesion, friction, kn, ks, c_cn, c_cs, c_cf (columns 0..6; one cache line per particle). A sleeping partner of a
     moving particle (contact-point speed > wake_speed) gets wake[j] = True and is listed in
     wake_ids[n_wake[0]...]. Returns #contacts.
     """
-    out = np.empty(6)
+    out = np.empty(7)
+    mr = np.empty(3)
     ncontacts = 0
     for p in range(pa.shape[0]):
         i = pa[p]
@@ -251,6 +343,9 @@ def pair_forces(pa, pb, hist, touching, pos, vel, omega, radius, props, awake, a
             hist[p, 0] = 0.0
             hist[p, 1] = 0.0
             hist[p, 2] = 0.0
+            rhist[p, 0] = 0.0
+            rhist[p, 1] = 0.0
+            rhist[p, 2] = 0.0
             touching[p] = False
             continue
         touching[p] = True
@@ -289,6 +384,15 @@ def pair_forces(pa, pb, hist, touching, pos, vel, omega, radius, props, awake, a
         torque[j, 0] += rj * cx
         torque[j, 1] += rj * cy
         torque[j, 2] += rj * cz
+        mu_r = min(props[i, 7], props[j, 7])
+        if mu_r > 0.0:
+            i_eff = 1.0 / (1.0 / (inertia[i] + mass[i] * ri * ri) + 1.0 / (inertia[j] + mass[j] * rj * rj))
+            rolling_law(nx, ny, nz, omega[i, 0] - omega[j, 0], omega[i, 1] - omega[j, 1],
+                        omega[i, 2] - omega[j, 2], out[6], ri * rj / (ri + rj), mu_r,
+                        min(props[i, 2], props[j, 2]), i_eff, rhist, p, dt, mr)
+            for d in range(3):
+                torque[i, d] += mr[d]
+                torque[j, d] -= mr[d]
         if awake[i] != awake[j]:
             m = i if awake[i] else j
             s = j if awake[i] else i
@@ -302,10 +406,11 @@ def pair_forces(pa, pb, hist, touching, pos, vel, omega, radius, props, awake, a
 
 
 @numba.njit(cache=True, error_model="numpy")
-def wall_contact(i, nx, ny, nz, overlap, wvel, hist, pos, vel, omega, radius, props, wprops, dt,
-                 force, torque, out):
-    # hist: the boundary's (N, 3) per-particle history
-    """Contact of particle i with a boundary (n from the centre towards the boundary)."""
+def wall_contact(i, nx, ny, nz, overlap, wvel, hist, rhist, pos, vel, omega, radius, mass, inertia, props,
+                 wprops, dt, force, torque, out, mr):
+    """Contact of particle i with a boundary (n from the centre towards the boundary).
+
+    hist / rhist: the boundary's (N, 3) per-particle shear / rolling-moment histories."""
     ri = radius[i]
     wx = ri * omega[i, 0]
     wy = ri * omega[i, 1]
@@ -323,16 +428,24 @@ def wall_contact(i, nx, ny, nz, overlap, wvel, hist, pos, vel, omega, radius, pr
     torque[i, 0] += ri * (ny * out[5] - nz * out[4])
     torque[i, 1] += ri * (nz * out[3] - nx * out[5])
     torque[i, 2] += ri * (nx * out[4] - ny * out[3])
+    mu_r = min(props[i, 7], wprops[7])
+    if mu_r > 0.0:
+        rolling_law(nx, ny, nz, omega[i, 0], omega[i, 1], omega[i, 2], out[6], ri, mu_r,
+                    min(props[i, 2], wprops[2]), inertia[i] + mass[i] * ri * ri, rhist, i, dt, mr)
+        torque[i, 0] += mr[0]
+        torque[i, 1] += mr[1]
+        torque[i, 2] += mr[2]
 
 
 @numba.njit(cache=True, error_model="numpy")
-def plane_forces(idx, point, normal, wvel, wprops, hist, pos, vel, omega, radius, props, dt, force, torque,
-                 reaction):
+def plane_forces(idx, point, normal, wvel, wprops, hist, rhist, pos, vel, omega, radius, mass, inertia, props,
+                 dt, force, torque, reaction):
     """Contacts of particles *idx* with the plane through *point* with unit *normal* (into the domain).
 
     Adds the force on the plane (minus the sum of particle forces) to *reaction*; returns #contacts.
     """
-    out = np.empty(6)
+    out = np.empty(7)
+    mr = np.empty(3)
     n = 0
     for k in range(idx.shape[0]):
         i = idx[k]
@@ -343,10 +456,13 @@ def plane_forces(idx, point, normal, wvel, wprops, hist, pos, vel, omega, radius
             hist[i, 0] = 0.0
             hist[i, 1] = 0.0
             hist[i, 2] = 0.0
+            rhist[i, 0] = 0.0
+            rhist[i, 1] = 0.0
+            rhist[i, 2] = 0.0
             continue
         n += 1
-        wall_contact(i, -normal[0], -normal[1], -normal[2], overlap, wvel, hist, pos, vel, omega, radius,
-                     props, wprops, dt, force, torque, out)
+        wall_contact(i, -normal[0], -normal[1], -normal[2], overlap, wvel, hist, rhist, pos, vel, omega, radius,
+                     mass, inertia, props, wprops, dt, force, torque, out, mr)
         reaction[0] -= out[0]
         reaction[1] -= out[1]
         reaction[2] -= out[2]
@@ -374,14 +490,15 @@ def _bilinear(x0, y0, hx, hy, bed, px, py):
 
 
 @numba.njit(cache=True, error_model="numpy")
-def heightfield_forces(idx, x0, y0, hx, hy, bed, wprops, hist, pos, vel, omega, radius, props, dt, force,
-                       torque):
+def heightfield_forces(idx, x0, y0, hx, hy, bed, wprops, hist, rhist, pos, vel, omega, radius, mass, inertia,
+                       props, dt, force, torque):
     """Contacts with the terrain ``z = bed(x, y)`` (bilinear through the grid's cell centres).
 
     The contact point is the foot of the perpendicular from the centre on the local tangent plane,
     refined by three fixed-point iterations (exact on planar patches). Outside the grid: no contact.
     """
-    out = np.empty(6)
+    out = np.empty(7)
+    mr = np.empty(3)
     wvel = np.zeros(3)
     ny, nx = bed.shape
     xmax = x0 + (nx - 1) * hx
@@ -396,6 +513,9 @@ def heightfield_forces(idx, x0, y0, hx, hy, bed, wprops, hist, pos, vel, omega, 
             hist[i, 0] = 0.0
             hist[i, 1] = 0.0
             hist[i, 2] = 0.0
+            rhist[i, 0] = 0.0
+            rhist[i, 1] = 0.0
+            rhist[i, 2] = 0.0
             continue
         qx = px
         qy = py
@@ -417,10 +537,13 @@ def heightfield_forces(idx, x0, y0, hx, hy, bed, wprops, hist, pos, vel, omega, 
             hist[i, 0] = 0.0
             hist[i, 1] = 0.0
             hist[i, 2] = 0.0
+            rhist[i, 0] = 0.0
+            rhist[i, 1] = 0.0
+            rhist[i, 2] = 0.0
             continue
         n += 1
-        wall_contact(i, -nux, -nuy, -nuz, overlap, wvel, hist, pos, vel, omega, radius, props, wprops,
-                     dt, force, torque, out)
+        wall_contact(i, -nux, -nuy, -nuz, overlap, wvel, hist, rhist, pos, vel, omega, radius, mass, inertia,
+                     props, wprops, dt, force, torque, out, mr)
     return n
 
 

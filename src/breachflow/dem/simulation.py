@@ -19,12 +19,18 @@ partner). It is woken when a moving particle (contact-point speed above ``wake_v
 10 ``sleep_velocity``) touches it, when a moving boundary touches it, or when the force models' force on it changes by more than
 ``wake_force_fraction`` of its weight. Per-step work is proportional to the awake particles and their
 pairs; the O(N) work (re-binning sleeping particles, merging parked histories) happens only when
-particles fall asleep or wake.
+particles fall asleep or wake. :meth:`DemSimulation.sleep` puts given particles to sleep at once (the
+cycle's masses that rested at the end of the previous cycle).
+
+Each listed pair keeps a shear history (``_hist``, m) and a rolling-moment history (``_rhist``, N m,
+for ``rolling_friction`` > 0, :func:`.contacts.rolling_law`); both are parked and restored together.
+:meth:`DemSimulation.save_state` / :meth:`DemSimulation.from_state` round-trip everything for a
+bit-identical continuation.
 """
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 
@@ -181,7 +187,8 @@ class DemSimulation:
         self.torque[idx] = 0.0
         self.forces_stale = True
         limit = stable_dt(s.mass[s.active], s.kn[s.active], s.ks[s.active], s.c_cn[s.active],
-                          wall_kn=[b.material.kn for b in self.boundaries])
+                          wall_kn=[b.material.kn for b in self.boundaries],
+                          rolling_friction=s.rolling_friction[s.active])
         self.dt_limit = limit
         if self._user_dt is not None:
             self._dt = check_dt(float(self._user_dt), limit)
@@ -195,9 +202,10 @@ class DemSimulation:
         if not hasattr(self, "_pa"):
             self._pa = self._pb = _EMPTY_I
             self._hist = np.zeros((0, 3))
+            self._rhist = np.zeros((0, 3))
             self._touch = np.zeros(0, bool)
             self._frozen_keys = np.zeros(0, np.int64)
-            self._frozen_hist = np.zeros((0, 3))
+            self._frozen_hist = np.zeros((0, 6))  # parked (shear, rolling) histories
 
     @property
     def dt(self) -> float:
@@ -231,9 +239,10 @@ class DemSimulation:
         s = self.state
         zero_rows(self.idx, force, torque)
         self._n_wake[0] = 0
-        n = contacts.pair_forces(self._pa, self._pb, self._hist, self._touch, pos, vel, omega, s.radius, s._props,
-                                 s.awake, s.active, self.geom, self.periodic, self._dt, self.wake_velocity,
-                                 force, torque, self._wake_flag, self._wake_ids, self._n_wake)
+        n = contacts.pair_forces_rolling(self._pa, self._pb, self._hist, self._rhist, self._touch, pos, vel, omega,
+                                         s.radius, s.mass, s.inertia, s._props, s.awake, s.active, self.geom,
+                                         self.periodic, self._dt, self.wake_velocity, force, torque,
+                                         self._wake_flag, self._wake_ids, self._n_wake)
         for b in self.boundaries:
             n += b.forces(self.idx, _StateView(s, pos, vel, omega), self._dt, force, torque)
         self.n_contacts = n
@@ -242,15 +251,16 @@ class DemSimulation:
         """Evaluate force/torque at the current state without advancing shear histories (Verlet's first
         half kick needs F(t) of inserted or woken particles)."""
         s = self.state
-        saved = [self._hist.copy()] + [b.hist.copy() for b in self.boundaries]
+        saved = [(self._hist.copy(), self._rhist.copy())] + [(b.hist.copy(), b.rhist.copy()) for b in self.boundaries]
         dt, self._dt = self._dt, 0.0
         try:
             self.contact_forces(s.pos, s.vel, s.omega, self.force, self.torque)
         finally:
             self._dt = dt
-            self._hist[:] = saved[0]
-            for b, h in zip(self.boundaries, saved[1:]):
+            self._hist[:], self._rhist[:] = saved[0]
+            for b, (h, rh) in zip(self.boundaries, saved[1:]):
                 b.hist[:] = h
+                b.rhist[:] = rh
         self._n_wake[0] = 0
         self.body_forces(s.pos, s.vel, s.omega, self.t, self.force, self.torque)
         self.global_damping(s.vel, s.omega, self.force, self.torque, 1.0)
@@ -300,15 +310,16 @@ class DemSimulation:
         # unique: a woken particle may still sit in the (stale) sleeping grid as well as in the awake one
         keys = np.unique((pa[:n] << 32) | pb[:n])
         n = keys.size
-        new_hist = np.zeros((n, 3))
+        new_hist = np.zeros((n, 6))
         old_keys = (self._pa << 32) | self._pb
+        old_hist = np.concatenate([self._hist, self._rhist], axis=1)  # (shear, rolling) per pair
         if events and self._frozen_keys.size:
             src_keys = np.concatenate([old_keys, self._frozen_keys])
-            src_hist = np.concatenate([self._hist, self._frozen_hist])
+            src_hist = np.concatenate([old_hist, self._frozen_hist])
             o = np.argsort(src_keys, kind="stable")
             src_keys, src_hist = src_keys[o], src_hist[o]
         else:
-            src_keys, src_hist = old_keys, self._hist  # old list is sorted
+            src_keys, src_hist = old_keys, old_hist  # old list is sorted
         if src_keys.size and n:
             loc = np.minimum(np.searchsorted(src_keys, keys), src_keys.size - 1)
             hit = src_keys[loc] == keys
@@ -325,7 +336,8 @@ class DemSimulation:
                         & np.any(src_hist != 0.0, axis=1))
                 self._frozen_keys, self._frozen_hist = src_keys[park], src_hist[park]
         self._pa, self._pb = keys >> 32, keys & 0xFFFFFFFF
-        self._hist = new_hist
+        self._hist = np.ascontiguousarray(new_hist[:, :3])
+        self._rhist = np.ascontiguousarray(new_hist[:, 3:])
         self._touch = np.zeros(n, bool)
         self._pos_build[self.idx] = s.pos[self.idx]
         self._dirty = False
@@ -343,14 +355,16 @@ class DemSimulation:
         both = ~s.awake[self._pa] & ~s.awake[self._pb]
         if not both.any():
             return
-        park = both & np.any(self._hist != 0.0, axis=1)
+        pair_hist = np.concatenate([self._hist, self._rhist], axis=1)
+        park = both & np.any(pair_hist != 0.0, axis=1)
         if park.any():
             keys = (self._pa[park] << 32) | self._pb[park]
             at = np.searchsorted(self._frozen_keys, keys)
             self._frozen_keys = np.insert(self._frozen_keys, at, keys)
-            self._frozen_hist = np.insert(self._frozen_hist, at, self._hist[park], axis=0)
+            self._frozen_hist = np.insert(self._frozen_hist, at, pair_hist[park], axis=0)
         keep = ~both
-        self._pa, self._pb, self._hist = self._pa[keep], self._pb[keep], self._hist[keep]
+        self._pa, self._pb = self._pa[keep], self._pb[keep]
+        self._hist, self._rhist = self._hist[keep], self._rhist[keep]
         self._touch = self._touch[keep]
 
     def _find(self, search, grid_a, grid_s):
@@ -378,7 +392,7 @@ class DemSimulation:
             keys = keys[old[loc] != keys]
         if keys.size == 0:
             return
-        hist = np.zeros((keys.size, 3))
+        hist = np.zeros((keys.size, 6))
         fk = self._frozen_keys
         if fk.size:
             loc = np.minimum(np.searchsorted(fk, keys), fk.size - 1)
@@ -389,7 +403,9 @@ class DemSimulation:
             self._frozen_keys, self._frozen_hist = fk[keep], self._frozen_hist[keep]
         allk = np.concatenate([old, keys])
         order = np.argsort(allk, kind="stable")
-        self._hist = np.concatenate([self._hist, hist])[order]
+        merged = np.concatenate([np.concatenate([self._hist, self._rhist], axis=1), hist])[order]
+        self._hist = np.ascontiguousarray(merged[:, :3])
+        self._rhist = np.ascontiguousarray(merged[:, 3:])
         allk = allk[order]
         self._pa, self._pb = allk >> 32, allk & 0xFFFFFFFF
         self._touch = np.zeros(allk.size, bool)
@@ -415,6 +431,14 @@ class DemSimulation:
         s = self.state
         self._n_wake = np.zeros(1, np.int64)
         self._wake_from_boundaries()
+        if self.idx.size == 0 and self.sleeping and self.models and self.state.n:
+            # nothing is integrated, so no step evaluates the force models: check them here
+            s = self.state
+            self._fm[:] = 0.0
+            self._tm[:] = 0.0
+            for m in self.models:
+                m.accumulate(s, s.pos, s.vel, s.omega, self.t, self._fm, self._tm)
+            self._wake_by_force()
         if self.idx.size == 0:
             self.t += self._dt
             self.steps += 1
@@ -449,6 +473,39 @@ class DemSimulation:
         self._dirty = True
         self._refresh_idx()
 
+    def sleep(self, ids) -> np.ndarray:
+        """Put particles *ids* to sleep now (e.g. masses that were at rest at the end of the previous
+        cycle); returns the ids actually put to sleep (active, not fixed).
+
+        Like the automatic transition (SPEC §5 sleeping): velocities and spins are zeroed (also the
+        previous-step ones the report scheme uses); they are no longer integrated but remain contact
+        partners. The force models' force on each is evaluated now, at rest, and kept as the reference of
+        the wake-by-force check, so they wake only on a real change of that force (more than
+        ``wake_force_fraction`` of the weight), when a moving particle (contact-point speed above
+        ``wake_velocity``) or a moving boundary touches them. The neighbour list is rebuilt at the next
+        step, parking the (shear, rolling) histories of pairs whose partners now both sleep.
+        """
+        s = self.state
+        ids = np.unique(np.asarray(ids, np.int64).ravel())
+        if ids.size and (ids[0] < 0 or ids[-1] >= s.n):
+            raise InputError(f"sleep: particle ids must be in [0, {s.n}), got {ids[0]}..{ids[-1]}")
+        ids = ids[s.active[ids] & ~self._fixed[ids]]
+        if ids.size == 0:
+            return ids
+        s.awake[ids] = False
+        for a in (s.vel, s.omega, s.vel_prev, s.omega_prev, self.work["v"], self.work["w"]):
+            a[ids] = 0.0
+        self._sleep_count[ids] = 0
+        self._wake_flag[ids] = False
+        if self.models:
+            fm, tm = np.zeros((s.n, 3)), np.zeros((s.n, 3))
+            for m in self.models:
+                m.accumulate(s, s.pos, s.vel, s.omega, self.t, fm, tm)
+            self._fm_sleep[ids] = fm[ids]
+        self._dirty = self._sleep_grid_dirty = True
+        self._refresh_idx()
+        return ids
+
     def _wake(self, ids):
         if len(ids) == 0:
             return 0
@@ -478,11 +535,7 @@ class DemSimulation:
             self._wake_flag[ids] = False
             self._wake(ids)
         if self.models:
-            asleep = np.flatnonzero(~s.awake & s.active)
-            if asleep.size:
-                dF = np.linalg.norm(self._fm[asleep] - self._fm_sleep[asleep], axis=1)
-                woke = asleep[dF > self.wake_force_fraction * s.mass[asleep] * np.linalg.norm(self.gravity.g)]
-                self._wake(woke)
+            self._wake_by_force()
         # transitions to sleep only every sleep_check steps: one O(N) regrid per batch of sleepers
         ns = contacts.sleep_update(self.idx, s.vel, s.omega, s.vel_prev, s.omega_prev, s.radius, self.sleep_velocity,
                                    self.sleep_steps, self._sleep_count, s.awake, self._tmp_ids,
@@ -492,6 +545,16 @@ class DemSimulation:
             self._fm_sleep[ids] = self._fm[ids]
             self.idx = self.idx[s.awake[self.idx]]
             self._on_sleep()
+
+    def _wake_by_force(self):
+        """Wake sleepers whose force-model force (last evaluated into ``_fm``) moved away from the value
+        recorded when they fell asleep by more than ``wake_force_fraction`` of their weight."""
+        s = self.state
+        asleep = np.flatnonzero(~s.awake & s.active)
+        if asleep.size:
+            dF = np.linalg.norm(self._fm[asleep] - self._fm_sleep[asleep], axis=1)
+            woke = asleep[dF > self.wake_force_fraction * s.mass[asleep] * np.linalg.norm(self.gravity.g)]
+            self._wake(woke)
 
     def _wake_from_boundaries(self):
         s = self.state
@@ -534,23 +597,105 @@ class DemSimulation:
                 return EquilibriumResult(True, self.steps - st0, self.t, disp[k], self.particle_steps - ps0)
         return EquilibriumResult(False, self.steps - st0, self.t, disp[k], self.particle_steps - ps0)
 
+    # ------------------------------------------------------------------ save / restore
+    _SAVED_ARRAYS = ("force", "torque", "_pos_build", "_fm", "_tm", "_fm_sleep", "_sleep_count", "_wake_flag", "_fixed",
+                     "_pa", "_pb", "_hist", "_rhist", "_touch", "_frozen_keys", "_frozen_hist", "geom", "ncell",
+                     "periodic", "_box")
+    _SAVED_SCALARS = {"t": float, "steps": int, "particle_steps": int, "n_contacts": int, "_dt": float,
+                      "dt_limit": float, "skin": float, "single_bin": bool, "_dirty": bool,
+                      "_sleep_grid_dirty": bool, "forces_stale": bool, "_use_box": bool}
+
+    def save_state(self) -> dict[str, np.ndarray]:
+        """Everything a bit-identical continuation needs, as a flat dict of numpy arrays (copies):
+        the particle arrays (``state.*``), forces of the last step, integrator work arrays, sleep
+        counters and wake references, the neighbour list with its shear / rolling histories (live and
+        parked), the sleeping-particle grid, the boundaries' histories and motion (``boundary<k>.*``),
+        ``t``, ``steps``, ``dt``. Force models are not saved (they are passed again to :meth:`from_state`).
+        Save with e.g. ``np.savez(path, **sim.save_state())``.
+        """
+        out: dict[str, np.ndarray] = {}
+        for f in fields(self.state):
+            out["state." + f.name] = np.array(getattr(self.state, f.name), copy=True)
+        for name in self._SAVED_ARRAYS:
+            out["sim." + name] = np.array(getattr(self, name), copy=True)
+        for name in self._SAVED_SCALARS:
+            out["sim." + name] = np.array(getattr(self, name))
+        for k, a in self.work.items():
+            out["work." + k] = a.copy()
+        out["sim.left_domain"] = np.asarray(self.left_domain, np.int64)
+        grid = getattr(self, "_sgrid", None)
+        if grid is not None:
+            for name, a in zip(("start", "ent_p", "ent_c"), grid[:3]):
+                out["sgrid." + name] = a.copy()
+            out["sgrid.bits"] = np.array(grid[3])
+        out["n_boundaries"] = np.array(len(self.boundaries))
+        for k, b in enumerate(self.boundaries):
+            out[f"boundary{k}.hist"] = b.hist.copy()
+            out[f"boundary{k}.rhist"] = b.rhist.copy()
+            if isinstance(b, Plane):
+                for name in ("point", "velocity", "reaction"):
+                    out[f"boundary{k}.{name}"] = getattr(b, name).copy()
+        return out
+
+    @classmethod
+    def from_state(cls, data, *, boundaries=(), models=(), **kwargs) -> "DemSimulation":
+        """A simulation continuing exactly from ``data`` (:meth:`save_state`, or an ``np.load`` of it).
+
+        *boundaries* must be the same kinds in the same order as when saved (their histories and plane
+        motion are restored into them); *models* and the other keyword arguments are those of the
+        constructor and should match the saved run (the time step and cell geometry are restored from
+        *data* regardless).
+        """
+        try:
+            state = ParticleState(**{f.name: np.array(data["state." + f.name]) for f in fields(ParticleState)})
+            nb = int(data["n_boundaries"])
+        except KeyError as e:
+            raise InputError(f"DEM state lacks entry {e.args[0]!r} (not written by save_state?)") from None
+        boundaries = list(boundaries)
+        if nb != len(boundaries):
+            raise InputError(f"DEM state was saved with {nb} boundaries, {len(boundaries)} given")
+        sim = cls(state, boundaries=boundaries, models=models, **kwargs)
+        for name in cls._SAVED_ARRAYS:
+            setattr(sim, name, np.array(data["sim." + name], copy=True))
+        for name, typ in cls._SAVED_SCALARS.items():
+            setattr(sim, name, typ(data["sim." + name][()]))
+        for k in sim.work:
+            sim.work[k] = np.array(data["work." + k], copy=True)
+        sim.left_domain = [int(i) for i in data["sim.left_domain"]]
+        if "sgrid.start" in data:
+            sim._sgrid = tuple(np.array(data["sgrid." + n], copy=True) for n in ("start", "ent_p", "ent_c")) + (
+                int(data["sgrid.bits"][()]),)
+        for k, b in enumerate(boundaries):
+            if isinstance(b, Plane) != (f"boundary{k}.point" in data):
+                raise InputError(f"boundary {k} is not of the kind saved")
+            b.hist = np.array(data[f"boundary{k}.hist"], copy=True)
+            b.rhist = np.array(data[f"boundary{k}.rhist"], copy=True)
+            if isinstance(b, Plane):
+                for name in ("point", "velocity", "reaction"):
+                    setattr(b, name, np.array(data[f"boundary{k}.{name}"], copy=True))
+        sim._inv_m = 1.0 / sim.state.mass
+        sim._inv_i = 1.0 / sim.state.inertia
+        sim._refresh_idx()
+        return sim
+
     def memory_bytes(self) -> int:
         """Bytes held by the particle state, work arrays, neighbour list and histories."""
         total = self.state.nbytes() + sum(a.nbytes for a in self.work.values())
         for name in ("force", "torque", "_pos_build", "_fm", "_tm", "_fm_sleep", "_sleep_count", "_wake_flag", "_fixed",
-                     "_wake_ids", "_tmp_ids", "_pa", "_pb", "_hist", "_touch", "_frozen_keys", "_frozen_hist"):
+                     "_wake_ids", "_tmp_ids", "_pa", "_pb", "_hist", "_rhist", "_touch", "_frozen_keys", "_frozen_hist"):
             total += getattr(self, name).nbytes
         for g in (getattr(self, "_agrid", None), getattr(self, "_sgrid", None)):
             if g is not None:
                 total += sum(a.nbytes for a in g[:3])
-        total += sum(b.hist.nbytes for b in self.boundaries)
+        total += sum(b.hist.nbytes + b.rhist.nbytes for b in self.boundaries)
         return total
 
 
 class _StateView:
     """The state with substituted kinematics (integrators may pass predicted velocities)."""
 
-    __slots__ = ("pos", "vel", "omega", "radius", "_props")
+    __slots__ = ("pos", "vel", "omega", "radius", "mass", "inertia", "_props")
 
     def __init__(self, s, pos, vel, omega):
         self.pos, self.vel, self.omega, self.radius, self._props = pos, vel, omega, s.radius, s._props
+        self.mass, self.inertia = s.mass, s.inertia

@@ -5,19 +5,23 @@ particle and a boundary) are the minimum of the two partners' values (SPEC §5).
 
 Table 3.1 per-particle parameters and their fields here:
 
-=====================================  ==============  ==========
-report                                 field           unit
-=====================================  ==============  ==========
-density                                ``density``     kg/m^3
-size ``D``                             ``radius`` D/2  m
-position                               ``pos``         m
-adhesion ``alpha``                     ``adhesion``    N
-friction ``beta``                      ``friction``    1
-normal / shear stiffness               ``kn``, ``ks``  N/m
-contact damping (normal/shear/fric.)   ``c_cn`` ...    N s/m
-global damping (transl./rotational)    ``c_gn``        N s/m
-                                       ``c_gw``        N m s
-=====================================  ==============  ==========
+=====================================  ====================  ==========
+report                                 field                 unit
+=====================================  ====================  ==========
+density                                ``density``           kg/m^3
+size ``D``                             ``radius`` D/2        m
+position                               ``pos``               m
+adhesion ``alpha``                     ``adhesion``          N
+friction ``beta``                      ``friction``          1
+normal / shear stiffness               ``kn``, ``ks``        N/m
+contact damping (normal/shear/fric.)   ``c_cn`` ...          N s/m
+global damping (transl./rotational)    ``c_gn``              N s/m
+                                       ``c_gw``              N m s
+rolling friction ``mu_r`` (extension)  ``rolling_friction``  1
+=====================================  ====================  ==========
+
+``rolling_friction`` is not in the report (its spheres roll freely); it stands in for the shape
+resistance of angular blocks (elastic–plastic rolling spring, :func:`.contacts.rolling_law`).
 """
 from __future__ import annotations
 
@@ -28,7 +32,7 @@ import numpy as np
 from ..errors import InputError
 
 #: per-particle material fields (Table 3.1), in the order used by the kernels
-MATERIAL_FIELDS = ("adhesion", "friction", "kn", "ks", "c_cn", "c_cs", "c_cf", "c_gn", "c_gw")
+MATERIAL_FIELDS = ("adhesion", "friction", "kn", "ks", "c_cn", "c_cs", "c_cf", "c_gn", "c_gw", "rolling_friction")
 
 
 @dataclass(frozen=True)
@@ -37,7 +41,8 @@ class Material:
 
     ``adhesion`` alpha (N) and ``friction`` beta (-) give the slip limit of the shear spring
     ``u_S_hat = (alpha + beta k_N u_N) / k_S``; ``c_cn``/``c_cs``/``c_cf`` are the normal, shear
-    (sticking) and friction (slipping) dashpots; ``c_gn``/``c_gw`` the global damping.
+    (sticking) and friction (slipping) dashpots; ``c_gn``/``c_gw`` the global damping;
+    ``rolling_friction`` mu_r (-) limits the rolling moment ``|M_r| <= mu_r R_r |F_N|`` (0: free rolling).
     """
 
     density: float = 2650.0
@@ -50,6 +55,7 @@ class Material:
     c_cf: float = 0.0
     c_gn: float = 0.0
     c_gw: float = 0.0
+    rolling_friction: float = 0.0
 
     def __post_init__(self):
         for f in fields(self):
@@ -124,6 +130,7 @@ class ParticleState:
     c_cf: np.ndarray
     c_gn: np.ndarray
     c_gw: np.ndarray
+    rolling_friction: np.ndarray
     awake: np.ndarray
     active: np.ndarray
     vel_prev: np.ndarray = field(default=None)
@@ -177,7 +184,7 @@ class ParticleState:
             adhesion=np.full(n, material.adhesion), friction=np.full(n, material.friction),
             kn=np.full(n, material.kn), ks=np.full(n, material.ks_value), c_cn=np.full(n, material.c_cn),
             c_cs=np.full(n, material.c_cs), c_cf=np.full(n, material.c_cf), c_gn=np.full(n, material.c_gn),
-            c_gw=np.full(n, material.c_gw), awake=np.ones(n, bool), active=np.ones(n, bool),
+            c_gw=np.full(n, material.c_gw), rolling_friction=np.full(n, material.rolling_friction), awake=np.ones(n, bool), active=np.ones(n, bool),
             vel_prev=vel.copy(), omega_prev=omega.copy(),
         )
         n0 = self.n
@@ -190,10 +197,12 @@ class ParticleState:
         return np.arange(n0, n0 + n)
 
     def refresh_props(self) -> None:
-        """Rebuild the (N, 8) contact-property table the kernels read; call after editing materials."""
+        """Rebuild the (N, 8) contact-property table the kernels read; call after editing materials.
+
+        Columns: adhesion, friction, kn, ks, c_cn, c_cs, c_cf, rolling_friction."""
         self._props = np.ascontiguousarray(np.stack(
             [self.adhesion, self.friction, self.kn, self.ks, self.c_cn, self.c_cs, self.c_cf,
-             np.zeros_like(self.kn)], axis=1))
+             self.rolling_friction], axis=1))
 
     # ------------------------------------------------------------------ queries
     @property

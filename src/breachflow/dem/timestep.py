@@ -8,7 +8,10 @@ The stiffest contact is taken conservatively from the extreme properties present
 
 * normal: two of the lightest particles, ``m_eff = m_min/2``, stiffness ``max k_N``;
 * tangential: the shear spring also turns the spheres (``I = 2/5 m r^2``), so a pair behaves as
-  ``m_eff = m_min/7`` (``1/m + r^2/I`` per sphere = 3.5/m) with stiffness ``max k_S``.
+  ``m_eff = m_min/7`` (``1/m + r^2/I`` per sphere = 3.5/m) with stiffness ``max k_S``;
+* rolling spring (``rolling_friction`` mu_r > 0, :func:`.contacts.rolling_law`): ``k_r = 2.25 k_N
+  mu_r^2 R^2`` against the spin inertia ``2/5 m R^2`` alone (centre held), i.e. a linear mode of
+  stiffness ``5.625 mu_r^2 max k_N`` on ``m_min``; it only matters for mu_r > ~0.6.
 
 :func:`stable_dt` is that limit; :func:`recommended_dt` applies the documented safety factor
 :data:`SAFETY` = 0.2 (i.e. about 16 steps per normal contact duration ``pi sqrt(m_eff/k)``, the usual
@@ -25,7 +28,7 @@ from ..errors import InputError
 SAFETY = 0.2
 
 
-def stable_dt(mass, kn, ks=None, c_cn=None, wall_kn=()) -> float:
+def stable_dt(mass, kn, ks=None, c_cn=None, wall_kn=(), rolling_friction=None) -> float:
     """Critical time step (s) of the stiffest contact, see the module docstring."""
     mass = np.asarray(mass, float)
     if mass.size == 0:
@@ -34,8 +37,12 @@ def stable_dt(mass, kn, ks=None, c_cn=None, wall_kn=()) -> float:
     k_n = max([float(np.max(kn))] + [float(k) for k in wall_kn])
     k_s = float(np.max(ks)) if ks is not None else k_n
     c = float(np.max(c_cn)) if c_cn is not None else 0.0
+    modes = [(k_n, m_min / 2.0, c), (k_n, m_min, c), (k_s, m_min / 7.0, 0.0)]
+    if rolling_friction is not None and np.size(rolling_friction):
+        mu_r = float(np.max(rolling_friction))
+        modes.append((5.625 * mu_r * mu_r * k_n, m_min, 0.0))
     limits = []
-    for k, m_eff, damp in ((k_n, m_min / 2.0, c), (k_n, m_min, c), (k_s, m_min / 7.0, 0.0)):
+    for k, m_eff, damp in modes:
         if k <= 0:
             continue
         omega = math.sqrt(k / m_eff)
