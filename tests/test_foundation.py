@@ -118,3 +118,8 @@ def test_udunits_style_exponents(text, kind, expected):
 def test_dataarray_with_cf_units():
     da = xr.DataArray([1.0], dims="i", attrs={"units": "m s-1"})
     assert float(to_si(da, name="u", kind="speed")[0]) == 1.0
+
+
+def test_unitless_string_says_no_unit():
+    with pytest.raises(UnitError, match=r"surge_height: '2.8' has no unit; give one, e.g. '2.8 m' \(\[length\] expected\)"):
+        to_si("2.8", name="surge_height", kind="length")

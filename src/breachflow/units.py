@@ -116,6 +116,9 @@ def parse_quantity(value: Any, *, name: str, kind: str, default_unit: str | None
                     f"({_dim_text(dim)} expected)"
                 )
         q = Q_(mag if mag.ndim else float(mag), default_unit)
+    if q.dimensionality != dim and q.dimensionless and isinstance(value, str) and not _has_unit_text(value):
+        raise UnitError(f"{name}: {value!r} has no unit; give one, e.g. '{value.strip()} {si_unit}' "
+                        f"({_dim_text(dim)} expected)")
     if q.dimensionality != dim:
         raise UnitError(
             f"{name}: unit {format(q.units, '~')!s} has dimension {_dim_text(q.dimensionality)}, "

@@ -1,0 +1,1 @@
+"""Data files shipped with breachflow: flood presets (CSV) and example scenarios (TOML)."""

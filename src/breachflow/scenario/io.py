@@ -1,0 +1,50 @@
+"""Atomic writers for scenario results (NetCDF, figures): temp file in the target directory + os.replace."""
+from __future__ import annotations
+
+import os
+import tempfile
+from contextlib import contextmanager
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+
+@contextmanager
+def atomic_path(path, suffix: str | None = None):
+    """Yield a temporary path next to *path*; on success it replaces *path*, on error it is removed."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=suffix or path.suffix, dir=path.parent)
+    os.close(fd)
+    try:
+        yield Path(tmp)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def netcdf_ready(ds: xr.Dataset) -> xr.Dataset:
+    """Booleans → int8 flags (CF), string coordinates kept; NaN marks 'not reached' explained by flags."""
+    out = ds.copy()
+    for name, var in out.variables.items():
+        if var.dtype == bool:
+            attrs = dict(var.attrs)
+            attrs.update(flag_values=np.array([0, 1], dtype="i1"), flag_meanings="false true")
+            attrs.pop("units", None)
+            out[name] = var.astype("i1")
+            out[name].attrs = attrs
+    return out
+
+
+def write_netcdf(ds: xr.Dataset, path) -> Path:
+    """Write *ds* to NetCDF atomically (never a half-written file)."""
+    path = Path(path)
+    if "closure_window" in ds:
+        from ..schemas import validate
+
+        validate(ds, "closure_window")
+    with atomic_path(path) as tmp:
+        netcdf_ready(ds).to_netcdf(tmp)
+    return path
