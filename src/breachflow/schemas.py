@@ -83,7 +83,11 @@ def _check_var(where: str, da, spec: dict, problems: list[str]) -> None:
         problems.append(f"{where}: units {da.attrs.get('units')!r}, expected {spec['units']!r}")
     if "dtype" in spec and not np.issubdtype(da.dtype, _KINDS[spec["dtype"]]):
         problems.append(f"{where}: dtype {da.dtype} is not {spec['dtype']}")
-    _check_attrs(where, da.attrs, spec.get("attributes", {}), problems)
+    attrs = dict(da.attrs)
+    for key in ("coordinates", "units", "calendar"):  # xarray moves these into .encoding on read
+        if key not in attrs and key in da.encoding:
+            attrs[key] = da.encoding[key]
+    _check_attrs(where, attrs, spec.get("attributes", {}), problems)
     if ("min" in spec or "max" in spec) and np.issubdtype(da.dtype, np.number) and da.size:
         vals = np.asarray(da.values)
         finite = vals[np.isfinite(vals)] if np.issubdtype(vals.dtype, np.floating) else vals.ravel()

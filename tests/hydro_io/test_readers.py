@@ -289,4 +289,4 @@ def test_xarray_reads_the_ugrid_file_as_plain_netcdf(formats, tmp_path):
         assert fn.cf_role == "face_node_connectivity" and int(fn.start_index) == 0
         assert fn.dimensions == (topo.face_dimension, "max_face_nodes")
         assert nc["depth"].mesh == "mesh2d" and nc["depth"].location == "node"
-        assert nc.Conventions == "CF-1.10 UGRID-1.0"
+        assert nc.Conventions == "CF-1.8 UGRID-1.0"

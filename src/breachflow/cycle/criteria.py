@@ -98,6 +98,16 @@ def _open_wet(ds):
     return wet
 
 
+def section_discharge(ds, x_range, y: float) -> float:
+    """Discharge (m³/s) across the grid row nearest *y* between ``x_range``: Σ h v Δx over open cells
+    (v the velocity component across the levee, positive towards the protected side)."""
+    x = np.asarray(ds["x"].values, float)
+    j = int(np.argmin(np.abs(np.asarray(ds["y"].values, float) - y)))
+    sel = (x >= x_range[0]) & (x <= x_range[1]) & _open_wet(ds)[j]
+    dx = abs(x[1] - x[0]) if x.size > 1 else 1.0
+    return float(np.sum(np.asarray(ds["depth"].values, float)[j, sel] * np.asarray(ds["v"].values, float)[j, sel]) * dx)
+
+
 @criteria.register("blocked_fraction")
 class BlockedFraction(Criterion):
     """SPEC §7 criterion 1: fraction of the breach cross-section (the trapezoid between the breach

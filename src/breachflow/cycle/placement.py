@@ -47,7 +47,6 @@ class PlacementPlan:
     stop: tuple = (0.0, 0.0)
     zone: tuple = (0.0, 0.0, 0.0, 0.0)
     points: list = field(default_factory=list)
-    line_slots: int = 7
     release_height: float = 1.0
     rate: float = 20.0 / 3600.0  # masses per second
 

@@ -108,7 +108,7 @@ def _time_attrs(t: np.ndarray) -> dict:
 
 def _global_attrs(ds: xr.Dataset, source: str, source_files) -> None:
     ds.attrs.update(
-        Conventions="CF-1.10 UGRID-1.0" if is_mesh(ds) else "CF-1.10",
+        Conventions="CF-1.8 UGRID-1.0" if is_mesh(ds) else "CF-1.8",
         title="breachflow hydrodynamic snapshot",
         source=source or "breachflow",
         source_files=";".join(map(str, source_files)),

@@ -1,4 +1,4 @@
-"""CF-1.10 Datasets for what a closure run writes: particle states and particle trajectories.
+"""CF-1.8 Datasets for what a closure run writes: particle states and particle trajectories.
 
 Particle states at equilibrium are plain variables along a ``particle`` dimension (they share a file
 with the cycle's hydrodynamic grid). Trajectories of the moving particles of a cycle are a CF
@@ -83,7 +83,7 @@ def trajectories_dataset(trajectory_id, time, pos, vel=None, *, cycle: int, titl
     else:
         ds["elevation"] = (("trajectory", "obs"), pos[..., 2], {"long_name": "particle centre elevation", "units": "m",
                                                                 "coordinates": "time x y z"})
-    ds.attrs.update(Conventions="CF-1.10", featureType="trajectory",
+    ds.attrs.update(Conventions="CF-1.8", featureType="trajectory",
                     title=title or f"breachflow trajectories of the moving particles in cycle {cycle}",
                     cycle=np.int32(cycle))
     return ds

@@ -3,7 +3,7 @@
 Layout::
 
     RUN/manifest.json                  what the run is (scenario text + hash, seed) and which cycles are complete
-    RUN/cycle_0001.nc                  hydrodynamic grid + particle states at equilibrium (CF-1.10)
+    RUN/cycle_0001.nc                  hydrodynamic grid + particle states at equilibrium (CF-1.8)
     RUN/cycle_0001_trajectories.nc     trajectories of the cycle's moving particles (CF DSG trajectory)
     RUN/restart_0001.npz               everything needed to continue bit-identically from this cycle
 
@@ -148,6 +148,12 @@ class RunDirectory:
         for p in self.path.glob("restart_*.npz"):
             if int(p.stem.split("_")[1]) > g:
                 p.unlink()
+
+    def update_metadata(self, **items) -> None:
+        """Merge *items* into the manifest's ``metadata`` (atomically)."""
+        man = self.manifest()
+        man.setdefault("metadata", {}).update(items)
+        atomic_write_json(man, self.manifest_path)
 
     def finish(self, summary: dict) -> None:
         man = self.manifest()

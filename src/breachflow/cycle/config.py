@@ -1,0 +1,291 @@
+"""Scenario-file sections of a closure run: ``[site]``, ``[hydro]``, ``[dem]``, ``[fluid]``,
+``[placement]``, ``[criteria]``, ``[closure]`` (SPEC §3, §4, §5, §6, §7).
+
+``[levee]`` and ``[breach]`` (length, depth, wall_slope, scour_depth) of the scenario override the site
+preset's geometry; ``[flood]`` and ``[polder]``, when present, give the closure window the run is
+judged against. :func:`closure_setup` turns a parsed scenario into a :class:`~.driver.ClosureSetup`.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+
+from ..errors import BreachflowError
+from ..scenario.config import register_section
+from ..scenario.geometry import BreachGeometry, BreachScene, LeveeGeometry, typical_breach
+from .criteria import EndCriteria
+from .placement import PlacementPlan
+
+
+def demo_breach() -> BreachScene:
+    """A small breach for the default run: a 3 m clay levee (crown 3 m, slopes 1V:2H) with water at the
+    crest and a 12 m breach to the ground, 30 m of levee each side — the report's typical breach
+    (SPEC §3) scaled down so a closure completes in minutes on a laptop."""
+    return BreachScene(
+        levee=LeveeGeometry(height=3.0, crown_width=3.0, flood_slope=2.0, protected_slope=2.0),
+        breach=BreachGeometry(length=12.0, depth=3.0, wall_slope=0.0),
+        ground_elevation=0.0, flood_water_elevation=3.0, levee_length_each_side=30.0,
+        flood_side_extent=40.0, protected_side_extent=30.0, flood_channel_length=72.0, flood_channel_drop=0.0,
+        polder_slope=1.0 / 500.0, manning_n=0.025, name="demo_breach",
+        notes={"source": "typical breach of SERRI 70015-001 §2.8 scaled to 3 m"})
+
+
+SITE_PRESETS = {"typical_breach": typical_breach, "demo_breach": demo_breach}
+
+_SITE_KEYS = {
+    "ground_elevation": "length", "flood_water_elevation": "length", "levee_length_each_side": "length",
+    "flood_side_extent": "length", "protected_side_extent": "length", "flood_channel_length": "length",
+    "flood_channel_drop": "length", "polder_slope": "dimensionless", "manning_n": "manning",
+}
+
+
+@register_section("site")
+@dataclass
+class SiteSection:
+    """``[site]``: ``preset`` (``typical_breach`` | ``demo_breach``), ``crs`` (WKT or ``EPSG:nnnn``) and
+    overrides of the scene: ground/flood elevations, extents, channel, ``polder_slope``, ``manning_n``."""
+
+    preset: str = "demo_breach"
+    crs: str | None = None
+    overrides: dict = field(default_factory=dict)
+
+    @classmethod
+    def from_table(cls, table, ctx):
+        ctx.check_keys(table, {"preset", "crs", *_SITE_KEYS})
+        preset = ctx.raw(table, "preset", default="demo_breach")
+        if preset not in SITE_PRESETS:
+            raise ctx.error(f"unknown site preset {preset!r}; available: {sorted(SITE_PRESETS)}", "preset")
+        over = {}
+        for key, kind in _SITE_KEYS.items():
+            if key in table:
+                over[key] = ctx.quantity(table, key, kind, default_unit="" if kind == "dimensionless" else None,
+                                         nonnegative=key not in ("ground_elevation", "flood_water_elevation"))
+        return cls(preset, ctx.raw(table, "crs"), over)
+
+    def scene(self, levee=None, breach=None) -> BreachScene:
+        sc = SITE_PRESETS[self.preset]()
+        sc = replace(sc, **self.overrides)
+        if levee is not None:
+            sc = replace(sc, levee=levee)
+        if breach is not None:
+            sc = replace(sc, breach=breach)
+        return sc
+
+
+@register_section("hydro")
+@dataclass
+class HydroSection:
+    """``[hydro]``: ``solver`` (``swe`` | ``snapshot`` | a plug-in), ``resolution``, ``order``, ``courant``,
+    ``tolerance`` (relative rate, 1/s), ``t_max_initial`` / ``t_max`` (simulated time of the first and
+    of each warm-started solve), ``monitor_radius`` (steady state is judged within this distance of the
+    breach), ``snapshots`` (files for the ``snapshot`` solver)."""
+
+    solver: str = "swe"
+    resolution: float = 1.0
+    order: int = 2
+    courant: float = 0.45
+    tolerance: float = 2e-3
+    t_max_initial: float = 300.0
+    t_max: float = 60.0
+    monitor_radius: float = 20.0
+    snapshots: list = field(default_factory=list)
+
+    @classmethod
+    def from_table(cls, table, ctx):
+        ctx.check_keys(table, {"solver", "resolution", "order", "courant", "tolerance", "t_max_initial", "t_max",
+                               "monitor_radius", "snapshots"})
+        out = cls(
+            solver=ctx.raw(table, "solver", default="swe"),
+            resolution=ctx.quantity(table, "resolution", "length", default="1 m", positive=True),
+            order=ctx.raw(table, "order", types=(int,), default=2),
+            courant=ctx.quantity(table, "courant", "dimensionless", default=0.45, default_unit="", positive=True),
+            tolerance=ctx.quantity(table, "tolerance", "1/s", default="2e-3 1/s", positive=True),
+            t_max_initial=ctx.quantity(table, "t_max_initial", "time", default="300 s", positive=True),
+            t_max=ctx.quantity(table, "t_max", "time", default="60 s", positive=True),
+            monitor_radius=ctx.quantity(table, "monitor_radius", "length", default="20 m", positive=True),
+            snapshots=[ctx.base_dir / p for p in ctx.raw(table, "snapshots", types=(list,), default=[])],
+        )
+        if out.solver == "snapshot" and not out.snapshots:
+            raise ctx.error("solver 'snapshot' needs snapshots = [files]", "solver")
+        return out
+
+
+@register_section("dem")
+@dataclass
+class DemSection:
+    """``[dem]``: material (``kn``, ``ks``, ``friction``, ``rolling_friction``, ``adhesion``, ``restitution``, ``global_damping``)
+    and run control (``integrator``, ``e_tol``, ``max_time`` per cycle, ``rest_speed``,
+    ``record_interval``, ``sleeping``, ``stability_time``)."""
+
+    values: dict = field(default_factory=dict)
+
+    KINDS = {"kn": "stiffness", "ks": "stiffness", "friction": "dimensionless", "rolling_friction": "dimensionless",
+             "adhesion": "force",
+             "restitution": "dimensionless", "global_damping": "damping", "e_tol": "length", "max_time": "time",
+             "rest_speed": "speed", "record_interval": "time", "stability_time": "time"}
+
+    @classmethod
+    def from_table(cls, table, ctx):
+        ctx.check_keys(table, set(cls.KINDS) | {"integrator", "sleeping"})
+        vals = {k: ctx.quantity(table, k, kind, default_unit="" if kind == "dimensionless" else None, nonnegative=True)
+                for k, kind in cls.KINDS.items() if k in table}
+        if "integrator" in table:
+            vals["integrator"] = ctx.raw(table, "integrator")
+        if "sleeping" in table:
+            vals["sleeping"] = ctx.raw(table, "sleeping", types=(bool,))
+        return cls(vals)
+
+
+@register_section("fluid")
+@dataclass
+class FluidSection:
+    """``[fluid]``: ``drag_law`` (registry name), ``sampling`` (``bilinear`` | ``neighbourhood``), ``xi``."""
+
+    drag_law: str = "report"
+    sampling: str = "bilinear"
+    xi: float = 0.5
+
+    @classmethod
+    def from_table(cls, table, ctx):
+        ctx.check_keys(table, {"drag_law", "sampling", "xi"})
+        out = cls(ctx.raw(table, "drag_law", default="report"), ctx.raw(table, "sampling", default="bilinear"),
+                  ctx.quantity(table, "xi", "dimensionless", default=0.5, default_unit="", nonnegative=True))
+        from ..fluid.drag import get_drag_law
+
+        try:
+            get_drag_law(out.drag_law)
+        except BreachflowError as exc:
+            raise ctx.error(str(exc), "drag_law") from None
+        return out
+
+
+@register_section("placement")
+@dataclass
+class PlacementSection:
+    """``[placement]``: see :class:`~.placement.PlacementPlan` (``diameter``, ``density``, ``batch``,
+    ``positions``, ``start``/``stop``/``zone``/``points``, ``release_height``, ``rate``)."""
+
+    plan: PlacementPlan
+
+    @classmethod
+    def from_table(cls, table, ctx):
+        try:
+            return cls(PlacementPlan.from_config(table))
+        except BreachflowError as exc:
+            key = next((k for k in table if k in str(exc)), None)
+            raise ctx.error(str(exc), key) from None
+
+
+@register_section("criteria")
+@dataclass
+class CriteriaSection:
+    """``[criteria]``: ``mode`` (``any``|``all``), ``max_cycles`` and thresholds by criterion name."""
+
+    criteria: EndCriteria
+
+    @classmethod
+    def from_table(cls, table, ctx):
+        try:
+            return cls(EndCriteria.from_config(table))
+        except BreachflowError as exc:
+            key = next((k for k in table if k in str(exc)), None)
+            raise ctx.error(str(exc), key) from None
+
+
+@register_section("closure")
+@dataclass
+class ClosureSection:
+    """``[closure]``: ``remap`` (``raised_bed`` | ``no_flow``), ``seed``."""
+
+    remap: str = "raised_bed"
+    seed: int = 0
+
+    @classmethod
+    def from_table(cls, table, ctx):
+        ctx.check_keys(table, {"remap", "seed"})
+        out = cls(ctx.raw(table, "remap", default="raised_bed"), ctx.raw(table, "seed", types=(int,), default=0))
+        from .remap import REMAP_MODES
+
+        if out.remap not in REMAP_MODES:
+            raise ctx.error(f"remap must be one of {REMAP_MODES}", "remap")
+        return out
+
+
+def closure_setup(scenario, *, overrides: dict | None = None):
+    """Build the :class:`~.driver.ClosureSetup` of a parsed scenario (missing sections take defaults)."""
+    from ..dem import Material
+    from ..hydro.solvers import get_solver
+    from ..hydro.terrain import breach_domain
+    from .driver import ClosureSetup, DemSettings
+
+    site = scenario.get("site") or SiteSection()
+    levee = scenario["levee"].geometry if "levee" in scenario else None
+    breach = None
+    if "breach" in scenario and scenario["breach"].length is not None:
+        b = scenario["breach"]
+        base = site.scene().breach
+        breach = BreachGeometry(length=float(b.length), depth=float(b.depth) if b.depth is not None else base.depth,
+                                wall_slope=float(b.wall_slope) if b.wall_slope is not None else base.wall_slope,
+                                scour_depth=float(b.scour_depth) if b.scour_depth is not None else base.scour_depth)
+    scene = site.scene(levee, breach)
+    hydro = scenario.get("hydro") or HydroSection()
+    dom = breach_domain(scene, hydro.resolution)
+    if site.crs:
+        dom.crs_wkt = _crs_wkt(site.crs)
+    X, Y = np.meshgrid(dom.x, dom.y)
+    half = 0.5 * scene.breach.length
+    region = (np.abs(X) <= half + hydro.monitor_radius) & (np.abs(Y) <= hydro.monitor_radius + half)
+    if hydro.solver == "swe":
+        solver = _WarmStartSWE(hydro, region)
+    else:
+        solver = get_solver(hydro.solver, snapshots=hydro.snapshots) if hydro.solver == "snapshot" else get_solver(hydro.solver)
+    dem_vals = dict((scenario.get("dem") or DemSection()).values)
+    mat_keys = {k: dem_vals.pop(k) for k in ("kn", "ks", "friction", "rolling_friction", "adhesion") if k in dem_vals}
+    dem_kw = {}
+    if "global_damping" in dem_vals:
+        dem_kw["global_damping"] = dem_vals.pop("global_damping")
+    material = Material(density=2650.0, kn=mat_keys.get("kn", 2.0e7), ks=mat_keys.get("ks"),
+                        friction=mat_keys.get("friction", 0.6), adhesion=mat_keys.get("adhesion", 0.0),
+                        rolling_friction=mat_keys.get("rolling_friction", 0.3))
+    fluid = scenario.get("fluid") or FluidSection()
+    dem = DemSettings(material=material, drag_law=fluid.drag_law, sampling=fluid.sampling, xi=fluid.xi,
+                      **dem_vals, **dem_kw)
+    placement = scenario["placement"].plan if "placement" in scenario else PlacementPlan(
+        diameter=(1.4, 1.6), batch=4, positions="line", start=(-half + 0.5, 0.0), stop=(half - 0.5, 0.0))
+    criteria = scenario["criteria"].criteria if "criteria" in scenario else EndCriteria.from_config(
+        {"mode": "any", "max_cycles": 20, "max_speed": "0.5 m/s"})
+    closure = scenario.get("closure") or ClosureSection()
+    setup = ClosureSetup(domain=dom, solver=solver, placement=placement, criteria=criteria, dem=dem,
+                         remap_mode=closure.remap, seed=closure.seed, breach_x=(-half, half), levee_y=0.0,
+                         flood_level=scene.flood_water_elevation,
+                         bottom=scene.ground_elevation + scene.levee.height - scene.breach.depth - scene.breach.scour_depth,
+                         name=scenario.name)
+    for k, v in (overrides or {}).items():
+        setattr(setup, k, v)
+    return setup
+
+
+class _WarmStartSWE:
+    """The ``swe`` solver with a longer time limit for the first (cold) solve than for warm starts."""
+
+    def __init__(self, hydro: HydroSection, region):
+        from ..hydro.solvers import get_solver
+
+        kw = dict(order=hydro.order, courant=hydro.courant, tolerance=hydro.tolerance, region=region)
+        self.cold = get_solver("swe", t_max=hydro.t_max_initial, **kw)
+        self.warm = get_solver("swe", t_max=hydro.t_max, **kw)
+
+    def solve(self, domain, obstacles=None, initial=None):
+        return (self.cold if initial is None else self.warm).solve(domain, obstacles=obstacles, initial=initial)
+
+
+def _crs_wkt(crs: str) -> str:
+    """WKT of a CRS given as WKT, ``EPSG:nnnn`` or anything pyproj understands."""
+    from pyproj import CRS
+
+    try:
+        return CRS.from_user_input(crs).to_wkt()
+    except Exception as exc:  # pyproj raises CRSError
+        raise BreachflowError(f"[site] crs: cannot interpret {crs!r} ({exc})") from None

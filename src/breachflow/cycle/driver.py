@@ -1,0 +1,376 @@
+"""The closure cycle ``<g>`` (SPEC §7, report Figs 4.2, 4.5, §4.4).
+
+Each cycle: release the cycle's masses above the water (placement plan) → run the DEM in the frozen
+field of the current snapshot until the assembly is in equilibrium (``E_TOL``) or the cycle time
+limit → remap the resting masses into the hydrodynamic model (no-flow cells or raised bed) → re-solve
+the flow (warm start; skipped when the remap changed no cell) → optional stability re-run
+(criterion 5) → end criteria → write the cycle to the run directory.
+
+Determinism and resume: cycle ``g``'s DEM always starts from the restart record of cycle ``g − 1``
+(positions, velocities, sizes, densities; previously resting masses start asleep and shear
+histories start at zero), and the placement draws from ``rng([seed, g])``. A resumed run therefore
+repeats exactly what an uninterrupted one does.
+"""
+from __future__ import annotations
+
+import time as _time
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+import xarray as xr
+
+from ..dem import DemSimulation, HeightField, Material
+from ..errors import InputError
+from ..fluid.forces import FluidForces
+from ..hydro.sampling import FieldSampler
+from ..hydro.snapshot import DRY_DEPTH
+from ..schemas import validate
+from ..output import RunDirectory, particles_dataset, trajectories_dataset
+from .criteria import CycleContext, EndCriteria, section_discharge
+from .placement import PlacementPlan
+from .remap import remap
+
+
+@dataclass
+class DemSettings:
+    """DEM settings of a closure run (SI). ``max_time`` caps the simulated DEM time of one cycle;
+    ``rest_speed`` is the speed below which a mass counts as resting when the cycle ends without
+    equilibrium; ``record_interval`` the trajectory sampling interval (s)."""
+
+    material: Material = field(default_factory=lambda: Material(density=2650.0, kn=2.0e7, friction=0.6,
+                                                                 rolling_friction=0.3))
+    restitution: float = 0.3
+    integrator: str = "predicted_verlet"
+    e_tol: float = 1.0e-5
+    max_time: float = 30.0
+    rest_speed: float = 0.05
+    record_interval: float = 0.1
+    sleeping: bool = True
+    global_damping: float = 0.0
+    drag_law: str = "report"
+    sampling: str = "bilinear"
+    xi: float = 0.5
+    stability_time: float = 5.0
+
+    def __post_init__(self):
+        for name in ("e_tol", "max_time", "rest_speed", "record_interval", "stability_time"):
+            v = getattr(self, name)
+            if not (np.isfinite(v) and v > 0):
+                raise InputError(f"dem.{name} must be > 0, got {v!r}")
+        if not 0 < self.restitution <= 1:
+            raise InputError(f"dem.restitution must be in (0, 1], got {self.restitution!r}")
+
+
+@dataclass
+class ClosureSetup:
+    """Everything a closure run needs (SI).
+
+    ``domain`` the hydrodynamic :class:`~breachflow.hydro.terrain.Domain`; ``solver`` a HydroSolver;
+    ``breach_x`` the breach extent along the levee at ``levee_y``; ``flood_level`` flood-side water
+    elevation; ``bottom`` the breach bottom elevation (for the cross-section criteria).
+    """
+
+    domain: object
+    solver: object
+    placement: PlacementPlan
+    criteria: EndCriteria
+    dem: DemSettings = field(default_factory=DemSettings)
+    remap_mode: str = "no_flow"
+    seed: int = 0
+    breach_x: tuple = (0.0, 0.0)
+    levee_y: float = 0.0
+    flood_level: float = 0.0
+    bottom: float = 0.0
+    name: str = "closure"
+
+
+@dataclass
+class CycleReport:
+    cycle: int
+    masses: int
+    tonnage: float
+    operation_time: float
+    max_speed: float
+    discharge_proxy: float
+    breach_discharge: float
+    criteria: list
+    closed: bool
+    governing: str
+    dem_steps: int
+    dem_particle_steps: int
+    dem_converged: bool
+    hydro: str  # "solved (warm start)", "skipped (no cell changed)", "solved (cold start)"
+    stability: str
+    wall_time: float
+    left_domain: int
+
+    def as_dict(self) -> dict:
+        d = dict(self.__dict__)
+        d["criteria"] = [dict(r.__dict__) for r in self.criteria]
+        return d
+
+
+def dem_view(snapshot: xr.Dataset) -> xr.Dataset:
+    """The field the DEM sees: obstacle cells (placed masses) filled with the still water of their wet
+    neighbours, so that a mass inside a blocked cell keeps its buoyancy (the hydrodynamic solver
+    empties blocked cells)."""
+    if "obstacle" not in snapshot or not snapshot["obstacle"].values.any():
+        return snapshot
+    ob = snapshot["obstacle"].values.astype(bool)
+    bed = snapshot["bed_elevation"].values
+    ws = np.where(snapshot["depth"].values > DRY_DEPTH, snapshot["water_surface"].values, np.nan)
+    todo = ob & np.isnan(ws)
+    for _ in range(64):  # spread neighbour water levels into blocked areas (a few cells thick)
+        if not todo.any():
+            break
+        pad = np.pad(ws, 1, constant_values=np.nan)
+        neigh = np.stack([pad[:-2, 1:-1], pad[2:, 1:-1], pad[1:-1, :-2], pad[1:-1, 2:]])
+        cnt = np.isfinite(neigh).sum(axis=0)
+        fill = np.where(cnt > 0, np.nansum(neigh, axis=0) / np.maximum(cnt, 1), np.nan)
+        new = todo & np.isfinite(fill)
+        if not new.any():
+            break
+        ws = np.where(new, fill, ws)
+        todo &= ~new
+    depth = np.where(ob & np.isfinite(ws), np.maximum(ws - bed, 0.0), snapshot["depth"].values)
+    out = snapshot.copy()
+    out["depth"] = out["depth"].copy(data=depth)
+    out["water_surface"] = out["water_surface"].copy(data=bed + depth)
+    out["wet"] = out["wet"].copy(data=(depth > DRY_DEPTH).astype("i1"))
+    for k in ("u", "v"):
+        out[k] = out[k].copy(data=np.where(ob, 0.0, out[k].values))
+    return out
+
+
+class ClosureRun:
+    """Drive a closure run in a run directory: ``ClosureRun(setup, run_dir, scenario_text).run()``."""
+
+    def __init__(self, setup: ClosureSetup, run_dir, scenario_text: str, *, resume: bool = False,
+                 overwrite: bool = False, progress=None):
+        self.setup = setup
+        self.rundir = RunDirectory(run_dir)
+        self.rundir.start(scenario_text, seed=setup.seed, resume=resume, overwrite=overwrite,
+                          metadata={"name": setup.name})
+        self.progress = progress  # callable(CycleReport) or None
+        self.reports: list[CycleReport] = []
+
+    # ------------------------------------------------------------------ restart record
+    def _initial_record(self) -> dict:
+        return {"placed_cycle": np.zeros(0, np.int32), "resting": np.zeros(0, bool)}
+
+    @staticmethod
+    def _dem_part(rec) -> dict | None:
+        dem = {k[4:]: v for k, v in rec.items() if k.startswith("dem.")}
+        return dem or None
+
+    # ------------------------------------------------------------------ main loop
+    def run(self) -> list[CycleReport]:
+        s = self.setup
+        done = self.rundir.completed_cycles()
+        if done:
+            g0 = done[-1]
+            rec = self.rundir.load_restart(g0)
+            with xr.open_dataset(self.rundir.cycle_path(g0)) as ds:
+                snapshot = self._grid_only(ds.load())
+            closed = bool(self.rundir.manifest()["cycles"][-1]["summary"].get("closed"))
+            if closed or self.rundir.manifest().get("finished"):
+                return self.reports
+        else:
+            g0 = 0
+            rec = self._initial_record()
+            t0 = _time.perf_counter()
+            snapshot = s.solver.solve(s.domain)
+            self.initial_solve_time = _time.perf_counter() - t0
+            from .criteria import DischargeProxy, MaxSpeed
+
+            ctx0 = CycleContext(cycle=0, snapshot=snapshot, breach_x=s.breach_x, levee_y=s.levee_y)
+            self.rundir.update_metadata(initial={
+                "max_speed": MaxSpeed("0 m/s").value(ctx0), "discharge_proxy": DischargeProxy("0 m^3/s").value(ctx0),
+                "breach_discharge": section_discharge(snapshot, s.breach_x, s.levee_y),
+                "solve_wall_time": self.initial_solve_time})
+        for g in range(g0 + 1, s.criteria.max_cycles + 1):
+            rep, rec, snapshot = self._cycle(g, rec, snapshot)
+            self.reports.append(rep)
+            if self.progress:
+                self.progress(rep)
+            if rep.closed:
+                break
+        last = self.reports[-1] if self.reports else None
+        self.rundir.finish({"cycles": self.rundir.last_cycle(), "closed": bool(last and last.closed),
+                            "governing": last.governing if last else ""})
+        return self.reports
+
+    @staticmethod
+    def _grid_only(ds: xr.Dataset) -> xr.Dataset:
+        keep = [v for v in ds.data_vars if "particle" not in ds[v].dims]
+        return ds[keep]
+
+    def _make_dem(self, snapshot, dem_state=None):
+        """The DEM of a cycle: terrain height field + the frozen fluid field of *snapshot*; continued
+        bit-identically from *dem_state* (``save_state`` of the previous cycle) when given."""
+        s = self.setup
+        d = s.dem
+        dom = s.domain
+        terrain = HeightField(dom.x, dom.y, dom.bed, self._terrain_material())
+        box = (dom.x[0] - 0.5 * dom.dx, dom.x[-1] + 0.5 * dom.dx, dom.y[0] - 0.5 * dom.dy, dom.y[-1] + 0.5 * dom.dy,
+               float(dom.bed.min()) - 50.0, float(dom.bed.max()) + 200.0)
+        fluid = FluidForces(dem_view(snapshot), drag_law=d.drag_law, sampling=d.sampling, xi=d.xi, outside="air")
+        kw = dict(boundaries=[terrain], models=[fluid], integrator=d.integrator, domain=box, sleeping=d.sleeping)
+        if dem_state is not None:
+            return DemSimulation.from_state(dem_state, **kw)
+        return DemSimulation(**kw)
+
+    def _material(self, density, mass_ref):
+        """The configured material at *density*, its normal dashpot giving the configured restitution
+        for a wall impact of *mass_ref* (SPEC §5: e = exp(-zeta pi / sqrt(1 - zeta^2)))."""
+        d = self.setup.dem
+        m = replace(d.material, density=float(density), c_gn=d.global_damping)
+        return m.with_restitution(d.restitution, mass_ref)
+
+    def _terrain_material(self):
+        """Terrain contact properties: pair values are the minimum of the partners' (SPEC §5), so the
+        terrain's dashpot is sized for the heaviest possible mass and the particle's own value governs."""
+        p = self.setup.placement
+        heaviest = p.density[1] * 4.0 / 3.0 * np.pi * (0.5 * p.diameter[1]) ** 3
+        return self._material(p.density[1], heaviest)
+
+    def _add(self, sim, pos, radius, density, vel=None, omega=None):
+        """Insert masses, one call per distinct density (no per-particle Python work for big piles)."""
+        idx = np.zeros(len(radius), int)
+        for rho in np.unique(density):
+            sel = np.flatnonzero(density == rho)
+            mass_ref = rho * 4.0 / 3.0 * np.pi * float(np.median(radius[sel])) ** 3
+            idx[sel] = sim.add_particles(pos[sel], radius[sel], self._material(rho, mass_ref),
+                                         vel=None if vel is None else vel[sel],
+                                         omega=None if omega is None else omega[sel])
+        return idx
+
+    def _settle(self, sim, max_time, record_ids=None):
+        """Step to equilibrium; returns (converged, time series of positions of *record_ids*)."""
+        d = self.setup.dem
+        chunk = max(1, int(round(d.record_interval / sim.dt)))
+        consecutive = min(chunk, max(10, int(np.ceil(0.05 / sim.dt))))
+        times = [0.0]
+        frames = [sim.state.pos[record_ids].copy()] if record_ids is not None else []
+        vframes = [sim.state.vel[record_ids].copy()] if record_ids is not None else []
+        t_start = sim.t
+        converged = False
+        while sim.t - t_start < max_time:
+            res = sim.run_to_equilibrium(d.e_tol, max_steps=chunk, consecutive=consecutive)
+            if record_ids is not None:
+                times.append(sim.t - t_start)
+                frames.append(sim.state.pos[record_ids].copy())
+                vframes.append(sim.state.vel[record_ids].copy())
+            if res.converged:
+                converged = True
+                break
+        if record_ids is None:
+            return converged, np.asarray(times), None, None
+        return converged, np.asarray(times), np.stack(frames, axis=1), np.stack(vframes, axis=1)
+
+    def _cycle(self, g, rec, snapshot):
+        s = self.setup
+        wall0 = _time.perf_counter()
+        d = s.dem
+        # 1. the DEM continues from the previous cycle's saved state (resting masses asleep; their
+        #    wake reference is the old field, so a changed flow wakes the ones it really affects)
+        sim = self._make_dem(snapshot, self._dem_part(rec))
+        # 2. release this cycle's masses
+        sampler = FieldSampler(snapshot, method="bilinear")
+
+        def surface_at(x, y):
+            smp = sampler.sample(np.asarray(x, float), np.asarray(y, float))
+            return np.where(smp.inside, np.maximum(smp.surface, smp.bed), np.nan)
+
+        rel = s.placement.release(g, s.seed, surface_at)
+        new_ids = self._add(sim, rel.pos, rel.radius, rel.density)
+        placed_cycle = np.concatenate([rec["placed_cycle"], np.full(len(new_ids), g, np.int32)])
+        # 3. settle in the frozen field, recording the moving masses
+        steps0, ps0 = sim.steps, sim.particle_steps
+        moving = np.flatnonzero(sim.state.awake & sim.state.active)
+        converged, t_rec, frames, vframes = self._settle(sim, d.max_time, record_ids=moving)
+        st = sim.state
+        speed = np.linalg.norm(st.vel, axis=1)
+        resting = st.active & ((~st.awake) | (speed < d.rest_speed) | converged)
+        sim.sleep(np.flatnonzero(resting & st.awake))
+        # 4. remap and re-solve
+        dom = s.domain
+        obstacle, bed = remap(dom.x, dom.y, dom.bed, snapshot["water_surface"].values, st.pos, st.radius, resting,
+                              s.remap_mode)
+        solve_domain = dom if s.remap_mode == "no_flow" else dom.with_raised_bed(bed > dom.bed, bed)
+        new_obstacle = dom.obstacle | obstacle
+        changed = int(np.count_nonzero(new_obstacle != snapshot["obstacle"].values.astype(bool)))
+        if s.remap_mode == "raised_bed":
+            changed += int(np.count_nonzero(np.abs(solve_domain.bed - snapshot["bed_elevation"].values) > 1e-9))
+        if changed == 0:
+            new_snapshot = snapshot
+            hydro = "skipped (remap changed no cell)"
+        else:
+            new_snapshot = s.solver.solve(solve_domain, obstacles=obstacle, initial=snapshot)
+            hydro = f"solved (warm start, {changed} cells changed)"
+        # 5. stability re-run (criterion 5) only when asked for
+        stab = None
+        stability = "not requested"
+        if s.criteria.needs("stability") and resting.any():
+            stab = self._stability(new_rec, resting, new_snapshot)
+            stability = f"re-run {d.stability_time:g} s: max displacement {stab:.3g} m"
+        ctx = CycleContext(cycle=g, snapshot=new_snapshot, previous=snapshot, pos=st.pos, radius=st.radius,
+                           resting=resting, breach_x=s.breach_x, levee_y=s.levee_y, flood_level=s.flood_level,
+                           bottom=s.bottom, stability_displacement=stab)
+        closed, results, governing = s.criteria.evaluate(ctx)
+        from .criteria import DischargeProxy, MaxSpeed
+
+        max_speed = MaxSpeed("0 m/s").value(ctx)
+        proxy = DischargeProxy("0 m^3/s").value(ctx)
+        q_breach = section_discharge(new_snapshot, s.breach_x, s.levee_y)
+        # 6. write the cycle
+        masses = int(st.n)
+        tonnage = float(st.mass[st.active].sum()) / 1000.0
+        rep = CycleReport(cycle=g, masses=masses, tonnage=tonnage, operation_time=rel.time, max_speed=max_speed,
+                          discharge_proxy=proxy, breach_discharge=q_breach, criteria=results, closed=closed, governing=governing,
+                          dem_steps=sim.steps - steps0, dem_particle_steps=sim.particle_steps - ps0,
+                          dem_converged=converged, hydro=hydro, stability=stability,
+                          wall_time=_time.perf_counter() - wall0, left_domain=int((~st.active).sum()))
+        new_rec = {"dem." + k: v for k, v in sim.save_state().items()}
+        new_rec.update(placed_cycle=placed_cycle, resting=resting.copy())
+        field_ds = validate(self._field_dataset(new_snapshot, st, placed_cycle, resting, rep), "closure_cycle")
+        traj = None
+        if moving.size:
+            tt = np.broadcast_to(rel.time + t_rec, (moving.size, t_rec.size))
+            traj = validate(trajectories_dataset(moving, tt, frames, vframes, cycle=g), "closure_trajectories")
+        self.rundir.write_cycle(g, field_ds, traj, new_rec, _summary(rep))
+        return rep, new_rec, new_snapshot
+
+    def _stability(self, rec, resting, snapshot) -> float:
+        """Criterion 5: the assembly, every mass awake, re-run in the new flow for ``stability_time``;
+        returns the largest displacement of a resting mass (inf if one left the domain)."""
+        d = self.setup.dem
+        sim = self._make_dem(snapshot, self._dem_part(rec))
+        sim.wake_all()
+        start = sim.state.pos.copy()
+        sim.step(int(np.ceil(d.stability_time / sim.dt)))
+        disp = np.linalg.norm(sim.state.pos - start, axis=1)
+        disp = np.where(sim.state.active, disp, np.inf)[resting]
+        return float(disp.max()) if disp.size else 0.0
+
+    def _field_dataset(self, snapshot, st, placed_cycle, resting, rep) -> xr.Dataset:
+        grid = self._grid_only(snapshot)
+        part = particles_dataset(st, placed_cycle=placed_cycle, resting=resting,
+                                 grid_mapping="crs" if "crs" in grid else None)
+        ds = xr.merge([grid, part], combine_attrs="override")
+        ds.attrs.update(grid.attrs)
+        ds.attrs.update(title=f"breachflow closure run {self.setup.name!r}, cycle {rep.cycle}", cycle=np.int32(rep.cycle),
+                        masses_placed=np.int32(rep.masses), closure_achieved=np.int32(rep.closed),
+                        governing_criterion=rep.governing, hydro_work=rep.hydro, stability_check=rep.stability,
+                        dem_converged=np.int32(rep.dem_converged), dem_steps=np.int64(rep.dem_steps),
+                        operation_time_s=float(rep.operation_time))
+        for r in rep.criteria:
+            ds.attrs[f"criterion_{r.name}"] = f"{r.value:.6g} {r.units} (threshold {r.threshold:.6g}, {'met' if r.satisfied else 'not met'})"
+        return ds
+
+
+def _summary(rep: CycleReport) -> dict:
+    d = rep.as_dict()
+    d["criteria"] = {r["name"]: {"value": r["value"], "threshold": r["threshold"], "units": r["units"],
+                                 "satisfied": r["satisfied"]} for r in d["criteria"]}
+    return d

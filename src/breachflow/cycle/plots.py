@@ -1,0 +1,78 @@
+"""Plots of a closure run: plan view of the speed with the masses, and closure progress."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+
+def _plt():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def plot_plan_view(rundir, out, cycle: int | None = None) -> Path:
+    """Speed |u| (m/s) in plan, obstacle cells hatched, resting masses as circles; first and last cycle."""
+    plt = _plt()
+    cycles = rundir.completed_cycles()
+    show = [cycles[0], cycles[-1]] if cycle is None and len(cycles) > 1 else [cycle or cycles[-1]]
+    fig, axes = plt.subplots(1, len(show), figsize=(6.2 * len(show), 5.2), squeeze=False, constrained_layout=True)
+    vmax = None
+    for ax, g in zip(axes[0], show):
+        with xr.open_dataset(rundir.cycle_path(g)) as ds:
+            ds = ds.load()
+        speed = np.hypot(ds.u.values, ds.v.values)
+        vmax = vmax or max(float(speed.max()), 0.1)
+        x, y = ds.x.values, ds.y.values
+        m = ax.pcolormesh(x, y, np.where(ds.wet.values > 0, speed, np.nan), cmap="viridis", vmin=0, vmax=vmax,
+                          shading="nearest")
+        ax.contour(x, y, ds.bed_elevation.values, levels=8, colors="0.6", linewidths=0.5)
+        if "obstacle" in ds:
+            ax.contourf(x, y, ds.obstacle.values, levels=[0.5, 1.5], colors="none", hatches=["////"])
+        act = ds.particle_active.values > 0
+        for px, py, d, rest in zip(ds.particle_x.values[act], ds.particle_y.values[act],
+                                   ds.particle_diameter.values[act], ds.particle_resting.values[act]):
+            ax.add_patch(plt.Circle((px, py), d / 2, fill=False, color="white" if rest else "red", lw=0.8))
+        pad = 25.0
+        ax.set_xlim(max(x[0], -pad), min(x[-1], pad))
+        ax.set_ylim(max(y[0], -pad), min(y[-1], pad))
+        ax.set_aspect("equal")
+        ax.set_xlabel("x along the levee (m)")
+        ax.set_ylabel("y across the levee (m), flood side < 0")
+        ax.set_title(f"cycle {g}: {int(act.sum())} masses, max speed {float(speed.max()):.2f} m/s")
+    fig.colorbar(m, ax=axes[0].tolist(), label="depth-averaged speed (m/s)")
+    out = Path(out)
+    fig.savefig(out, dpi=110)
+    plt.close(fig)
+    return out
+
+
+def plot_closure_progress(rundir, out) -> Path:
+    """Max speed and the discharge through the breach against the number of masses placed."""
+    plt = _plt()
+    man = rundir.manifest()
+    cyc = man["cycles"]
+    init = man.get("metadata", {}).get("initial")
+    first = [init] if init else []
+    masses = [0] * len(first) + [c["summary"]["masses"] for c in cyc]
+    speed = [f["max_speed"] for f in first] + [c["summary"]["max_speed"] for c in cyc]
+    proxy = [f["breach_discharge"] for f in first] + [c["summary"]["breach_discharge"] for c in cyc]
+    fig, ax = plt.subplots(figsize=(7, 4.2), constrained_layout=True)
+    ax.plot(masses, speed, "o-", color="C0", label="max speed")
+    ax.set_xlabel("masses placed")
+    ax.set_ylabel("maximum depth-averaged speed (m/s)", color="C0")
+    ax2 = ax.twinx()
+    ax2.plot(masses, proxy, "s--", color="C3", label="breach discharge")
+    ax2.set_ylabel("discharge through the breach (m³/s)", color="C3")
+    ax.set_ylim(bottom=0)
+    ax2.set_ylim(bottom=0)
+    ax.set_title("closure progress")
+    out = Path(out)
+    fig.savefig(out, dpi=110)
+    plt.close(fig)
+    return out
