@@ -1,0 +1,98 @@
+"""``breachflow ensemble``: run a scenario ensemble on dask (local cluster or an existing scheduler)."""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Optional
+
+import typer
+
+
+def register(app: typer.Typer) -> None:
+    @app.command()
+    def ensemble(
+        spec: Optional[Path] = typer.Argument(None, help="Ensemble spec TOML: an ensemble table (runner, vary or members) and the base scenario."),
+        scheduler: Optional[str] = typer.Option(None, help="Address of a running dask scheduler, e.g. tcp://10.0.0.5:8786 "
+                                                "(dask-jobqueue / dask-kubernetes clusters). Default: a local cluster."),
+        workers: Optional[int] = typer.Option(None, help="Worker processes of the local cluster (default: one per core); "
+                                              "with --scheduler: use only this many of its workers."),
+        out: Optional[Path] = typer.Option(None, help="Output directory (default: the spec's output, else SPEC.ensemble/)."),
+        resume: bool = typer.Option(True, help="Skip members completed by an earlier run of the same spec."),
+        retry_failed: bool = typer.Option(True, help="On resume, rerun members that failed before."),
+        progress: bool = typer.Option(True, help="Show a progress bar over members."),
+        list_runners: bool = typer.Option(False, "--list-runners", help="List the member runners and exit."),
+    ) -> None:
+        """Run every member of an ensemble on dask (full factorial over ensemble.vary, or the listed
+        ensemble.members) and write one NetCDF Dataset with a dimension per varied parameter; member outputs
+        stay in their own run directories, failed members are recorded, reruns resume."""
+        from rich.console import Console
+
+        from ..ensemble import member_runners, run
+
+        console = Console()
+        if list_runners:
+            for name in member_runners.available():
+                doc = (member_runners.get(name).__doc__ or "").strip().splitlines()
+                console.print(f"[bold]{name}[/]: {doc[0] if doc else ''}", highlight=False)
+            return
+        if spec is None:
+            raise typer.BadParameter("give an ensemble spec TOML file (or --list-runners)")
+        ds = run(spec, out=out, scheduler=scheduler, workers=workers, resume=resume, retry_failed=retry_failed,
+                 progress=progress, console=console)
+        console.print(summary_table(ds))
+
+
+def summary_table(ds):
+    """Rich table: each result variable's range over the successful members, with units; failures listed."""
+    import numpy as np
+    from rich.table import Table
+
+    from ..ensemble.dataset import STATUS_VARIABLES
+    from ..units import Q_
+
+    ok = ds["member_status"].values == 0
+    table = Table(title=f"{ds.attrs.get('title', 'ensemble')}: {int(ok.sum())} of {ok.size} members ok",
+                  title_justify="left")
+    for col in ("variable", "min", "max", "units"):
+        table.add_column(col, justify="right" if col in ("min", "max") else "left")
+    for name, var in ds.data_vars.items():
+        if name in STATUS_VARIABLES or not np.issubdtype(var.dtype, np.number):
+            continue
+        vals = var.values[ok].astype(float)
+        if "_FillValue" in var.encoding:
+            vals = vals[vals != var.encoding["_FillValue"]]
+        vals = vals[np.isfinite(vals)]
+        units = var.attrs.get("units", "")
+        shown = var.attrs.get("display_units", units)
+        if "flag_meanings" in var.attrs:
+            lo = hi = ""
+            if vals.size:
+                meanings = var.attrs["flag_meanings"].split()
+                flags = list(np.asarray(var.attrs["flag_values"]).tolist())
+                seen = sorted({int(v) for v in vals})
+                lo = ", ".join(meanings[flags.index(v)] for v in seen if v in flags)
+            table.add_row(name, lo, hi, "flag")
+            continue
+        if vals.size == 0:
+            table.add_row(name, "—", "—", shown)
+            continue
+        lo, hi = vals.min(), vals.max()
+        if shown != units:
+            lo, hi = (Q_(v, units.replace("^", "**")).to(shown.replace("^", "**")).magnitude for v in (lo, hi))
+        table.add_row(name, f"{lo:.4g}", f"{hi:.4g}", shown)
+    failed = np.flatnonzero(ds["member_status"].values.ravel() == 1)
+    if not failed.size:
+        return table
+    from rich.console import Group
+
+    errors = Table(title=f"{failed.size} failed member(s)", title_justify="left", title_style="red")
+    dims = list(ds["member_status"].dims)
+    for col in (*dims, "error", "run directory"):
+        errors.add_column(col)
+    grids = np.meshgrid(*[ds[d].values for d in dims], indexing="ij")
+    for i in failed[:20]:
+        errors.add_row(*[str(g.ravel()[i]) for g in grids],
+                       f"{ds['member_error_type'].values.ravel()[i]}: {ds['member_error'].values.ravel()[i]}",
+                       str(ds["member_run_dir"].values.ravel()[i]))
+    if failed.size > 20:
+        errors.add_row(f"... {failed.size - 20} more", *[""] * (len(dims) + 1))
+    return Group(table, errors)

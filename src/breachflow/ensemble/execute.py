@@ -1,0 +1,363 @@
+"""Running an ensemble on dask.distributed: local cluster or an existing scheduler, resume, failure isolation.
+
+Output directory layout::
+
+    OUT/spec.toml                     the spec as run (base scenario inlined)
+    OUT/ensemble.nc                   the result Dataset (written atomically, schema-checked)
+    OUT/members/<key>/scenario.toml   the member's scenario
+    OUT/members/<key>/result.json     status, results with units, error, seed, timing (atomic)
+    OUT/members/<key>/...             whatever the runner writes
+
+``<key>`` hashes the runner, its options, the base scenario and the member's values, so a rerun reuses
+exactly the members whose computation is unchanged (resume) and never a stale one. Run directories
+must be on a file system the workers share with the client (always true for a local cluster; on an
+HPC cluster use a shared scratch directory).
+"""
+from __future__ import annotations
+
+import os
+import time
+import traceback
+import uuid
+from dataclasses import dataclass
+from pathlib import Path
+
+import xarray as xr
+
+from ..errors import InputError
+from .dataset import build_dataset, write_result
+from .io import atomic_write_json, atomic_write_text, read_json
+from .runners import MemberScenario, normalise_results, resolve_runner
+from .spec import EnsembleSpec, Member, as_spec
+
+RESULT_FILE = "result.json"
+RECORD_FORMAT = "breachflow.ensemble.member/1"
+
+
+@dataclass
+class MemberTask:
+    """Everything a worker needs to run one member (pickled to the worker)."""
+
+    runner_cls: type
+    runner_name: str
+    options: dict
+    scenario: MemberScenario
+    run_dir: str
+    seed: int
+    index: tuple
+    fingerprint: str
+
+
+def execute_member(task: MemberTask) -> dict:
+    """Run one member in its directory and write ``result.json`` atomically; never raises for member
+    errors (they are recorded with their type and message)."""
+    run_dir = Path(task.run_dir)
+    run_dir.mkdir(parents=True, exist_ok=True)
+    (run_dir / RESULT_FILE).unlink(missing_ok=True)
+    record = _record_head(task)
+    record["started"] = time.time()
+    t0, c0 = time.perf_counter(), time.thread_time()
+    try:
+        sections = getattr(task.runner_cls, "sections", None)
+        task.scenario.write(run_dir / "scenario.toml", sections=sections)
+        runner = task.runner_cls(**task.options)
+        raw = runner.run(task.scenario, run_dir, task.seed)
+        results = normalise_results(raw, getattr(task.runner_cls, "outputs", {}) or {})
+        record.update(status="ok", results={k: v.to_json() for k, v in results.items()})
+    except Exception as exc:  # failure isolation: any member error is data, not a crash
+        record.update(status="failed", error_type=type(exc).__name__, error_message=str(exc),
+                      traceback=traceback.format_exc(limit=20))
+    record["elapsed"] = time.perf_counter() - t0
+    record["cpu_time"] = time.thread_time() - c0   # CPU time of this thread: elapsed - cpu = waiting for a core
+    record["worker"] = _worker_name()
+    atomic_write_json(run_dir / RESULT_FILE, record)
+    return record
+
+
+def _record_head(task: MemberTask) -> dict:
+    sc = task.scenario
+    return {"format": RECORD_FORMAT, "key": sc.key, "number": sc.number, "index": list(task.index),
+            "values": sc.values, "values_si": sc.values_si, "parameters": sc.paths, "seed": task.seed,
+            "runner": task.runner_name, "options": task.options, "fingerprint": task.fingerprint,
+            "run_dir": task.run_dir}
+
+
+def _worker_name() -> str:
+    try:
+        from distributed import get_worker
+
+        return get_worker().address
+    except (ImportError, ValueError):
+        return f"local:{os.getpid()}"
+
+
+def _warm_up(modules: tuple[str, ...]) -> int:
+    import importlib
+
+    for m in modules:
+        importlib.import_module(m)
+    return os.getpid()
+
+
+# ------------------------------------------------------------------------------------------ run
+def default_output_dir(spec: EnsembleSpec) -> Path:
+    if spec.output is not None:
+        return spec.output
+    if spec.path is not None:
+        return spec.path.parent / f"{spec.path.stem}.ensemble"
+    return Path.cwd() / f"{_slug(spec.name)}.ensemble"
+
+
+def _slug(text: str) -> str:
+    return "".join(c if c.isalnum() or c in "-_" else "_" for c in text).strip("_") or "ensemble"
+
+
+def plan(spec, out=None) -> tuple[EnsembleSpec, Path, list[Member], list[MemberTask]]:
+    """Members and their tasks (no execution): useful to inspect an ensemble before running it."""
+    spec = as_spec(spec)
+    out_dir = Path(out) if out is not None else default_output_dir(spec)
+    runner_cls = resolve_runner(spec.runner)
+    try:  # options are checked once here rather than failing every member
+        runner_cls(**spec.options)
+    except TypeError as exc:
+        raise InputError(f"[ensemble.options]: member runner {spec.runner!r} does not accept them ({exc})") from None
+    members = spec.members()
+    fp = spec.fingerprint()
+    paths = {p.name: p.dotted for p in spec.parameters}
+    tasks = []
+    for m in members:
+        run_dir = out_dir / "members" / m.key
+        sc = MemberScenario(key=m.key, number=m.number, table=spec.member_table(m), values=m.values,
+                            values_si=m.values_si, paths=paths, path=run_dir / "scenario.toml")
+        tasks.append(MemberTask(runner_cls, spec.runner, dict(spec.options), sc, str(run_dir), m.seed, m.index, fp))
+    return spec, out_dir, members, tasks
+
+
+def run(spec, *, out=None, scheduler: str | None = None, workers: int | None = None, client=None,
+        resume: bool = True, retry_failed: bool = True, progress: bool = True, console=None,
+        write: bool = True) -> xr.Dataset:
+    """Run an ensemble and return its result Dataset (also written to ``OUT/ensemble.nc``).
+
+    *spec*: path to a spec TOML, TOML text, a dict or an :class:`EnsembleSpec`. *out*: output directory
+    (default: the spec's ``output``, else ``<spec>.ensemble/`` next to the spec file).
+    Execution: an existing dask *client*; or a *scheduler* address (``"tcp://host:8786"``); or a local
+    cluster of *workers* processes (default: the spec's ``workers``, else one per core). With a client or
+    scheduler, *workers* restricts the run to that many of its workers.
+    *resume*: skip members whose ``result.json`` says ok (and, unless *retry_failed*, failed ones).
+    """
+    from rich.console import Console
+
+    spec, out_dir, members, tasks = plan(spec, out)
+    console = console or Console(stderr=True)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    atomic_write_text(out_dir / "spec.toml", spec.to_toml())
+    for note in unused_parameters(spec, tasks[0].runner_cls if tasks else None):
+        console.print(f"note: {note}", highlight=False, markup=False)
+
+    records: list[dict | None] = [None] * len(tasks)
+    if resume:
+        for i, t in enumerate(tasks):
+            rec = read_json(Path(t.run_dir) / RESULT_FILE)
+            if rec and rec.get("format") == RECORD_FORMAT and rec.get("key") == t.scenario.key and (
+                    rec.get("status") == "ok" or (rec.get("status") == "failed" and not retry_failed)):
+                rec["run_dir"] = t.run_dir
+                records[i] = rec
+    pending = [i for i, r in enumerate(records) if r is None]
+    shape = " x ".join(map(str, spec.shape))
+    console.print(f"ensemble [bold]{spec.name}[/]: {len(tasks)} members ({shape}; {', '.join(spec.dims)}), "
+                  f"runner [bold]{spec.runner}[/]" + (f", {len(tasks) - len(pending)} done earlier (resume)"
+                                                      if len(pending) < len(tasks) else ""), highlight=False)
+    if pending:
+        _execute(spec, tasks, pending, records, scheduler=scheduler, workers=workers, client=client,
+                 progress=progress, console=console)
+    ds = build_dataset(spec, records, tasks[0].runner_cls, out_dir=out_dir)
+    n_failed = int(ds.attrs["ensemble_failed"])
+    if write:
+        path = write_result(ds, out_dir / "ensemble.nc")
+        console.print(f"wrote {path}", highlight=False)
+    if n_failed:
+        console.print(f"[yellow]{n_failed} of {len(tasks)} members failed[/] (see member_error / member_error_type)")
+    return ds
+
+
+def unused_parameters(spec: EnsembleSpec, runner_cls) -> list[str]:
+    """Notes on varied parameters the runner does not read (results are constant along them)."""
+    sections = getattr(runner_cls, "sections", None)
+    if sections is None:
+        return []
+    return [f"varied parameter {p.dotted} is not read by member runner {spec.runner!r} (it reads "
+            f"[{'], ['.join(sorted(sections))}]): its results are constant along {p.name}"
+            for p in spec.parameters if p.path[0] not in sections]
+
+
+def _execute(spec, tasks, pending, records, *, scheduler, workers, client, progress, console) -> None:
+    from distributed import Client, as_completed
+
+    own_cluster = own_client = None
+    scheduler = scheduler or (spec.scheduler if client is None else None)
+    try:
+        if client is None and scheduler:
+            client = own_client = Client(scheduler)
+        elif client is None:
+            own_cluster, client = _local_cluster(workers or spec.workers)
+            own_client = client
+            workers = None
+        restrict = _choose_workers(client, workers)
+        _report_dashboard(client, console, restrict)
+        try:
+            client.run(_warm_up, _modules_of(tasks[0].runner_cls), workers=restrict)
+        except ImportError as exc:
+            raise InputError(f"dask workers cannot import the member runner's modules ({exc}); install breachflow "
+                             "(and the runner's package) in the workers' environment") from None
+        tag = uuid.uuid4().hex[:8]
+        # one graph update for all members: dask then sees a large group of root tasks and queues them on
+        # the scheduler, handing them out as workers free up
+        submitted = client.map(execute_member, [tasks[i] for i in pending],
+                               key=[f"ensemble-member-{tasks[i].scenario.key}-{tag}" for i in pending], pure=False,
+                               workers=restrict, allow_other_workers=False, retries=0)
+        futures = dict(zip(submitted, pending))
+        with _progress(console, len(pending), progress) as advance:
+            for fut in as_completed(futures):
+                i = futures.pop(fut)
+                try:
+                    rec = fut.result()
+                except Exception as exc:  # the worker died or the task could not run at all
+                    rec = _client_side_failure(tasks[i], exc)
+                fut.release()
+                rec["run_dir"] = tasks[i].run_dir
+                records[i] = rec
+                advance(rec.get("status") == "ok")
+    finally:
+        with _quiet_distributed():
+            if own_client is not None:
+                own_client.close()
+            if own_cluster is not None:
+                own_cluster.close()
+
+
+class _quiet_distributed:
+    """Silence distributed's shutdown chatter (closed-comm tracebacks of heartbeats) while closing."""
+
+    def __enter__(self):
+        import logging
+
+        self.loggers = [logging.getLogger(n) for n in ("distributed", "tornado", "asyncio")]
+        self.levels = [lg.level for lg in self.loggers]
+        for lg in self.loggers:
+            lg.setLevel(logging.CRITICAL)
+
+    def __exit__(self, *exc):
+        for lg, level in zip(self.loggers, self.levels):
+            lg.setLevel(level)
+        return False
+
+
+def _client_side_failure(task: MemberTask, exc: BaseException) -> dict:
+    rec = _record_head(task)
+    rec.update(status="failed", error_type=type(exc).__name__, error_message=str(exc) or repr(exc),
+               elapsed=float("nan"), worker="")
+    try:
+        atomic_write_json(Path(task.run_dir) / RESULT_FILE, rec)
+    except OSError:
+        pass
+    return rec
+
+
+def _local_cluster(n_workers: int | None):
+    cluster = local_cluster(n_workers)
+    from distributed import Client
+
+    return cluster, Client(cluster)
+
+
+def local_cluster(n_workers: int | None = None, *, malloc_trim: bool = False):
+    """A dask LocalCluster for ensembles: *n_workers* processes (default one per core), one thread each.
+
+    Two dask settings differ from dask's defaults (on other clusters set them in the dask configuration):
+
+    * ``distributed.scheduler.worker-saturation: 1.0`` -- a worker holds only the member it runs, none
+      queued behind it, so a member that kills its worker (a segfault) takes no innocent member down
+      with it, and long members balance across workers;
+    * ``distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_: null`` (unless *malloc_trim*): dask's
+      default 65536 also pins glibc's mmap threshold, so every numpy temporary above 128 kB is mmap'ed
+      and unmapped again, which doubled the time of numpy-heavy members here (``bench_ensemble.py``).
+    """
+    import logging
+
+    import dask
+    from distributed import LocalCluster
+
+    n = n_workers or os.cpu_count() or 1
+    dashboard = ":0" if _has_bokeh() else None
+    overrides = {"distributed.scheduler.worker-saturation": 1.0}
+    if not malloc_trim:
+        overrides["distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_"] = None
+    with dask.config.set(overrides):
+        return LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=dashboard,
+                            silence_logs=logging.ERROR)
+
+
+def _has_bokeh() -> bool:
+    try:
+        import bokeh  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+def _choose_workers(client, n: int | None):
+    if n is None:
+        return None
+    if n < 1:
+        raise InputError(f"workers: must be >= 1, got {n}")
+    addresses = sorted(client.scheduler_info()["workers"])
+    if n > len(addresses):
+        raise InputError(f"workers: {n} requested, the scheduler has {len(addresses)}")
+    return addresses[:n] if n < len(addresses) else None
+
+
+def _report_dashboard(client, console, restrict) -> None:
+    n = len(restrict) if restrict else len(client.scheduler_info()["workers"])
+    where = client.scheduler.address if client.scheduler is not None else "?"
+    link = client.dashboard_link if _has_bokeh() else None
+    console.print(f"dask scheduler {where}, {n} worker(s); dashboard: "
+                  + (link if link else "not available (install bokeh>=3.1 for the dask dashboard)"), highlight=False)
+
+
+def _modules_of(runner_cls) -> tuple[str, ...]:
+    mods = ["breachflow.ensemble.runners", "xarray", "numpy"]
+    mod = getattr(runner_cls, "__module__", None)
+    if mod and mod != "__main__":
+        mods.append(mod)
+    return tuple(mods)
+
+
+class _progress:
+    """A rich progress bar over members (ok / failed counts)."""
+
+    def __init__(self, console, total: int, enabled: bool):
+        self.console, self.total, self.enabled = console, total, enabled
+        self.ok = self.failed = 0
+
+    def __enter__(self):
+        if not self.enabled:
+            return self._advance
+        from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+
+        self.bar = Progress(TextColumn("members"), BarColumn(), MofNCompleteColumn(),
+                            TextColumn("[green]{task.fields[ok]} ok[/] [red]{task.fields[failed]} failed[/]"),
+                            TimeElapsedColumn(), TimeRemainingColumn(), console=self.console, transient=False)
+        self.bar.start()
+        self.task = self.bar.add_task("members", total=self.total, ok=0, failed=0)
+        return self._advance
+
+    def _advance(self, ok: bool) -> None:
+        self.ok += bool(ok)
+        self.failed += not ok
+        if self.enabled:
+            self.bar.update(self.task, advance=1, ok=self.ok, failed=self.failed)
+
+    def __exit__(self, *exc):
+        if self.enabled:
+            self.bar.stop()
+        return False
