@@ -254,6 +254,10 @@ def closure_setup(scenario, *, overrides: dict | None = None):
                       **dem_vals, **dem_kw)
     placement = scenario["placement"].plan if "placement" in scenario else PlacementPlan(
         diameter=(1.4, 1.6), batch=4, positions="line", start=(-half + 0.5, 0.0), stop=(half - 0.5, 0.0))
+    if placement.positions == "line" and placement.start == placement.stop == (0.0, 0.0):
+        # no line given: across the breach along the levee centreline, one radius in from the walls
+        r = 0.5 * placement.diameter[1]
+        placement.start, placement.stop = (-half + r, 0.0), (half - r, 0.0)
     criteria = scenario["criteria"].criteria if "criteria" in scenario else EndCriteria.from_config(
         {"mode": "any", "max_cycles": 20, "max_speed": "0.5 m/s"})
     closure = scenario.get("closure") or ClosureSection()

@@ -1,0 +1,78 @@
+"""The ``closure`` ensemble member runner (issue: scenario ensembles; SPEC §2 + §7).
+
+Runs the member's closure simulation in its run directory (resuming a previous attempt) and its
+closure window, and reduces both to scalars: cycles, masses, tonnage, simulated closure duration at
+the placement rate, closure achieved, governing criterion, peak velocity, breach discharge before and
+after, and the feasibility flag (closure achieved before the closure window ends).
+"""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, ClassVar
+
+from ..ensemble.runners import MemberScenario, WindowRunner, member_runners, window_scalars
+from ..errors import InputError
+from ..units import Q_
+
+CLOSURE_OUTPUTS: dict[str, dict] = {
+    "cycles": {"units": "1", "dtype": "i8", "long_name": "closure cycles run"},
+    "masses": {"units": "1", "dtype": "i8", "long_name": "masses placed"},
+    "tonnage": {"units": "kg", "dtype": "f8", "long_name": "mass of the placed masses inside the domain", "display_units": "t"},
+    "closure_duration": {"units": "s", "dtype": "f8", "long_name": "duration of the closure operation at the placement rate",
+                         "display_units": "h"},
+    "closure_achieved": {"dtype": "bool", "long_name": "end criteria met within the maximum number of cycles"},
+    "governing_criterion": {"dtype": "str", "long_name": "end criterion that ended the run"},
+    "peak_velocity": {"units": "m/s", "dtype": "f8", "long_name": "maximum depth-averaged speed before any placement"},
+    "initial_breach_discharge": {"units": "m^3/s", "dtype": "f8", "long_name": "discharge through the open breach"},
+    "final_breach_discharge": {"units": "m^3/s", "dtype": "f8", "long_name": "discharge through the breach after the last cycle"},
+    "feasible": {"dtype": "bool", "long_name": "closure achieved before the closure window ends"},
+}
+
+
+@member_runners.register("closure")
+class ClosureRunner:
+    """Closure simulation + closure window of one member (options: ``plots`` = false by default)."""
+
+    sections = None
+    outputs: ClassVar[dict[str, dict]] = {**WindowRunner.outputs, **CLOSURE_OUTPUTS}
+    optional_outputs: ClassVar[frozenset[str]] = WindowRunner.optional_outputs
+
+    def __init__(self, plots: bool = False, **options):
+        if options:
+            raise InputError(f"member runner 'closure' takes only 'plots', got {sorted(options)}")
+        self.plots = bool(plots)
+
+    def run(self, member: MemberScenario, run_dir: Path, seed: int) -> dict[str, Any]:
+        from ..scenario import closure_window
+        from .main import run_closure
+
+        run_dir = Path(run_dir)
+        table = dict(member.table)
+        closure = dict(table.get("closure", {}))
+        closure.setdefault("seed", int(seed) % (2**31))
+        table["closure"] = closure
+        member.table = table
+        path = member.write(run_dir / "closure_scenario.toml")
+        out = run_dir / "closure"
+        res = run_closure(path, out, resume=(out / "manifest.json").exists(), plots=self.plots)
+        scenario = member.scenario()
+        results: dict[str, Any] = {}
+        window = None
+        if all(s in scenario for s in ("flood", "polder", "breach")):
+            ds = closure_window(**scenario.window_kwargs())
+            results.update(window_scalars(ds))
+            window = float(ds["closure_window"])
+        from ..output import RunDirectory
+
+        m = RunDirectory(res.run_dir).manifest()
+        last = m["cycles"][-1]["summary"] if m["cycles"] else {}
+        results.update(
+            cycles=res.cycles, masses=res.masses, tonnage=Q_(res.tonnage * 1000.0, "kg"),
+            closure_duration=Q_(res.operation_time, "s"), closure_achieved=res.closed,
+            governing_criterion=res.governing or "none",
+            peak_velocity=Q_(m["metadata"]["initial"]["max_speed"], "m/s"),
+            initial_breach_discharge=Q_(m["metadata"]["initial"]["breach_discharge"], "m**3/s"),
+            final_breach_discharge=Q_(last.get("breach_discharge", float("nan")), "m**3/s"),
+            feasible=bool(res.closed and window is not None and res.operation_time <= window),
+        )
+        return results
