@@ -33,3 +33,9 @@ def test_default_run_closes_the_breach_and_combines(tmp_path):
     # running the default again in the same place is allowed (it overwrites its own default run)
     res = runner.invoke(app, ["run", "--out", str(out), "--resume"])
     assert res.exit_code == 0, res.output
+
+
+def test_progress_lines_show_the_criteria(tmp_path):
+    res = runner.invoke(app, ["run", "--out", str(tmp_path / "r")], terminal_width=400)
+    assert res.exit_code == 0, res.output
+    assert "[max_speed " in res.output and "blocked_fraction " in res.output

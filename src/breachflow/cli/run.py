@@ -102,15 +102,13 @@ def run_closure_cli(scenario: Path | None, out: Path, resume: bool, overwrite: b
 
     from ..cycle.main import run_closure
 
-    table = Table(title="closure cycles", show_lines=False)
-    for col in ("cycle", "masses", "max speed (m/s)", "breach Q (m³/s)", "DEM steps", "hydrodynamics", "criteria"):
-        table.add_column(col)
-
     def progress(rep):
-        crit = ", ".join(f"{c.name} {c.value:.3g}{'✓' if c.satisfied else ''}" for c in rep.criteria)
+        from rich.markup import escape
+
+        crit = escape("[" + ", ".join(f"{c.name} {c.value:.3g}{' met' if c.satisfied else ''}" for c in rep.criteria) + "]")
         console.print(f"[bold]cycle {rep.cycle:3d}[/]  masses {rep.masses:4d}  max speed {rep.max_speed:5.2f} m/s  "
                       f"breach Q {rep.breach_discharge:7.2f} m³/s  DEM {rep.dem_steps} steps"
-                      f"{'' if rep.dem_converged else ' (cycle time limit)'}  {rep.hydro}  [{crit}]  "
+                      f"{'' if rep.dem_converged else ' (cycle time limit)'}  {rep.hydro}  {crit}  "
                       f"{rep.wall_time:.1f} s", highlight=False)
 
     console.print(f"closure run: {'embedded default scenario' if scenario is None else scenario} → {out}")
