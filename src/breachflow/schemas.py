@@ -81,7 +81,9 @@ def _check_var(where: str, da, spec: dict, problems: list[str]) -> None:
         problems.append(f"{where}: dims {tuple(da.dims)} not among {allowed}")
     if "units" in spec and da.attrs.get("units", da.encoding.get("units")) != spec["units"]:
         problems.append(f"{where}: units {da.attrs.get('units')!r}, expected {spec['units']!r}")
-    if "dtype" in spec and not np.issubdtype(da.dtype, _KINDS[spec["dtype"]]):
+    kinds = _KINDS.get(spec.get("dtype"), ())
+    kinds = kinds if isinstance(kinds, tuple) else (kinds,)
+    if "dtype" in spec and not any(np.issubdtype(da.dtype, k) for k in kinds):
         problems.append(f"{where}: dtype {da.dtype} is not {spec['dtype']}")
     attrs = dict(da.attrs)
     for key in ("coordinates", "units", "calendar"):  # xarray moves these into .encoding on read

@@ -78,5 +78,5 @@ def test_crash_during_write_leaves_previous_cycles_intact(tmp_path, monkeypatch)
 
 def test_atomic_write_failure_removes_temp(tmp_path):
     with pytest.raises(ValueError):
-        atomic_mod._atomic(tmp_path / "f.txt", lambda tmp: (_ for _ in ()).throw(ValueError("x")))
+        atomic_mod.atomic_write(tmp_path / "f.txt", lambda tmp: (_ for _ in ()).throw(ValueError("x")))
     assert list(tmp_path.iterdir()) == []

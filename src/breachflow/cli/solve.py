@@ -7,28 +7,16 @@ and Ritter's dam-break estimate ``u = 2/3 sqrt(g h_L)`` (SPEC §3).
 from __future__ import annotations
 
 import math
-import os
-import tempfile
 import time
 from pathlib import Path
 
 import typer
 
+from ..output.atomic import atomic_write as _atomic_write
+
 SCENES = ("typical_breach",)
 
 
-def _atomic_write(path: Path, writer) -> None:
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    os.close(fd)
-    try:
-        writer(tmp)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
 
 
 def plot_speed(ds, path: Path, title: str = "") -> None:

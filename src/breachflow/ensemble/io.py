@@ -3,24 +3,9 @@ from __future__ import annotations
 
 import json
 import os
-import tempfile
-from contextlib import contextmanager
 from pathlib import Path
 
-
-@contextmanager
-def atomic_path(path, suffix: str | None = None):
-    """Yield a temporary path next to *path*; on success it replaces *path*, on error it is removed."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=suffix or path.suffix or ".tmp", dir=path.parent)
-    os.close(fd)
-    try:
-        yield Path(tmp)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+from ..output.atomic import atomic_path
 
 
 def atomic_write_text(path, text: str) -> Path:

@@ -12,8 +12,6 @@ accelerating where a law without the crisis (Clift–Gauvin) has reached its ter
 from __future__ import annotations
 
 import math
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -21,6 +19,7 @@ import xarray as xr
 from scipy.optimize import brentq
 
 from ..errors import InputError
+from ..output.atomic import atomic_write
 from .drag import get_drag_law
 from .field import UniformWater
 from .forces import WATER, FluidForces
@@ -127,19 +126,6 @@ def drag_crisis_time(ds: xr.Dataset, law: str, diameter: float, cd_below: float 
     return float(ds["time"].values[hit[0]]) if hit.size else None
 
 
-def _atomic(path: Path, write) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=path.suffix)
-    os.close(fd)
-    try:
-        write(tmp)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-
-
 def plot_settling(ds: xr.Dataset, path) -> Path:
     """Velocity–time plot, one colour per diameter, one line style per drag law; PNG written atomically."""
     import matplotlib
@@ -162,7 +148,7 @@ def plot_settling(ds: xr.Dataset, path) -> Path:
     ax.legend(fontsize=8, ncol=2)
     fig.tight_layout()
     path = Path(path)
-    _atomic(path, lambda tmp: fig.savefig(tmp, format="png"))
+    atomic_write(path, lambda tmp: fig.savefig(tmp, format="png"))
     plt.close(fig)
     return path
 
@@ -171,8 +157,8 @@ def save_settling(ds: xr.Dataset, out_dir, stem: str = "settling") -> dict[str, 
     """Write ``<stem>.nc``, ``<stem>.csv`` (long format) and ``<stem>.png`` into *out_dir*; returns the paths."""
     out = Path(out_dir)
     paths = {"netcdf": out / f"{stem}.nc", "csv": out / f"{stem}.csv", "png": out / f"{stem}.png"}
-    _atomic(paths["netcdf"], lambda tmp: ds.to_netcdf(tmp))
+    atomic_write(paths["netcdf"], lambda tmp: ds.to_netcdf(tmp))
     table = ds[["velocity", "depth", "reynolds", "cd"]].to_dataframe().reset_index()
-    _atomic(paths["csv"], lambda tmp: table.to_csv(tmp, index=False, float_format="%.9g"))
+    atomic_write(paths["csv"], lambda tmp: table.to_csv(tmp, index=False, float_format="%.9g"))
     plot_settling(ds, paths["png"])
     return paths

@@ -23,7 +23,7 @@ import numpy as np
 import xarray as xr
 
 from ..errors import InputError
-from .atomic import _atomic, atomic_write_json, atomic_write_netcdf
+from .atomic import atomic_write, atomic_write_json, atomic_write_netcdf
 from .cf import netcdf_encoding
 
 MANIFEST = "manifest.json"
@@ -136,7 +136,7 @@ class RunDirectory:
             np.savez(buf, **restart)
             Path(tmp).write_bytes(buf.getvalue())
 
-        _atomic(self.restart_path(g), write_npz)
+        atomic_write(self.restart_path(g), write_npz)
         files["restart"] = self.restart_path(g).name
         entry = {"cycle": int(g), "files": files,
                  "sha256": {k: file_sha256(self.path / v) for k, v in files.items()},
@@ -226,5 +226,5 @@ class RunDirectory:
                 archive.to_netcdf(tmp, engine="netcdf4", encoding=netcdf_encoding(archive))
                 tr.to_netcdf(tmp, mode="a", group="trajectories", engine="netcdf4", encoding=netcdf_encoding(tr))
 
-            _atomic(out, write_both)
+            atomic_write(out, write_both)
         return out

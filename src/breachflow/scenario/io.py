@@ -1,28 +1,12 @@
 """Atomic writers for scenario results (NetCDF, figures): temp file in the target directory + os.replace."""
 from __future__ import annotations
 
-import os
-import tempfile
-from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
 import xarray as xr
 
-
-@contextmanager
-def atomic_path(path, suffix: str | None = None):
-    """Yield a temporary path next to *path*; on success it replaces *path*, on error it is removed."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=suffix or path.suffix, dir=path.parent)
-    os.close(fd)
-    try:
-        yield Path(tmp)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+from ..output.atomic import atomic_path  # noqa: F401  (re-exported for the scenario writers)
 
 
 def netcdf_ready(ds: xr.Dataset) -> xr.Dataset:
