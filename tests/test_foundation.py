@@ -123,3 +123,11 @@ def test_dataarray_with_cf_units():
 def test_unitless_string_says_no_unit():
     with pytest.raises(UnitError, match=r"surge_height: '2.8' has no unit; give one, e.g. '2.8 m' \(\[length\] expected\)"):
         to_si("2.8", name="surge_height", kind="length")
+
+
+def test_schema_string_dtype_accepts_numpy_and_object_strings():
+    spec = {"name": "s", "variables": {"a": {"dtype": "str"}}}
+    validate(xr.Dataset({"a": ("x", np.array(["p", "q"]))}), spec)
+    validate(xr.Dataset({"a": ("x", np.array(["p", "q"], dtype=object))}), spec)
+    with pytest.raises(SchemaError, match="dtype float64 is not str"):
+        validate(xr.Dataset({"a": ("x", np.array([1.0]))}), spec)
