@@ -215,7 +215,8 @@ class ClosureRun:
         box = (dom.x[0] - 0.5 * dom.dx, dom.x[-1] + 0.5 * dom.dx, dom.y[0] - 0.5 * dom.dy, dom.y[-1] + 0.5 * dom.dy,
                float(dom.bed.min()) - 50.0, float(dom.bed.max()) + 200.0)
         fluid = FluidForces(dem_view(snapshot), drag_law=d.drag_law, sampling=d.sampling, xi=d.xi, outside="air")
-        kw = dict(boundaries=[terrain], models=[fluid], integrator=d.integrator, domain=box, sleeping=d.sleeping)
+        kw = dict(boundaries=[terrain], models=[fluid], integrator=d.integrator, domain=box, sleeping=d.sleeping,
+                  static_models=True)
         if dem_state is not None:
             return DemSimulation.from_state(dem_state, **kw)
         return DemSimulation(**kw)
