@@ -46,7 +46,7 @@ def test_closure_members_reduce_to_labelled_results(tmp_path):
     assert all(r["status"] == "ok" for r in records), [r.get("error_message") for r in records]
     ds = validate_result(build_dataset(spec, records, tasks[0].runner_cls, out_dir=out_dir))
     np.testing.assert_allclose(ds["placement_diameter"].values, [1.6, 2.0])
-    np.testing.assert_array_equal(ds["masses"].values.ravel(), [6, 6])
+    np.testing.assert_array_equal(ds["masses_placed"].values.ravel(), [6, 6])
     assert ds["closure_duration"].attrs["units"] == "s"
     # 6 masses at the default rate of 20 per hour
     np.testing.assert_allclose(ds["closure_duration"].values.ravel(), 6 / 20 * 3600)

@@ -10,24 +10,9 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any, ClassVar
 
-from ..ensemble.runners import MemberScenario, WindowRunner, member_runners, window_scalars
+from ..ensemble.runners import CLOSURE_OUTPUTS, MemberScenario, WindowRunner, member_runners, window_scalars
 from ..errors import InputError
 from ..units import Q_
-
-CLOSURE_OUTPUTS: dict[str, dict] = {
-    "cycles": {"units": "1", "dtype": "i8", "long_name": "closure cycles run"},
-    "masses": {"units": "1", "dtype": "i8", "long_name": "masses placed"},
-    "tonnage": {"units": "kg", "dtype": "f8", "long_name": "mass of the placed masses inside the domain", "display_units": "t"},
-    "closure_duration": {"units": "s", "dtype": "f8", "long_name": "duration of the closure operation at the placement rate",
-                         "display_units": "h"},
-    "closure_achieved": {"dtype": "bool", "long_name": "end criteria met within the maximum number of cycles"},
-    "governing_criterion": {"dtype": "str", "long_name": "end criterion that ended the run"},
-    "peak_velocity": {"units": "m/s", "dtype": "f8", "long_name": "maximum depth-averaged speed before any placement"},
-    "initial_breach_discharge": {"units": "m^3/s", "dtype": "f8", "long_name": "discharge through the open breach"},
-    "final_breach_discharge": {"units": "m^3/s", "dtype": "f8", "long_name": "discharge through the breach after the last cycle"},
-    "feasible": {"dtype": "bool", "long_name": "closure achieved before the closure window ends"},
-}
-
 
 @member_runners.register("closure")
 class ClosureRunner:
@@ -67,7 +52,7 @@ class ClosureRunner:
         m = RunDirectory(res.run_dir).manifest()
         last = m["cycles"][-1]["summary"] if m["cycles"] else {}
         results.update(
-            cycles=res.cycles, masses=res.masses, tonnage=Q_(res.tonnage * 1000.0, "kg"),
+            cycles=res.cycles, masses_placed=res.masses, tonnage=Q_(res.tonnage * 1000.0, "kg"),
             closure_duration=Q_(res.operation_time, "s"), closure_achieved=res.closed,
             governing_criterion=res.governing or "none",
             peak_velocity=Q_(m["metadata"]["initial"]["max_speed"], "m/s"),

@@ -85,7 +85,10 @@ CLOSURE_OUTPUTS: dict[str, dict] = {
                          "long_name": "simulated duration of the closure operation at the placement rate"},
     "closure_achieved": {"dtype": "bool", "long_name": "the end criteria of the closure were met"},
     "governing_criterion": {"dtype": "str", "long_name": "end criterion that ended the closure run"},
-    "peak_velocity": {"units": "m/s", "dtype": "f8", "long_name": "peak flow speed in the breach during the closure"},
+    "peak_velocity": {"units": "m/s", "dtype": "f8", "long_name": "maximum depth-averaged speed before any placement"},
+    "initial_breach_discharge": {"units": "m^3/s", "dtype": "f8", "long_name": "discharge through the open breach"},
+    "final_breach_discharge": {"units": "m^3/s", "dtype": "f8",
+                               "long_name": "discharge through the breach after the last cycle"},
     "feasible": {"dtype": "bool", "long_name": "closure achieved before the closure window ends"},
 }
 
