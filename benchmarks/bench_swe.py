@@ -2,12 +2,14 @@
 
 1. Cell updates per second per core (one numba thread, CPU time) for first and second order on
    10^4 … 10^6 cells (a wet dam break with Manning friction), plus the 2-thread rate.
-2. Wall and CPU time to steady state of the report's typical breach at 4 m and 2 m.
+2. Wall and CPU time to steady state of the report's typical breach at 4 m and 2 m, from a cold start
+   and warm-started from the coarser steady state (grid sequencing), with the peak speeds.
 3. ANUGA side by side on the Stoker dam break (100 m × 5 m channel, h 1.0 | 0.1 m, 5 s) at equal cell
    (triangle) counts: L1 depth error and wall time of both, as ratios. ANUGA runs in a subprocess of
    its own venv ``.venv-bench-anuga`` (created on demand with ``pip install anuga``).
 
-Options: ``--sizes 1e4,1e5,1e6`` ``--threads 1,2`` ``--breach 4,2`` (empty to skip)
+Options: ``--sizes 1e4,1e5,1e6`` ``--threads 1,2`` ``--breach 8,4,2`` (empty to skip) ``--monitor-radius``
+``--breach-threads`` ``--no-sequence``
 ``--anuga-cells 2000,8000,32000`` (``--no-anuga`` to skip) ``--t-max 3600`` ``--tolerance 1e-4``.
 """
 from __future__ import annotations
@@ -85,38 +87,52 @@ def throughput(sizes, min_cpu=2.0, thread_counts=(1,)):
 
 
 # ------------------------------------------------------------------ 2. typical breach
-def typical_breach_runs(resolutions, t_max, tolerance, monitor_radius=300.0):
+def typical_breach_runs(resolutions, t_max, tolerance, monitor_radius=None, threads=1, sequence=True):
+    """Each resolution from a cold start (flood side at the source level, polder dry) and, with
+    *sequence*, also warm-started from the steady state of the previous (coarser) resolution."""
     from breachflow.hydro.derived import peak_speed
     from breachflow.hydro.swe import SWEOptions, SWESimulation
     from breachflow.hydro.terrain import breach_domain, breach_vicinity
     from breachflow.scenario import typical_breach
 
     scene = typical_breach()
+    radius = monitor_radius if monitor_radius else 2.0 * scene.breach.length
     rows = []
     out = []
+    previous = None
     for res in resolutions:
         dom = breach_domain(scene, res)
-        sim = SWESimulation(dom, SWEOptions(order=2))
-        cpu0, wall0 = time.process_time(), time.perf_counter()
-        hist = sim.run_to_steady(tolerance, t_max, region=breach_vicinity(dom, scene, monitor_radius))
-        cpu, wall = time.process_time() - cpu0, time.perf_counter() - wall0
-        ds = sim.snapshot()
-        pk = peak_speed(ds)
-        near = peak_speed(ds, x_range=(-scene.breach.length, scene.breach.length), y_range=(-50.0, 50.0))
-        ic = int(np.argmin(np.abs(ds.x.values)))
-        jc = int(np.argmin(np.abs(ds.y.values)))
-        centre = float(ds.speed.values[jc, ic])
-        rows.append([f"{res:g} m", f"{dom.shape[1]}×{dom.shape[0]}", f"{sim.t:.0f}", str(sim.steps),
-                     "yes" if hist.converged else "no", f"{wall:.1f}", f"{cpu:.1f}",
-                     f"{pk['speed']:.2f} @ ({pk['x']:.0f}, {pk['y']:.0f})",
-                     f"{near['speed']:.2f} @ ({near['x']:.0f}, {near['y']:.0f})", f"{centre:.2f}"])
+        starts = [("cold", None)] + ([(f"from {previous[0]:g} m", previous[1])] if sequence and previous else [])
+        for label, initial in starts:
+            sim = SWESimulation(dom, SWEOptions(order=2, threads=threads), initial=initial)
+            cpu0, wall0 = time.process_time(), time.perf_counter()
+            hist = sim.run_to_steady(tolerance, t_max, region=breach_vicinity(dom, scene, radius))
+            cpu, wall = time.process_time() - cpu0, time.perf_counter() - wall0
+            ds = sim.snapshot()
+            pk = peak_speed(ds)
+            near = peak_speed(ds, x_range=(-scene.breach.length, scene.breach.length), y_range=(-50.0, 50.0))
+            ic = int(np.argmin(np.abs(ds.x.values)))
+            jc = int(np.argmin(np.abs(ds.y.values)))
+            centre = float(ds.speed.values[jc, ic])
+            breach_cols = np.abs(ds.x.values) < 0.5 * scene.breach.length
+            q = float(ds.v.values[jc, breach_cols] @ ds.depth.values[jc, breach_cols]) * sim.dx
+            rows.append([f"{res:g} m", label, f"{dom.shape[1]}×{dom.shape[0]}", f"{sim.t:.0f}", str(sim.steps),
+                         "yes" if hist.converged else "no", f"{wall:.1f}", f"{cpu:.1f}",
+                         f"{pk['speed']:.2f} @ ({pk['x']:.0f}, {pk['y']:.0f})",
+                         f"{near['speed']:.2f} @ ({near['x']:.0f}, {near['y']:.0f})", f"{centre:.2f}", f"{q:.0f}"])
+            if label == "cold":
+                cold_wall = wall
+            else:
+                rows[-1][6] += f" ({cold_wall / wall:.1f}× faster)"
+        previous = (res, ds)
         out.append(ds)
     ritter = 2.0 / 3.0 * math.sqrt(9.81 * scene.levee.height)
-    _table(f"typical breach to steady state (tolerance {tolerance:g} 1/s within {monitor_radius:g} m of the breach, limit {t_max:g} s); "
-           f"report ADH peak ~{scene.notes['adh_peak_velocity_m_s']} m/s near the levee centreline, "
-           f"Ritter 2/3 sqrt(g h_L) = {ritter:.2f} m/s",
-           ["cells", "grid", "sim time s", "steps", "steady", "wall s", "CPU s",
-            "peak speed m/s @ (x, y)", "peak within 50 m of centreline", "speed at breach centre"], rows)
+    _table(f"typical breach to steady state (tolerance {tolerance:g} 1/s within {radius:g} m of the breach, limit "
+           f"{t_max:g} s, {threads} thread(s)); report ADH peak ~{scene.notes['adh_peak_velocity_m_s']} m/s near the "
+           f"levee centreline, Ritter 2/3 sqrt(g h_L) = {ritter:.2f} m/s",
+           ["cells", "start", "grid", "sim time s", "steps", "steady", "wall s", "CPU s",
+            "peak speed m/s @ (x, y)", "peak within 50 m of centreline", "speed at breach centre",
+            "breach Q m³/s"], rows)
     return out
 
 
@@ -232,9 +248,13 @@ def anuga_comparison(cell_counts):
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(prog="bench swe", description=__doc__.split("\n")[0])
     p.add_argument("--sizes", default="1e4,1e5,1e6")
-    p.add_argument("--breach", default="4,2", help="typical-breach resolutions in m ('' to skip)")
+    p.add_argument("--breach", default="8,4,2", help="typical-breach resolutions in m ('' to skip)")
     p.add_argument("--t-max", type=float, default=3600.0)
     p.add_argument("--tolerance", type=float, default=1e-4)
+    p.add_argument("--monitor-radius", type=float, default=None,
+                   help="steady state judged within this distance of the breach centre (m; default 2 B)")
+    p.add_argument("--breach-threads", type=int, default=1, help="numba threads for the typical-breach runs")
+    p.add_argument("--no-sequence", action="store_true", help="typical breach: cold starts only")
     p.add_argument("--anuga-cells", default="2000,8000,32000")
     p.add_argument("--no-anuga", action="store_true")
     p.add_argument("--min-cpu", type=float, default=2.0, help="CPU seconds per throughput measurement")
@@ -245,7 +265,8 @@ def main(argv=None) -> int:
     if not a.no_anuga and a.anuga_cells:
         anuga_comparison([int(float(s)) for s in a.anuga_cells.split(",")])
     if a.breach:
-        typical_breach_runs([float(s) for s in a.breach.split(",")], a.t_max, a.tolerance)
+        typical_breach_runs([float(s) for s in a.breach.split(",")], a.t_max, a.tolerance, a.monitor_radius,
+                            a.breach_threads, not a.no_sequence)
     return 0
 
 

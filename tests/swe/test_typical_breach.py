@@ -37,3 +37,17 @@ def test_typical_breach_steady_flow_matches_broad_crested_weir_theory():
     centre = peak_speed(ds, x_range=(-10.0, 10.0), y_range=(-10.0, 10.0))
     assert 0.85 * u_c < centre["speed"] < 1.2 * u_c
     assert np.all(ds.depth.values >= 0) and np.isfinite(ds.speed.values).all()
+
+
+@pytest.mark.slow
+def test_typical_breach_reaches_steady_state_where_the_closure_acts():
+    """With the absorbing flood source, depth and discharge within 2 B of the breach settle below
+    1e-4 1/s (an exactly imposed source level reflects the waves of the opening: the basin rings)."""
+    scene = typical_breach()
+    dom = breach_domain(scene, 8.0)
+    sim = SWESimulation(dom)
+    hist = sim.run_to_steady(tolerance=1e-4, t_max=1800.0, region=breach_vicinity(dom, scene))
+    assert hist.converged and hist.depth_rate[-1] < 1e-4 and hist.discharge_rate[-1] < 1e-4
+    ringing = SWESimulation(breach_domain(scene, 8.0, absorbing_source=False))
+    reflected = ringing.run_to_steady(tolerance=1e-4, t_max=sim.t, region=breach_vicinity(dom, scene))
+    assert not reflected.converged

@@ -60,7 +60,7 @@ def register(app: typer.Typer) -> None:
         courant: float = typer.Option(0.45, help="CFL number (0 < C <= 1)"),
         tolerance: str = typer.Option("1e-4 1/s", help="steady state: relative rate of change of depth and discharge"),
         t_max: str = typer.Option("1 h", help="simulated-time limit"),
-        monitor_radius: str = typer.Option("300 m", help="steady state judged within this distance of the breach centre ('' = whole domain)"),
+        monitor_radius: str = typer.Option("auto", help="steady state judged within this distance of the breach centre ('auto' = twice the breach length, '' = whole domain)"),
         manning: str = typer.Option("", help="override Manning's n (s m^-1/3)"),
         breach_length: str = typer.Option("", help="override the breach length B (e.g. '61 m')"),
         levee_as_bed: bool = typer.Option(False, help="intact levee as bed instead of a no-flow boundary"),
@@ -97,7 +97,9 @@ def register(app: typer.Typer) -> None:
         sim = SWESimulation(dom, SWEOptions(order=order, courant=courant, threads=threads))
         wall0 = time.perf_counter()
         region = None
-        if monitor_radius:
+        if monitor_radius == "auto":
+            region = breach_vicinity(dom, sc)
+        elif monitor_radius:
             region = breach_vicinity(dom, sc, to_si(monitor_radius, name="monitor_radius", kind="length", positive=True))
         hist = sim.run_to_steady(tol, tmax, region=region)
         wall = time.perf_counter() - wall0

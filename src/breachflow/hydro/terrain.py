@@ -10,6 +10,7 @@ breach centred at ``x = 0``; the flood channel runs along x from ``x0`` (upstrea
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field, replace
 from typing import Callable, Sequence
 
@@ -34,6 +35,12 @@ class BoundaryCondition:
     stretch, a callable of the along-side coordinate ``s`` (m, x for south/north, y for west/east),
     or — with ``times`` (s) — an array ``(len(times),)`` (a time series, uniform along the side) or
     ``(len(times), n_cells)``. ``start``/``stop`` (m, along-side coordinate) limit the stretch.
+
+    ``absorbing`` (s, level boundaries only): an exactly imposed level reflects every wave (the level
+    is a node of the surface), so a basin between it and a wall rings for hours. With a relaxation
+    time T the incoming Riemann invariant is taken from water at the prescribed level moving with the
+    interior's normal velocity averaged over T: waves much shorter than T leave the domain, and in a
+    steady state the boundary stage is still the prescribed level.
     """
 
     kind: str
@@ -42,12 +49,16 @@ class BoundaryCondition:
     times: object = None
     start: float | None = None
     stop: float | None = None
+    absorbing: float | None = None
 
     def __post_init__(self):
         if self.kind not in KINDS:
             raise InputError(f"boundary condition kind {self.kind!r} unknown; use one of {KINDS}")
         if self.kind == "level" and self.level is None:
             raise InputError("boundary condition 'level' needs level=")
+        if self.absorbing is not None and (self.kind != "level" or not self.absorbing > 0):
+            raise InputError(f"absorbing= takes a relaxation time > 0 s on a 'level' boundary, got "
+                             f"{self.absorbing!r} on {self.kind!r}")
         if self.kind == "discharge" and self.discharge is None:
             raise InputError("boundary condition 'discharge' needs discharge=")
 
@@ -60,8 +71,8 @@ class BoundaryCondition:
         return cls("outflow", start=start, stop=stop)
 
     @classmethod
-    def water_level(cls, level, times=None, start=None, stop=None) -> "BoundaryCondition":
-        return cls("level", level=level, times=times, start=start, stop=stop)
+    def water_level(cls, level, times=None, start=None, stop=None, absorbing=None) -> "BoundaryCondition":
+        return cls("level", level=level, times=times, start=start, stop=stop, absorbing=absorbing)
 
     @classmethod
     def inflow(cls, discharge, level=None, times=None, start=None, stop=None) -> "BoundaryCondition":
@@ -258,20 +269,32 @@ def levee_bed(scene, X: np.ndarray, Y: np.ndarray) -> np.ndarray:
     return bed
 
 
-def breach_domain(scene, resolution: float, *, levee_no_flow: bool = True, flood_level_profile: bool = True) -> Domain:
+def breach_domain(scene, resolution: float, *, levee_no_flow: bool = True, flood_level_profile: bool = True,
+                  absorbing_source: bool = True) -> Domain:
     """Structured-grid :class:`Domain` of a :class:`BreachScene` at *resolution* (m).
 
     Extent: the levee length (``2 L_side + B``) along x, ``flood_side_extent`` to
     ``protected_side_extent`` across. Boundary conditions (report §3.2.1, Fig 3.2): the flood source is
     a prescribed water level on the flood-side edge and on the flood-side parts of the channel ends,
     equal to the flood elevation at the upstream end and falling linearly by ``flood_channel_drop``
-    over ``flood_channel_length`` downstream; the polder edges drain freely. With ``levee_no_flow`` the
+    over ``flood_channel_length`` downstream; the polder edges drain freely. With ``absorbing_source``
+    the source level is absorbing (relaxation time ``4 L / sqrt(g h_L)``, the period of the quarter-wave
+    seiche between levee and source, L the flood-side extent): an exactly imposed level reflects the
+    waves of the breach opening and the flood-side basin would ring for hours (report's ADH runs reach
+    their steady state on the same mean levels). With ``levee_no_flow`` the
     intact levee outside the breach is a no-flow boundary (the report's ADH model) instead of bed.
     Initial state: flood side at the source level, polder dry.
     """
     if not resolution > 0:
         raise InputError(f"resolution must be > 0 m, got {resolution}")
     lev = scene.levee
+    relaxation = None
+    if absorbing_source:
+        relaxation = 4.0 * scene.flood_side_extent / math.sqrt(9.81 * max(lev.height, 1e-3))
+
+    def source(level, start=None, stop=None):
+        return BoundaryCondition.water_level(level, start=start, stop=stop, absorbing=relaxation)
+
     half_len = scene.levee_length_each_side + 0.5 * scene.breach.length
     x0, x1 = -half_len, half_len
     y0, y1 = -scene.flood_side_extent, scene.protected_side_extent
@@ -307,9 +330,9 @@ def breach_domain(scene, resolution: float, *, levee_no_flow: bool = True, flood
     dom.initial_surface = initial
     dom.name = scene.name or "breach"
     dom.boundaries = {
-        "south": [BoundaryCondition.water_level(level_at)],
-        "west": [BoundaryCondition.outflow(), BoundaryCondition.water_level(float(level_at(x0)), start=y0, stop=toe_f)],
-        "east": [BoundaryCondition.outflow(), BoundaryCondition.water_level(float(level_at(x1)), start=y0, stop=toe_f)],
+        "south": [source(level_at)],
+        "west": [BoundaryCondition.outflow(), source(float(level_at(x0)), start=y0, stop=toe_f)],
+        "east": [BoundaryCondition.outflow(), source(float(level_at(x1)), start=y0, stop=toe_f)],
         "north": [BoundaryCondition.outflow()],
     }
     return dom
@@ -317,7 +340,8 @@ def breach_domain(scene, resolution: float, *, levee_no_flow: bool = True, flood
 
 def pack_boundaries(domain: Domain):
     """Arrays for the numba kernels: ``kinds (4, nmax) int8``, ``times (nt,)``,
-    ``levels, discharges (4, nt, nmax)``, and the ghost-cell wall flags per side ``(4, nmax) bool``."""
+    ``levels, discharges (4, nt, nmax)`` and ``relaxation (4, nmax)``, the relaxation time (s) of
+    absorbing level cells (NaN elsewhere)."""
     from .swe.kernels import BC_DISCHARGE, BC_LEVEL, BC_OUTFLOW, BC_WALL
 
     code = {"outflow": BC_OUTFLOW, "wall": BC_WALL, "level": BC_LEVEL, "discharge": BC_DISCHARGE}
@@ -330,6 +354,7 @@ def pack_boundaries(domain: Domain):
     kinds = np.full((4, nmax), BC_WALL, dtype=np.int8)
     levels = np.full((4, times.size, nmax), np.nan)
     discharges = np.zeros((4, times.size, nmax))
+    relaxation = np.full((4, nmax), np.nan)
     for side_index, side in enumerate(SIDES):
         s = coords[side]
         for bc in domain.boundaries.get(side, []):
@@ -342,15 +367,24 @@ def pack_boundaries(domain: Domain):
                 continue
             idx = np.nonzero(sel)[0]
             kinds[side_index, idx] = code[bc.kind]
+            relaxation[side_index, idx] = np.nan if bc.absorbing is None else float(bc.absorbing)
             lv = bc.values("level", s[idx], times)
             levels[side_index][:, idx] = lv
             if bc.kind == "discharge":
                 dq = bc.values("discharge", s[idx], times)
                 discharges[side_index][:, idx] = dq
-    return kinds, times, levels, discharges
+    return kinds, times, levels, discharges, relaxation
 
 
-def breach_vicinity(domain: Domain, scene, radius: float) -> np.ndarray:
-    """Mask of the cells within *radius* (m) of the breach centre (0, 0): where the closure acts."""
+def breach_vicinity(domain: Domain, scene, radius: float | None = None) -> np.ndarray:
+    """Mask of the cells within *radius* (m) of the breach centre (0, 0): where the closure acts.
+
+    Default radius: twice the breach length, the reach of the approach and jet flows the dropped
+    masses meet (beyond it, slow eddies of the flood channel decide nothing about the closure).
+    """
+    if radius is None:
+        radius = 2.0 * scene.breach.length
+    if not radius > 0:
+        raise InputError(f"breach vicinity radius must be > 0 m, got {radius}")
     X, Y = np.meshgrid(domain.x, domain.y)
     return np.hypot(X, Y) <= radius

@@ -195,7 +195,8 @@ class RunDirectory:
             with xr.open_dataset(self.cycle_path(g), decode_times=False) as ds:
                 fields.append(ds.load())
         grid_vars = [v for v in fields[-1].data_vars if "particle" not in fields[-1][v].dims]
-        stacked = xr.concat([f[grid_vars] for f in fields], dim="cycle", data_vars="all", coords="minimal",
+        grids = _pad_to_common_sizes([f[grid_vars] for f in fields])
+        stacked = xr.concat(grids, dim="cycle", data_vars="all", coords="minimal",
                             compat="override", join="override")
         stacked = stacked.assign_coords(cycle=("cycle", np.asarray(cycles, "i4"), {"long_name": "closure cycle <g>", "units": "1"}))
         last = fields[-1]
@@ -216,8 +217,7 @@ class RunDirectory:
                                          {"long_name": "cycle <g> of the trajectory", "units": "1"})
                 trajs.append(t)
         if trajs:
-            nobs = max(t.sizes["obs"] for t in trajs)
-            trajs = [t.pad(obs=(0, nobs - t.sizes["obs"])) if t.sizes["obs"] < nobs else t for t in trajs]
+            trajs = _pad_to_common_sizes(trajs, dims=("obs",))
             tr = xr.concat(trajs, dim="trajectory", combine_attrs="override")
             tr.attrs["title"] = "breachflow trajectories of all cycles"
             tr.attrs.pop("cycle", None)
@@ -228,3 +228,18 @@ class RunDirectory:
 
             atomic_write(out, write_both)
         return out
+
+
+def _pad_to_common_sizes(datasets, dims=None):
+    """Pad (with fill values at the end) the dimensions that differ between *datasets* — the per-cycle
+    steady-state history, the observations of trajectories — so that they stack; *dims* limits which."""
+    sizes = {}
+    for ds in datasets:
+        for d, n in ds.sizes.items():
+            if (dims is None or d in dims) and d not in ds.indexes:
+                sizes[d] = max(sizes.get(d, 0), n)
+    out = []
+    for ds in datasets:
+        pad = {d: (0, n - ds.sizes[d]) for d, n in sizes.items() if d in ds.sizes and ds.sizes[d] < n}
+        out.append(ds.pad(pad) if pad else ds)
+    return out

@@ -75,8 +75,9 @@ def _interp_series(times, values, side, k, t):
 
 
 @_jit
-def _ghost(h, hu, hv, z, jg, ig, ji, ii, kind, level, q_in, nx_out, ny_out, h_dry, g):
-    """Set ghost cell (jg, ig) from its mirror interior cell (ji, ii); (nx_out, ny_out) is the outward normal."""
+def _ghost(h, hu, hv, z, jg, ig, ji, ii, kind, level, q_in, outer_un, nx_out, ny_out, h_dry, g):
+    """Set ghost cell (jg, ig) from its mirror interior cell (ji, ii); (nx_out, ny_out) is the outward
+    normal; *outer_un* the relaxed outer normal velocity of an absorbing level boundary (NaN: exact level)."""
     z[jg, ig] = z[ji, ii]
     hi = h[ji, ii]
     if hi > h_dry:
@@ -104,6 +105,26 @@ def _ghost(h, hu, hv, z, jg, ig, ji, ii, kind, level, q_in, nx_out, ny_out, h_dr
         h[jg, ig] = hi
         hu[jg, ig] = hu[ji, ii]
         hv[jg, ig] = hv[ji, ii]
+    elif kind == BC_LEVEL and outer_un == outer_un and hi > h_dry:
+        # absorbing level: the outgoing invariant R+ = u_n + 2c from inside, the incoming one
+        # R- = U - 2 c_t from water at the prescribed level moving with U, the interior normal velocity
+        # averaged over the relaxation time (outer_un). Waves shorter than that leave the domain; in a
+        # steady state U = u_n and the boundary stage is the prescribed level. Inflow at most critical.
+        ct = math.sqrt(g * max(level - z[jg, ig], 0.0))
+        r_out = ui * nx_out + vi * ny_out + 2.0 * math.sqrt(g * hi)
+        r_in = outer_un - 2.0 * ct
+        cb = 0.25 * (r_out - r_in)
+        un = 0.5 * (r_out + r_in)
+        if un < -cb:
+            cb = -r_in / 3.0
+            un = -cb
+        if cb < 0.0:
+            cb = 0.0
+        hg = cb * cb / g
+        ut_i = -ui * ny_out + vi * nx_out
+        h[jg, ig] = hg
+        hu[jg, ig] = hg * (un * nx_out - ut_i * ny_out)
+        hv[jg, ig] = hg * (un * ny_out + ut_i * nx_out)
     elif kind == BC_LEVEL:
         # prescribed level; normal velocity from the outgoing Riemann invariant u_n + 2c of the interior,
         # inflow kept subcritical (|u_n| <= c_b); a dry interior sees a reservoir at rest
@@ -141,32 +162,57 @@ def _ghost(h, hu, hv, z, jg, ig, ji, ii, kind, level, q_in, nx_out, ny_out, h_dr
 
 
 @_jit
-def fill_ghosts(h, hu, hv, z, kinds, times, levels, discharges, t, h_dry, g):
-    """Fill the two ghost layers on the four sides from the boundary specification at time *t*."""
+def fill_ghosts(h, hu, hv, z, kinds, times, levels, discharges, outer_un, t, h_dry, g):
+    """Fill the two ghost layers on the four sides from the boundary specification at time *t*;
+    ``outer_un (4, nmax)`` holds the relaxed outer velocities of absorbing level cells (NaN elsewhere)."""
     ny = h.shape[0] - 2 * G
     nx = h.shape[1] - 2 * G
     for k in range(ny):
         j = G + k
         for layer in range(G):
-            kind = kinds[WEST, k]
-            _ghost(h, hu, hv, z, j, G - 1 - layer, j, G + layer, kind,
+            _ghost(h, hu, hv, z, j, G - 1 - layer, j, G + layer, kinds[WEST, k],
                    _interp_series(times, levels, WEST, k, t), _interp_series(times, discharges, WEST, k, t),
-                   -1.0, 0.0, h_dry, g)
-            kind = kinds[EAST, k]
-            _ghost(h, hu, hv, z, j, G + nx + layer, j, G + nx - 1 - layer, kind,
+                   outer_un[WEST, k], -1.0, 0.0, h_dry, g)
+            _ghost(h, hu, hv, z, j, G + nx + layer, j, G + nx - 1 - layer, kinds[EAST, k],
                    _interp_series(times, levels, EAST, k, t), _interp_series(times, discharges, EAST, k, t),
-                   1.0, 0.0, h_dry, g)
+                   outer_un[EAST, k], 1.0, 0.0, h_dry, g)
     for k in range(nx):
         i = G + k
         for layer in range(G):
-            kind = kinds[SOUTH, k]
-            _ghost(h, hu, hv, z, G - 1 - layer, i, G + layer, i, kind,
+            _ghost(h, hu, hv, z, G - 1 - layer, i, G + layer, i, kinds[SOUTH, k],
                    _interp_series(times, levels, SOUTH, k, t), _interp_series(times, discharges, SOUTH, k, t),
-                   0.0, -1.0, h_dry, g)
-            kind = kinds[NORTH, k]
-            _ghost(h, hu, hv, z, G + ny + layer, i, G + ny - 1 - layer, i, kind,
+                   outer_un[SOUTH, k], 0.0, -1.0, h_dry, g)
+            _ghost(h, hu, hv, z, G + ny + layer, i, G + ny - 1 - layer, i, kinds[NORTH, k],
                    _interp_series(times, levels, NORTH, k, t), _interp_series(times, discharges, NORTH, k, t),
-                   0.0, 1.0, h_dry, g)
+                   outer_un[NORTH, k], 0.0, 1.0, h_dry, g)
+
+
+@_jit
+def relax_outer_velocity(h, hu, hv, outer_un, relaxation, dt, h_dry):
+    """``U += min(dt / T, 1) (u_n - U)`` at every absorbing level cell: the outer water follows the
+    interior's mean normal velocity with relaxation time T (s), so the mean level stays prescribed."""
+    ny = h.shape[0] - 2 * G
+    nx = h.shape[1] - 2 * G
+    for side in range(4):
+        n = ny if side < 2 else nx
+        for k in range(n):
+            if not (outer_un[side, k] == outer_un[side, k]):
+                continue
+            if side == WEST:
+                j, i, sgn, normal_x = G + k, G, -1.0, True
+            elif side == EAST:
+                j, i, sgn, normal_x = G + k, G + nx - 1, 1.0, True
+            elif side == SOUTH:
+                j, i, sgn, normal_x = G, G + k, -1.0, False
+            else:
+                j, i, sgn, normal_x = G + ny - 1, G + k, 1.0, False
+            un = 0.0
+            if h[j, i] > h_dry:
+                un = sgn * (hu[j, i] if normal_x else hv[j, i]) / h[j, i]
+            w = dt / relaxation[side, k]
+            if w > 1.0:
+                w = 1.0
+            outer_un[side, k] += w * (un - outer_un[side, k])
 
 
 @_pjit
@@ -496,7 +542,7 @@ def stage_update(h0, hu0, hv0, h, hu, hv, dh, dhu, dhv, obst, manning, dt, g, h_
 
 
 @_jit
-def advance(h, hu, hv, z, obst, manning, kinds, times, levels, discharges,
+def advance(h, hu, hv, z, obst, manning, kinds, times, levels, discharges, outer_un, relaxation,
             dx, dy, g, second_order, limiter, riemann, courant, h_dry,
             t, t_stop, max_steps, dt_min,
             h1, hu1, hv1, u, v, eta, dh, dhu, dhv, fy, stats):
@@ -508,7 +554,7 @@ def advance(h, hu, hv, z, obst, manning, kinds, times, levels, discharges,
     """
     steps = 0
     while t < t_stop and steps < max_steps:
-        fill_ghosts(h, hu, hv, z, kinds, times, levels, discharges, t, h_dry, g)
+        fill_ghosts(h, hu, hv, z, kinds, times, levels, discharges, outer_un, t, h_dry, g)
         primitives(h, hu, hv, z, obst, u, v, eta, h_dry)
         rate = max_wave_rate(h, u, v, obst, dx, dy, g)
         if not (rate == rate) or rate == math.inf:
@@ -527,7 +573,7 @@ def advance(h, hu, hv, z, obst, manning, kinds, times, levels, discharges,
         if second_order:
             stats[0] += stage_update(h, hu, hv, h, hu, hv, dh, dhu, dhv, obst, manning, dt, g, h_dry, 0.0,
                                      h1, hu1, hv1)
-            fill_ghosts(h1, hu1, hv1, z, kinds, times, levels, discharges, t + dt, h_dry, g)
+            fill_ghosts(h1, hu1, hv1, z, kinds, times, levels, discharges, outer_un, t + dt, h_dry, g)
             primitives(h1, hu1, hv1, z, obst, u, v, eta, h_dry)
             rhs(h1, u, v, eta, obst, dx, dy, g, second_order, limiter, riemann, dh, dhu, dhv, fy)
             stats[0] += stage_update(h, hu, hv, h1, hu1, hv1, dh, dhu, dhv, obst, manning, dt, g, h_dry, 0.5,
@@ -535,6 +581,7 @@ def advance(h, hu, hv, z, obst, manning, kinds, times, levels, discharges,
         else:
             stats[0] += stage_update(h, hu, hv, h, hu, hv, dh, dhu, dhv, obst, manning, dt, g, h_dry, 0.0,
                                      h, hu, hv)
+        relax_outer_velocity(h, hu, hv, outer_un, relaxation, dt, h_dry)
         t += dt
         steps += 1
         if dt < stats[1]:

@@ -86,7 +86,7 @@ class SWESimulation:
         self.dx, self.dy = d.dx, d.dy
         P = K.G
         shape = (ny + 2 * P, nx + 2 * P)
-        self.kinds, self.times, self.levels, self.discharges = pack_boundaries(d)
+        self.kinds, self.times, self.levels, self.discharges, self.relaxation = pack_boundaries(d)
         self.z = np.zeros(shape)
         self.z[P:-P, P:-P] = d.bed
         self.manning = np.zeros(shape)
@@ -111,6 +111,7 @@ class SWESimulation:
         self.steps = 0
         self.history = ConvergenceHistory()
         self._set_initial(initial)
+        self.outer_velocity = self._initial_outer_velocity()
 
     # ------------------------------------------------------------------ state
     def _set_initial(self, initial):
@@ -126,16 +127,17 @@ class SWESimulation:
         elif isinstance(initial, xr.Dataset):
             if initial.depth.ndim != 2:
                 initial = initial.isel(time=-1)
-            if initial.depth.shape != d.shape:
-                raise InputError(f"warm start: snapshot shape {initial.depth.shape} differs from the domain {d.shape}")
-            h0 = np.asarray(initial.depth.values, float)
-            if "bed_elevation" in initial:
-                surface = np.asarray(initial.bed_elevation.values, float) + h0
-                h = np.where(h0 > 0, np.maximum(surface - d.bed, 0.0), 0.0)
+            if _same_grid(initial, d):
+                h0 = np.asarray(initial.depth.values, float)
+                if "bed_elevation" in initial:
+                    surface = np.asarray(initial.bed_elevation.values, float) + h0
+                    h = np.where(h0 > 0, np.maximum(surface - d.bed, 0.0), 0.0)
+                else:
+                    h = h0
+                hu = h * np.asarray(initial.u.values, float)
+                hv = h * np.asarray(initial.v.values, float)
             else:
-                h = h0
-            hu = h * np.asarray(initial.u.values, float)
-            hv = h * np.asarray(initial.v.values, float)
+                h, hu, hv = _regrid(initial, d)
         else:
             h, hu, hv = (np.asarray(a, float) for a in initial)
             if h.shape != d.shape:
@@ -149,6 +151,18 @@ class SWESimulation:
         self.h[inner] = np.where(blocked, 0.0, h)
         self.hu[inner] = np.where(blocked, 0.0, hu)
         self.hv[inner] = np.where(blocked, 0.0, hv)
+
+    def _initial_outer_velocity(self) -> np.ndarray:
+        """Outer normal velocity of absorbing level cells: the initial interior one (a warm start
+        carries on where it was); NaN elsewhere."""
+        u, v = self.velocity()
+        inner = {K.WEST: -u[:, 0], K.EAST: u[:, -1], K.SOUTH: -v[0, :], K.NORTH: v[-1, :]}
+        out = np.full(self.relaxation.shape, np.nan)
+        for side, un in inner.items():
+            n = un.size
+            absorbing = np.isfinite(self.relaxation[side, :n])
+            out[side, :n] = np.where(absorbing, un, np.nan)
+        return out
 
     @property
     def depth(self) -> np.ndarray:
@@ -182,7 +196,7 @@ class SWESimulation:
         try:
             t, steps, status = K.advance(
                 self.h, self.hu, self.hv, self.z, self.obst, self.manning,
-                self.kinds, self.times, self.levels, self.discharges,
+                self.kinds, self.times, self.levels, self.discharges, self.outer_velocity, self.relaxation,
                 self.dx, self.dy, o.gravity, o.order == 2, K.LIMITERS[o.limiter], K.RIEMANN[o.riemann],
                 o.courant, o.h_dry, float(self.t), float(t_end), int(max_steps), o.dt_min,
                 w[0], w[1], w[2], w[3], w[4], w[5], w[6], w[7], w[8], self._faces, self.stats)
@@ -274,6 +288,38 @@ class SWESimulation:
             domain=d.name,
         )
         return ds
+
+
+def _same_grid(snapshot: xr.Dataset, domain: Domain) -> bool:
+    if snapshot.depth.shape != domain.shape:
+        return False
+    return bool(np.allclose(snapshot.x.values, domain.x) and np.allclose(snapshot.y.values, domain.y))
+
+
+def _regrid(snapshot: xr.Dataset, domain: Domain):
+    """Warm start from a snapshot on another grid (grid sequencing: a coarse steady state starts a fine
+    run). The wet-weighted bilinear interpolation of surface and velocity (normalised convolution, so
+    dry cells do not drag the surface down) is laid on the new bed, which keeps a lake at rest at rest."""
+    for name in ("depth", "u", "v", "bed_elevation"):
+        if name not in snapshot:
+            raise InputError(f"warm start from another grid: the snapshot has no {name!r} variable")
+    if snapshot.depth.dims != ("y", "x"):
+        raise InputError(f"warm start from another grid needs a (y, x) grid snapshot, got dims {snapshot.depth.dims}")
+    from scipy.interpolate import RegularGridInterpolator
+
+    wet = snapshot.depth > 0
+    src = (snapshot.y.values, snapshot.x.values)
+    Y, X = np.meshgrid(domain.y, domain.x, indexing="ij")
+
+    def on_new(a):  # bilinear, extrapolated linearly over the half cell outside the source centres
+        return RegularGridInterpolator(src, np.asarray(a, float), bounds_error=False, fill_value=None)((Y, X))
+
+    w = on_new(wet)
+    wet_new = w > 1e-9     # any wet source cell around: its surface, laid on the new bed, decides
+    safe = np.where(wet_new, w, 1.0)
+    eta = on_new((snapshot.bed_elevation + snapshot.depth).where(wet, 0.0)) / safe
+    h = np.where(wet_new, np.maximum(eta - domain.bed, 0.0), 0.0)
+    return h, h * on_new(snapshot.u.where(wet, 0.0)) / safe, h * on_new(snapshot.v.where(wet, 0.0)) / safe
 
 
 def _mask(obstacles, domain: Domain) -> np.ndarray:
