@@ -204,6 +204,7 @@ class DemSimulation:
         self._dirty = True
         self._sleep_grid_dirty = True
         self._refresh_idx()
+        self._commit_models()
         if not hasattr(self, "_pa"):
             self._pa = self._pb = _EMPTY_I
             self._hist = np.zeros((0, 3))
@@ -211,6 +212,13 @@ class DemSimulation:
             self._touch = np.zeros(0, bool)
             self._frozen_keys = np.zeros(0, np.int64)
             self._frozen_hist = np.zeros((0, 6))  # parked (shear, rolling) histories
+
+    def _commit_models(self):
+        """Tell force models with a memory (the Basset history) the accepted state."""
+        for m in self.models:
+            commit = getattr(m, "commit", None)
+            if commit is not None:
+                commit(self.state, self.state.pos, self.state.vel, self.t)
 
     @property
     def dt(self) -> float:
@@ -470,6 +478,7 @@ class DemSimulation:
         self.particle_steps += self.idx.size
         self.t += h
         self.steps += 1
+        self._commit_models()
         for b in self.boundaries:
             b.advance(h)
         if self.sleeping:

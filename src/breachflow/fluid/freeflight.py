@@ -85,6 +85,13 @@ class FreeFlight:
                 m += extra
         return m
 
+    def commit(self, t, y):
+        """Tell models with a memory (the Basset history) the accepted state ``y`` at time *t*."""
+        for model in self.models:
+            commit = getattr(model, "commit", None)
+            if commit is not None:
+                commit(self.state, np.ascontiguousarray(y[:, 0:3]), np.ascontiguousarray(y[:, 3:6]), t)
+
     def __call__(self, t, y):
         """``dy/dt`` for ``y = (pos, vel, omega)`` stacked as an (N, 9) array."""
         self.evaluations += 1
@@ -134,6 +141,7 @@ def integrate(state, models, t_eval, *, method: str = "dopri5", dt: float | None
         raise InputError("t_eval must be a non-empty increasing 1-D array of times (s)")
     rhs = FreeFlight(state, models)
     y = np.hstack([state.pos, state.vel, state.omega]).astype(float)
+    rhs.commit(float(t_eval[0]), y)
     n = y.shape[0]
     out = np.full((t_eval.size, n, 9), np.nan)
     out[0] = y
@@ -163,6 +171,7 @@ def integrate(state, models, t_eval, *, method: str = "dopri5", dt: float | None
             t += hh
             y = y_new
             steps += 1
+            rhs.commit(t, y)
             k_first = stages[-1].copy() if tab.fsal else None  # FSAL: last stage is f(t + h, y_new)
             if stop is not None and stop(t, y):
                 out[j] = y
