@@ -122,13 +122,16 @@ def run_dem(p: Problem, integrator, dt):
     """Run through DemSimulation; returns (velocities (T, 3), cpu s, wall s, steps, force evaluations)."""
     from breachflow.dem import DemSimulation
 
+    variable = not isinstance(integrator, str)
+    per = None
+    if not variable:  # a whole number of steps between outputs: dt is rounded to hit the output times
+        per = max(1, int(round((p.times[1] - p.times[0]) / dt)))
+        dt = (p.times[1] - p.times[0]) / per
     model = p.model()
     st = p.state()
     sim = DemSimulation(st, models=[model], integrator=integrator, dt=dt, sleeping=False)
     out = np.empty((p.times.size, 3))
     out[0] = st.vel[0]
-    variable = getattr(sim.integrator, "variable_step", False)
-    per = None if variable else max(1, int(round((p.times[1] - p.times[0]) / dt)))
     c0, w0 = time.process_time(), time.perf_counter()
     for k in range(1, p.times.size):
         if variable:
