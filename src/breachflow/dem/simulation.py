@@ -204,6 +204,7 @@ class DemSimulation:
         self._dirty = True
         self._sleep_grid_dirty = True
         self._refresh_idx()
+        self._commit_models()
         if not hasattr(self, "_pa"):
             self._pa = self._pb = _EMPTY_I
             self._hist = np.zeros((0, 3))
@@ -211,6 +212,13 @@ class DemSimulation:
             self._touch = np.zeros(0, bool)
             self._frozen_keys = np.zeros(0, np.int64)
             self._frozen_hist = np.zeros((0, 6))  # parked (shear, rolling) histories
+
+    def _commit_models(self):
+        """Tell force models with a memory (the Basset history) the accepted state."""
+        for m in self.models:
+            commit = getattr(m, "commit", None)
+            if commit is not None:
+                commit(self.state, self.state.pos, self.state.vel, self.t)
 
     @property
     def dt(self) -> float:
@@ -438,7 +446,7 @@ class DemSimulation:
 
     _n_wake = np.zeros(1, np.int64)
 
-    def _one_step(self):
+    def _one_step(self, t_limit: float = math.inf):
         s = self.state
         self._n_wake = np.zeros(1, np.int64)
         self._wake_from_boundaries()
@@ -463,12 +471,16 @@ class DemSimulation:
         if self._dirty or contacts.displacement_since(self.idx, s.pos, self._pos_build, self.geom,
                                                       self.periodic) > 0.5 * self.skin:
             self._rebuild()
-        disp = self.integrator.step(self, self._dt)
+        if getattr(self.integrator, "variable_step", False):  # e.g. adaptive_free_flight picks its step
+            disp, h = self.integrator.advance(self, self._dt, t_limit)
+        else:
+            disp, h = self.integrator.step(self, self._dt), self._dt
         self.particle_steps += self.idx.size
-        self.t += self._dt
+        self.t += h
         self.steps += 1
+        self._commit_models()
         for b in self.boundaries:
-            b.advance(self._dt)
+            b.advance(h)
         if self.sleeping:
             self._sleep_and_wake()
         return disp
@@ -587,8 +599,14 @@ class DemSimulation:
         self._wake(np.flatnonzero(~s.awake & s.active & ~self._fixed))
 
     def run(self, duration: float):
-        """Advance by *duration* seconds (rounded up to whole steps)."""
-        return self.step(int(math.ceil(duration / self._dt - 1e-9)))
+        """Advance by *duration* seconds (rounded up to whole steps; a variable-step integrator lands on it)."""
+        if not getattr(self.integrator, "variable_step", False):
+            return self.step(int(math.ceil(duration / self._dt - 1e-9)))
+        t_end = self.t + float(duration)
+        disp = (0.0, 0.0)
+        while self.t < t_end - 1e-12 * max(1.0, abs(t_end)):
+            disp = self._one_step(t_end)
+        return disp
 
     def run_to_equilibrium(self, e_tol: float, criterion: str = "max", *, max_steps: int = 10_000_000,
                            consecutive: int | None = None) -> EquilibriumResult:

@@ -85,6 +85,13 @@ class FreeFlight:
                 m += extra
         return m
 
+    def commit(self, t, y):
+        """Tell models with a memory (the Basset history) the accepted state ``y`` at time *t*."""
+        for model in self.models:
+            commit = getattr(model, "commit", None)
+            if commit is not None:
+                commit(self.state, np.ascontiguousarray(y[:, 0:3]), np.ascontiguousarray(y[:, 3:6]), t)
+
     def __call__(self, t, y):
         """``dy/dt`` for ``y = (pos, vel, omega)`` stacked as an (N, 9) array."""
         self.evaluations += 1
@@ -134,6 +141,7 @@ def integrate(state, models, t_eval, *, method: str = "dopri5", dt: float | None
         raise InputError("t_eval must be a non-empty increasing 1-D array of times (s)")
     rhs = FreeFlight(state, models)
     y = np.hstack([state.pos, state.vel, state.omega]).astype(float)
+    rhs.commit(float(t_eval[0]), y)
     n = y.shape[0]
     out = np.full((t_eval.size, n, 9), np.nan)
     out[0] = y
@@ -149,38 +157,58 @@ def integrate(state, models, t_eval, *, method: str = "dopri5", dt: float | None
             # a fixed step that would leave a sliver before the output time is split evenly instead
             if not adaptive and target - t - hh < 1e-9 * hh:
                 hh = target - t
-            for s in range(tab.b.size):
-                if s == 0 and k_first is not None:
-                    stages[0] = k_first
-                    continue
-                ys = y + hh * np.tensordot(tab.a[s, :s], stages[:s], axes=1) if s else y
-                stages[s] = rhs(t + tab.c[s] * hh, ys)
-            y_new = y + hh * np.tensordot(tab.b, stages, axes=1)
-            if not np.all(np.isfinite(y_new)):
-                raise PhysicsError(f"free flight became non-finite at t={t:.6g} s (step {hh:.3g} s too large?)")
+            y_new, err = attempt_step(rhs, tab, t, y, hh, stages, k_first, rtol, atol, adaptive)
             if adaptive:
-                err_vec = hh * np.tensordot(tab.b_err, stages, axes=1)
-                scale = atol + rtol * np.maximum(np.abs(y), np.abs(y_new))
-                err = float(np.max(np.abs(err_vec) / scale))
-                fac = 0.9 * (err if err > 0 else 1e-10) ** (-1.0 / tab.order)
                 if err > 1.0:
                     rejected += 1
-                    h = hh * min(1.0, max(0.2, fac))
+                    h = next_step_size(hh, err, tab.order, grow=1.0)
                     k_first = stages[0].copy() if tab.fsal else None
                     continue
-                h_next = hh * min(5.0, max(0.2, fac))
+                h_next = next_step_size(hh, err, tab.order)
                 if hh == target - t and h > hh:  # a step shortened to hit an output does not shrink h
                     h_next = max(h_next, h)
                 h = h_next
             t += hh
             y = y_new
             steps += 1
+            rhs.commit(t, y)
             k_first = stages[-1].copy() if tab.fsal else None  # FSAL: last stage is f(t + h, y_new)
             if stop is not None and stop(t, y):
                 out[j] = y
                 return _result(t_eval, out, steps, rejected, rhs.evaluations)
         out[j] = y
     return _result(t_eval, out, steps, rejected, rhs.evaluations)
+
+
+def attempt_step(rhs, tab: Tableau, t: float, y, h: float, stages, k_first=None, rtol: float = 0.0,
+                 atol: float = 0.0, with_error: bool = False):
+    """One explicit Runge–Kutta step of size *h* from ``(t, y)``: ``y_new = y + h sum_s b_s k_s``.
+
+    *stages* (S, *y.shape*) receives the stage derivatives ``k_s``; *k_first* (FSAL) replaces the first
+    evaluation.  With *with_error*, also the scaled error ``max |h sum_s (b - b_hat)_s k_s| / (atol + rtol |y|)``
+    (HNW I §II.4), else ``0.0``.  The one RK step of :func:`integrate` and of the DEM's adaptive free flight.
+    """
+    for s in range(tab.b.size):
+        if s == 0 and k_first is not None:
+            stages[0] = k_first
+            continue
+        ys = y + h * np.tensordot(tab.a[s, :s], stages[:s], axes=1) if s else y
+        stages[s] = rhs(t + tab.c[s] * h, ys)
+    y_new = y + h * np.tensordot(tab.b, stages, axes=1)
+    if not np.all(np.isfinite(y_new)):
+        raise PhysicsError(f"free flight became non-finite at t={t:.6g} s (step {h:.3g} s too large?)")
+    if not with_error:
+        return y_new, 0.0
+    err_vec = h * np.tensordot(tab.b_err, stages, axes=1)
+    scale = atol + rtol * np.maximum(np.abs(y), np.abs(y_new))
+    return y_new, float(np.max(np.abs(err_vec) / scale))
+
+
+def next_step_size(h: float, err: float, order: int, grow: float = 5.0) -> float:
+    """``h * clip(0.9 err^(-1/order), 0.2, grow)``: the standard controller of an embedded pair whose error
+    estimate is of order ``order - 1`` (HNW I §II.4)."""
+    fac = 0.9 * (err if err > 0 else 1e-10) ** (-1.0 / order)
+    return h * min(grow, max(0.2, fac))
 
 
 def _result(t_eval, out, steps, rejected, evaluations):
