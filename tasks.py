@@ -2,7 +2,7 @@
 """One-file bootstrap for breachflow: needs only Python >= 3.11 and pip.
 
     python3 tasks.py run  [ARGS...]   # create .venv if needed, install, run `breachflow run ARGS...`
-    python3 tasks.py test [--slow] [PYTEST ARGS...]   # same set-up, then the test suite
+    python3 tasks.py test [--slow] [PYTEST ARGS...]   # same set-up + the CF/GDAL check tools, then the test suite
     python3 tasks.py bench [NAME]     # same set-up, then the benchmarks in benchmarks/
     python3 tasks.py shell CMD...     # run CMD inside the environment
 
