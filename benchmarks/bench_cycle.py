@@ -76,7 +76,7 @@ def one_cycle(n_resting: int, workdir: str) -> dict:
 
 
 def default_run(workdir: str) -> tuple[float, float, str]:
-    """Wall and CPU time (s) of ``breachflow run --out DIR`` (the embedded default scenario), and its last line."""
+    """Wall and CPU time (s) of ``breachflow run --out DIR`` (the embedded default scenario), and its summary."""
     exe = Path(sys.executable).with_name("breachflow")
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
@@ -86,8 +86,13 @@ def default_run(workdir: str) -> tuple[float, float, str]:
     if res.returncode:
         raise SystemExit(f"breachflow run failed:\n{res.stdout}\n{res.stderr}")
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
-    closed = next((ln.strip() for ln in res.stdout.splitlines() if "closure achieved" in ln), "")
-    return wall, cpu, closed
+    rows = {}
+    for ln in res.stdout.splitlines():
+        cells = [c.strip() for c in ln.replace("│", "|").split("|") if c.strip()]
+        if len(cells) == 2:
+            rows[cells[0]] = cells[1]
+    what = ", ".join(f"{k} {rows[k]}" for k in ("cycles", "masses placed", "tonnage", "closure achieved") if k in rows)
+    return wall, cpu, what
 
 
 def main(argv=None) -> int:
