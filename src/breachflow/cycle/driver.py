@@ -294,8 +294,9 @@ class ClosureRun:
         s = self.setup
         wall0 = _time.perf_counter()
         d = s.dem
-        # 1. the DEM continues from the previous cycle's saved state (resting masses asleep; their
-        #    wake reference is the old field, so a changed flow wakes the ones it really affects)
+        # 1. the DEM continues the previous cycle's (in memory, or restored from its saved state after a
+        #    resume): resting masses asleep, their wake reference the old field, so a changed flow wakes
+        #    the ones it really affects
         sim = self._cycle_dem(g, snapshot, rec)
         # 2. release this cycle's masses
         sampler = FieldSampler(snapshot, method="bilinear")
