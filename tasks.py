@@ -2,7 +2,7 @@
 """One-file bootstrap for breachflow: needs only Python >= 3.11 and pip.
 
     python3 tasks.py run  [ARGS...]   # create .venv if needed, install, run `breachflow run ARGS...`
-    python3 tasks.py test [--slow] [PYTEST ARGS...]   # same set-up, then the test suite
+    python3 tasks.py test [--slow] [PYTEST ARGS...]   # same set-up + the CF/GDAL check tools, then the test suite
     python3 tasks.py bench [NAME]     # same set-up, then the benchmarks in benchmarks/
     python3 tasks.py shell CMD...     # run CMD inside the environment
 
@@ -10,8 +10,10 @@ The environment is re-installed only when pyproject.toml changes (a stamp file r
 """
 from __future__ import annotations
 
+import ctypes.util
 import hashlib
 import os
+import shutil
 import subprocess
 import sys
 import venv
@@ -43,6 +45,29 @@ def ensure_env() -> None:
     STAMP.write_text(want)
 
 
+#: Debian packages the CF/GIS check of the test suite needs (tests/output/test_cf_gis_check.py)
+CHECK_DEBS = {"gdal-bin": lambda: shutil.which("gdalinfo"), "libudunits2-0": lambda: ctypes.util.find_library("udunits2")}
+
+
+def ensure_check_tools() -> None:
+    """The tools the CF/GIS test runs: gdalinfo and UDUNITS-2 (apt-get, when missing and this is root with
+    apt-get, as in CI) and the cfchecker environment (``tools/cf_check.py --setup``). A failure is reported
+    and the test then says what is missing (it skips on a developer machine, fails in CI)."""
+    missing = [deb for deb, present in CHECK_DEBS.items() if not present()]
+    if missing and hasattr(os, "geteuid") and os.geteuid() == 0 and shutil.which("apt-get"):
+        print(f"[tasks] installing {' '.join(missing)} (apt-get) for the CF/GDAL check", flush=True)
+        env = dict(os.environ, DEBIAN_FRONTEND="noninteractive")
+        ok = subprocess.run(["apt-get", "update", "-qq"], env=env, stdout=subprocess.DEVNULL).returncode == 0
+        ok = ok and subprocess.run(["apt-get", "install", "-y", "-qq", "--no-install-recommends", *missing],
+                                   env=env, stdout=subprocess.DEVNULL).returncode == 0
+        if not ok:
+            print(f"[tasks] warning: could not install {' '.join(missing)}", file=sys.stderr, flush=True)
+    res = subprocess.run([sys.executable, str(ROOT / "tools" / "cf_check.py"), "--setup"], stdout=subprocess.DEVNULL)
+    if res.returncode:
+        print("[tasks] warning: could not set up the cfchecker environment (tools/cf_check.py --setup)",
+              file=sys.stderr, flush=True)
+
+
 def main(argv: list[str]) -> int:
     if not argv or argv[0] in {"-h", "--help"}:
         print(__doc__)
@@ -55,6 +80,7 @@ def main(argv: list[str]) -> int:
     if task == "run":
         cmd = [str(BIN / "breachflow"), "run", *rest]
     elif task == "test":
+        ensure_check_tools()
         markers = ["-m", "not slow"]
         if "--slow" in rest:
             rest.remove("--slow")

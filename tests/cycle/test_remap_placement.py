@@ -61,3 +61,31 @@ def test_placement_is_seeded_per_cycle_and_respects_units():
         PlacementPlan.from_config({"diamter": "1 m"})
     with pytest.raises(InputError, match="outside the field"):
         plan.release(1, 0, lambda x, y: np.full_like(x, np.nan))
+
+
+def test_incremental_pile_top_equals_the_full_recomputation():
+    """Masses added, moved, stopping and starting to rest over many cycles: the incrementally kept pile
+    top is the full ``pile_top`` of the current masses, bit for bit, while touching only the changes."""
+    from breachflow.cycle.remap import IncrementalPileTop, pile_top
+
+    rng = np.random.default_rng(3)
+    x = np.arange(40) * 0.5
+    y = np.arange(30) * 0.5 - 3.0
+    bed = np.zeros((30, 40))
+    pile = IncrementalPileTop(x, y, bed)
+    pos, rad, rest = np.zeros((0, 3)), np.zeros(0), np.zeros(0, bool)
+    for cycle in range(30):
+        k = int(rng.integers(0, 6))
+        pos = np.concatenate([pos, np.column_stack([rng.uniform(-1, 21, k), rng.uniform(-4, 12, k), rng.uniform(0, 2, k)])])
+        rad = np.concatenate([rad, rng.uniform(0.1, 1.5, k)])
+        rest = np.concatenate([rest, rng.random(k) < 0.7])
+        moved = rng.random(rad.size) < 0.1
+        pos[moved] += rng.normal(0.0, 0.5, (int(moved.sum()), 3))
+        flip = rng.random(rad.size) < 0.1
+        rest[flip] = ~rest[flip]
+        top = pile.update(pos, rad, rest)
+        np.testing.assert_array_equal(top, pile_top(x, y, bed, pos, rad, rest), err_msg=f"cycle {cycle}")
+        assert pile.last_changed <= k + int(moved.sum()) + int(flip.sum())
+    # nothing changed: nothing recomputed
+    pile.update(pos, rad, rest)
+    assert pile.last_changed == 0

@@ -6,10 +6,14 @@ limit → remap the resting masses into the hydrodynamic model (no-flow cells or
 the flow (warm start; skipped when the remap changed no cell) → optional stability re-run
 (criterion 5) → end criteria → write the cycle to the run directory.
 
-Determinism and resume: cycle ``g``'s DEM always starts from the restart record of cycle ``g − 1``
-(positions, velocities, sizes, densities; previously resting masses start asleep and shear
-histories start at zero), and the placement draws from ``rng([seed, g])``. A resumed run therefore
-repeats exactly what an uninterrupted one does.
+Determinism and resume: cycle ``g``'s DEM continues the DEM of cycle ``g − 1`` in the new frozen field
+(kept in memory; after a resume restored bit-identically from the restart record of cycle ``g − 1``),
+and the placement draws from ``rng([seed, g])``. A resumed run therefore repeats exactly what an
+uninterrupted one does.
+
+Per-cycle cost follows what moves, not the size of the pile: resting masses sleep (with the frozen
+field, only awake masses are evaluated), the DEM is not rebuilt between cycles, and the remap
+recomputes only the cells under masses that moved, stopped or were added (``IncrementalPileTop``).
 """
 from __future__ import annotations
 
@@ -28,7 +32,7 @@ from ..schemas import validate
 from ..output import RunDirectory, particles_dataset, trajectories_dataset
 from .criteria import CycleContext, EndCriteria, section_discharge
 from .placement import PlacementPlan
-from .remap import remap
+from .remap import IncrementalPileTop, remap_top
 
 
 @dataclass
@@ -153,6 +157,8 @@ class ClosureRun:
                           metadata={"name": setup.name})
         self.progress = progress  # callable(CycleReport) or None
         self.reports: list[CycleReport] = []
+        self._live = None  # (cycle, DemSimulation) of the last cycle, continued by the next one
+        self._pile = IncrementalPileTop(setup.domain.x, setup.domain.y, setup.domain.bed)
 
     # ------------------------------------------------------------------ restart record
     def _initial_record(self) -> dict:
@@ -205,6 +211,21 @@ class ClosureRun:
         keep = [v for v in ds.data_vars if "particle" not in ds[v].dims]
         return ds[keep]
 
+    def _fluid(self, snapshot) -> FluidForces:
+        """The frozen fluid field of *snapshot* as the DEM's force model."""
+        d = self.setup.dem
+        return FluidForces(dem_view(snapshot), drag_law=d.drag_law, sampling=d.sampling, xi=d.xi, outside="air")
+
+    def _cycle_dem(self, g, snapshot, rec):
+        """The DEM of cycle *g*: the previous cycle's simulation continued in the field of *snapshot*, or
+        (first cycle, or after a resume) restored from the restart record *rec*; both are the same state."""
+        live, self._live = self._live, None  # a cycle that fails half-way leaves no half-advanced DEM behind
+        if live is not None and live[0] == g - 1:
+            sim = live[1]
+            sim.set_models([self._fluid(snapshot)])
+            return sim
+        return self._make_dem(snapshot, self._dem_part(rec))
+
     def _make_dem(self, snapshot, dem_state=None):
         """The DEM of a cycle: terrain height field + the frozen fluid field of *snapshot*; continued
         bit-identically from *dem_state* (``save_state`` of the previous cycle) when given."""
@@ -214,7 +235,7 @@ class ClosureRun:
         terrain = HeightField(dom.x, dom.y, dom.bed, self._terrain_material())
         box = (dom.x[0] - 0.5 * dom.dx, dom.x[-1] + 0.5 * dom.dx, dom.y[0] - 0.5 * dom.dy, dom.y[-1] + 0.5 * dom.dy,
                float(dom.bed.min()) - 50.0, float(dom.bed.max()) + 200.0)
-        fluid = FluidForces(dem_view(snapshot), drag_law=d.drag_law, sampling=d.sampling, xi=d.xi, outside="air")
+        fluid = self._fluid(snapshot)
         kw = dict(boundaries=[terrain], models=[fluid], integrator=d.integrator, domain=box, sleeping=d.sleeping,
                   static_models=True)
         if dem_state is not None:
@@ -273,9 +294,10 @@ class ClosureRun:
         s = self.setup
         wall0 = _time.perf_counter()
         d = s.dem
-        # 1. the DEM continues from the previous cycle's saved state (resting masses asleep; their
-        #    wake reference is the old field, so a changed flow wakes the ones it really affects)
-        sim = self._make_dem(snapshot, self._dem_part(rec))
+        # 1. the DEM continues the previous cycle's (in memory, or restored from its saved state after a
+        #    resume): resting masses asleep, their wake reference the old field, so a changed flow wakes
+        #    the ones it really affects
+        sim = self._cycle_dem(g, snapshot, rec)
         # 2. release this cycle's masses
         sampler = FieldSampler(snapshot, method="bilinear")
 
@@ -296,8 +318,8 @@ class ClosureRun:
         sim.sleep(np.flatnonzero(resting & st.awake))
         # 4. remap and re-solve
         dom = s.domain
-        obstacle, bed = remap(dom.x, dom.y, dom.bed, snapshot["water_surface"].values, st.pos, st.radius, resting,
-                              s.remap_mode)
+        top = self._pile.update(st.pos, st.radius, resting)
+        obstacle, bed = remap_top(top, dom.bed, snapshot["water_surface"].values, s.remap_mode)
         solve_domain = dom if s.remap_mode == "no_flow" else dom.with_raised_bed(bed > dom.bed, bed)
         new_obstacle = dom.obstacle | obstacle
         changed = int(np.count_nonzero(new_obstacle != snapshot["obstacle"].values.astype(bool)))
@@ -309,6 +331,8 @@ class ClosureRun:
         else:
             new_snapshot = s.solver.solve(solve_domain, obstacles=obstacle, initial=snapshot)
             hydro = f"solved (warm start, {changed} cells changed)"
+        new_rec = {"dem." + k: v for k, v in sim.save_state().items()}
+        new_rec.update(placed_cycle=placed_cycle, resting=resting.copy())
         # 5. stability re-run (criterion 5) only when asked for
         stab = None
         stability = "not requested"
@@ -332,14 +356,13 @@ class ClosureRun:
                           dem_steps=sim.steps - steps0, dem_particle_steps=sim.particle_steps - ps0,
                           dem_converged=converged, hydro=hydro, stability=stability,
                           wall_time=_time.perf_counter() - wall0, left_domain=int((~st.active).sum()))
-        new_rec = {"dem." + k: v for k, v in sim.save_state().items()}
-        new_rec.update(placed_cycle=placed_cycle, resting=resting.copy())
         field_ds = validate(self._field_dataset(new_snapshot, st, placed_cycle, resting, rep), "closure_cycle")
         traj = None
         if moving.size:
             tt = np.broadcast_to(rel.time + t_rec, (moving.size, t_rec.size))
             traj = validate(trajectories_dataset(moving, tt, frames, vframes, cycle=g), "closure_trajectories")
         self.rundir.write_cycle(g, field_ds, traj, new_rec, _summary(rep))
+        self._live = (g, sim)
         return rep, new_rec, new_snapshot
 
     def _stability(self, rec, resting, snapshot) -> float:

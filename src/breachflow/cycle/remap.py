@@ -19,10 +19,11 @@ REMAP_MODES = ("no_flow", "raised_bed")
 
 
 @numba.njit(cache=True)
-def pile_top(x, y, bed, pos, radius, use):
-    """Per cell: the highest sphere top above the cell centre (−inf where none covers it)."""
-    ny, nx = bed.shape
-    top = np.full((ny, nx), -np.inf)
+def pile_top_window(x, y, pos, radius, use, i_lo, i_hi, j_lo, j_hi, top):
+    """Raise *top* (ny, nx) to the sphere tops above the cell centres of the index window
+    ``[j_lo..j_hi] x [i_lo..i_hi]`` (cells outside it are left alone)."""
+    nx = x.shape[0]
+    ny = y.shape[0]
     x0 = x[0]
     y0 = y[0]
     dx = x[1] - x[0] if nx > 1 else 1.0
@@ -31,10 +32,10 @@ def pile_top(x, y, bed, pos, radius, use):
         if not use[p]:
             continue
         r = radius[p]
-        i0 = max(int(np.ceil((pos[p, 0] - r - x0) / dx)), 0)
-        i1 = min(int(np.floor((pos[p, 0] + r - x0) / dx)), nx - 1)
-        j0 = max(int(np.ceil((pos[p, 1] - r - y0) / dy)), 0)
-        j1 = min(int(np.floor((pos[p, 1] + r - y0) / dy)), ny - 1)
+        i0 = max(int(np.ceil((pos[p, 0] - r - x0) / dx)), i_lo)
+        i1 = min(int(np.floor((pos[p, 0] + r - x0) / dx)), i_hi)
+        j0 = max(int(np.ceil((pos[p, 1] - r - y0) / dy)), j_lo)
+        j1 = min(int(np.floor((pos[p, 1] + r - y0) / dy)), j_hi)
         for j in range(j0, j1 + 1):
             for i in range(i0, i1 + 1):
                 d2 = (x[i] - pos[p, 0]) ** 2 + (y[j] - pos[p, 1]) ** 2
@@ -42,6 +43,14 @@ def pile_top(x, y, bed, pos, radius, use):
                     z = pos[p, 2] + np.sqrt(r * r - d2)
                     if z > top[j, i]:
                         top[j, i] = z
+
+
+@numba.njit(cache=True)
+def pile_top(x, y, bed, pos, radius, use):
+    """Per cell: the highest sphere top above the cell centre (−inf where none covers it)."""
+    ny, nx = bed.shape
+    top = np.full((ny, nx), -np.inf)
+    pile_top_window(x, y, pos, radius, use, 0, nx - 1, 0, ny - 1, top)
     return top
 
 
@@ -51,13 +60,91 @@ def remap(x, y, bed, water_surface, pos, radius, resting, mode: str = "no_flow")
     *x*, *y* cell-centre coordinates (uniformly spaced), *water_surface* the current water-surface
     elevation (m) per cell, used by ``raised_bed`` to decide emergence.
     """
-    if mode not in REMAP_MODES:
-        raise InputError(f"remap mode {mode!r} unknown; use one of {REMAP_MODES}")
+    _check_mode(mode)
     x = np.ascontiguousarray(x, dtype=float)
     y = np.ascontiguousarray(y, dtype=float)
     bed = np.asarray(bed, dtype=float)
     top = pile_top(x, y, bed, np.ascontiguousarray(pos, dtype=float).reshape(-1, 3),
                    np.ascontiguousarray(radius, dtype=float), np.ascontiguousarray(resting, dtype=np.bool_))
+    return remap_top(top, bed, water_surface, mode)
+
+
+def _check_mode(mode):
+    if mode not in REMAP_MODES:
+        raise InputError(f"remap mode {mode!r} unknown; use one of {REMAP_MODES}")
+
+
+class IncrementalPileTop:
+    """The pile top of :func:`pile_top`, kept up to date cycle after cycle at the cost of the masses that
+    changed (moved, stopped or started resting, or were added), not of the whole pile.
+
+    ``update(pos, radius, resting)`` returns the same grid as ``pile_top`` over all masses: the cells
+    under the old and new footprints of the changed masses are recomputed from every resting mass that
+    reaches them (a maximum, so the result is exact, whatever the order).
+    """
+
+    def __init__(self, x, y, bed):
+        self.x = np.ascontiguousarray(x, dtype=float)
+        self.y = np.ascontiguousarray(y, dtype=float)
+        self.bed = np.asarray(bed, dtype=float)
+        self.top = None
+        self.pos = np.zeros((0, 3))
+        self.resting = np.zeros(0, bool)
+        #: masses whose footprint was (re)computed by the last update (for work accounting)
+        self.last_changed = 0
+
+    def update(self, pos, radius, resting) -> np.ndarray:
+        pos = np.ascontiguousarray(pos, dtype=float).reshape(-1, 3)
+        radius = np.ascontiguousarray(radius, dtype=float)
+        resting = np.ascontiguousarray(resting, dtype=np.bool_)
+        if self.top is None:
+            self.top = pile_top(self.x, self.y, self.bed, pos, radius, resting)
+            self.last_changed = int(resting.sum())
+        else:
+            n_old = self.pos.shape[0]
+            old_rest = self.resting
+            moved = np.any(pos[:n_old] != self.pos, axis=1) & (old_rest | resting[:n_old])
+            changed = np.flatnonzero(moved | (old_rest != resting[:n_old]))
+            added = n_old + np.flatnonzero(resting[n_old:])
+            self.last_changed = int(changed.size + added.size)
+            if self.last_changed:
+                # footprints (old and new) of the changed masses, as an index box on the grid
+                ids = np.concatenate([changed, added])
+                centres = np.concatenate([self.pos[changed], pos[ids]])
+                r = np.concatenate([radius[changed], radius[ids]])
+                box = self._box(centres, r)
+                if box is not None:
+                    self._recompute(box, pos, radius, resting)
+        self.pos = pos.copy()
+        self.resting = resting.copy()
+        return self.top
+
+    def _box(self, centres, r):
+        dx = self.x[1] - self.x[0] if self.x.size > 1 else 1.0
+        dy = self.y[1] - self.y[0] if self.y.size > 1 else 1.0
+        i0 = max(int(np.floor((np.min(centres[:, 0] - r) - self.x[0]) / dx)), 0)
+        i1 = min(int(np.ceil((np.max(centres[:, 0] + r) - self.x[0]) / dx)), self.x.size - 1)
+        j0 = max(int(np.floor((np.min(centres[:, 1] - r) - self.y[0]) / dy)), 0)
+        j1 = min(int(np.ceil((np.max(centres[:, 1] + r) - self.y[0]) / dy)), self.y.size - 1)
+        return None if i0 > i1 or j0 > j1 else (i0, i1, j0, j1)
+
+    def _recompute(self, box, pos, radius, resting):
+        i0, i1, j0, j1 = box
+        # every resting mass that may reach the window (one cell of margin against rounding)
+        mx = self.x[1] - self.x[0] if self.x.size > 1 else 1.0
+        my = self.y[1] - self.y[0] if self.y.size > 1 else 1.0
+        reach = (resting & (pos[:, 0] + radius >= self.x[i0] - mx) & (pos[:, 0] - radius <= self.x[i1] + mx)
+                 & (pos[:, 1] + radius >= self.y[j0] - my) & (pos[:, 1] - radius <= self.y[j1] + my))
+        sel = np.flatnonzero(reach)
+        self.top[j0:j1 + 1, i0:i1 + 1] = -np.inf
+        pile_top_window(self.x, self.y, np.ascontiguousarray(pos[sel]), np.ascontiguousarray(radius[sel]),
+                        np.ones(sel.size, np.bool_), i0, i1, j0, j1, self.top)
+
+
+def remap_top(top, bed, water_surface, mode: str = "no_flow"):
+    """``(obstacle, new_bed)`` from a pile top grid (:func:`pile_top`); see :func:`remap`."""
+    _check_mode(mode)
+    bed = np.asarray(bed, dtype=float)
     covered = np.isfinite(top)
     if mode == "no_flow":
         return covered, bed.copy()

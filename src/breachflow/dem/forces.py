@@ -23,7 +23,8 @@ class ForceModel(Protocol):
     """A body force on the particles (fluid forces, gravity, ...). One Python call per step."""
 
     def added_mass(self, state: ParticleState) -> np.ndarray | None:
-        """Extra translational mass (kg) per particle, or None."""
+        """Extra translational mass (kg) per particle, or None. A model may accept ``idx=`` and then return
+        the rows *idx* only (a ``static_models`` simulation asks for its awake particles)."""
 
     def accumulate(self, state: ParticleState, pos, vel, omega, t: float, force, torque) -> None:
         """ADD this model's force (N) and torque (N m), (N, 3) each, at the given kinematic state."""

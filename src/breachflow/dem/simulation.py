@@ -29,6 +29,7 @@ bit-identical continuation.
 """
 from __future__ import annotations
 
+import inspect
 import math
 from dataclasses import dataclass, fields
 
@@ -105,6 +106,8 @@ class DemSimulation:
         # evaluated (their accumulate must accept idx=); per-step cost then follows the moving particles
         self.static_models = bool(static_models)
         self._models_checked = False
+        self._row_models = [_accepts_idx(m.added_mass) for m in self.models]
+        self._inv_m_added = np.zeros(0)
         self.lmask = np.array([1.0, 0.0, 1.0]) if plane_2d else np.ones(3)
         self.rmask = np.array([0.0, 1.0, 0.0]) if plane_2d else np.ones(3)
         self.t = 0.0
@@ -234,8 +237,21 @@ class DemSimulation:
 
     # ------------------------------------------------------------------ force assembly (integrators)
     def inverse_mass(self, added: bool = True):
-        """(1/(m + sum added mass), 1/I) per particle."""
+        """(1/(m + sum added mass), 1/I) per particle. With ``static_models`` only the awake rows (the
+        ones the integrators read) are filled, and a model whose ``added_mass`` accepts ``idx=`` (returning
+        those rows) is evaluated only there, so the per-step cost follows the moving particles."""
         if added and self.models:
+            if self.static_models:
+                i = self.idx
+                extra = np.zeros(i.size)
+                for m, rows in zip(self.models, self._row_models):
+                    a = m.added_mass(self.state, idx=i) if rows else m.added_mass(self.state)
+                    if a is not None:
+                        extra += a if rows else a[i]
+                if self._inv_m_added.shape[0] != self.state.n:
+                    self._inv_m_added = np.zeros(self.state.n)
+                self._inv_m_added[i] = 1.0 / (self.state.mass[i] + extra)
+                return self._inv_m_added, self._inv_i
             extra = np.zeros(self.state.n)
             for m in self.models:
                 a = m.added_mass(self.state)
@@ -243,6 +259,18 @@ class DemSimulation:
                     extra += a
             return 1.0 / (self.state.mass + extra), self._inv_i
         return self._inv_m, self._inv_i
+
+    def set_models(self, models) -> None:
+        """Replace the force models (e.g. the frozen flow field of the next closure cycle), as if the
+        simulation were restored with :meth:`from_state` and the new *models*: with ``static_models``
+        the sleepers' reference forces are compared with the new models at the next step."""
+        models = list(models)
+        for m in models:
+            if not isinstance(m, ForceModel):
+                raise InputError(f"force model {m!r} lacks added_mass/accumulate (ForceModel protocol)")
+        self.models = models
+        self._row_models = [_accepts_idx(m.added_mass) for m in models]
+        self._models_checked = False
 
     def contact_forces(self, pos, vel, omega, force, torque):
         """Zero the awake rows of force/torque, then add all contact forces (particles and boundaries).
@@ -722,6 +750,14 @@ class DemSimulation:
                 total += sum(a.nbytes for a in g[:3])
         total += sum(b.hist.nbytes + b.rhist.nbytes for b in self.boundaries)
         return total
+
+
+def _accepts_idx(method) -> bool:
+    """Whether a force model's method takes the ``idx=`` keyword (evaluate given rows only)."""
+    try:
+        return "idx" in inspect.signature(method).parameters
+    except (TypeError, ValueError):
+        return False
 
 
 class _StateView:

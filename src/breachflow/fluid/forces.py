@@ -168,20 +168,22 @@ class FluidForces:
         return phi
 
     # -- ForceModel protocol --------------------------------------------------------------------------
-    def added_mass(self, state, pos=None) -> np.ndarray | None:
-        """Apparent mass ``xi (rho_W V_sub + rho_A (V - V_sub))`` (kg) per particle at ``state.pos`` (or *pos*)."""
+    def added_mass(self, state, pos=None, idx=None) -> np.ndarray | None:
+        """Apparent mass ``xi (rho_W V_sub + rho_A (V - V_sub))`` (kg) per particle at ``state.pos`` (or *pos*);
+        with *idx*, only for the particles *idx* (an array of ``len(idx)``)."""
         if self.xi == 0.0:
             return None
         pos = state.pos if pos is None else pos
-        idx = self._indices(state)
+        rows = self._indices(state) if idx is None else np.asarray(idx)
+        m = np.empty(rows.size)
+        if rows.size:
+            rad = state.radius[rows]
+            phi = self.submerged_fraction(pos[rows], rad)
+            K.added_masses(rad, phi, self.water.rho, 0.0 if self.air is None else self.air.rho, self.xi, m)
+        if idx is not None:
+            return m
         out = np.zeros(state.radius.shape[0])
-        if idx.size == 0:
-            return out
-        rad = state.radius[idx]
-        phi = self.submerged_fraction(pos[idx], rad)
-        m = np.empty(idx.size)
-        K.added_masses(rad, phi, self.water.rho, 0.0 if self.air is None else self.air.rho, self.xi, m)
-        out[idx] = m
+        out[rows] = m
         return out
 
     def accumulate(self, state, pos, vel, omega, t, force, torque, idx=None) -> None:
