@@ -124,6 +124,7 @@ def typical_breach_runs(resolutions, t_max, tolerance, monitor_radius=None, thre
                 cold_wall = wall
             else:
                 rows[-1][6] += f" ({cold_wall / wall:.1f}× faster)"
+            print("[bench swe] typical breach " + " | ".join(rows[-1]), flush=True)
         previous = (res, ds)
         out.append(ds)
     ritter = 2.0 / 3.0 * math.sqrt(9.81 * scene.levee.height)
