@@ -4,8 +4,10 @@ import math
 import numpy as np
 import pytest
 
-from breachflow.dem import DemSimulation, HeightField, Material, Plane, sphere_mass
+from breachflow.dem import DemSimulation, HeightField, Material, ParticleState, Plane, sphere_mass
+from breachflow.dem.integrators import AdaptiveFreeFlight
 from breachflow.errors import InputError
+from breachflow.fluid.forces import FluidForces
 
 R = 0.3
 KN = 1e7
@@ -94,3 +96,90 @@ def test_from_state_refuses_mismatched_boundaries():
     del data["state.pos"]
     with pytest.raises(InputError, match="state.pos"):
         DemSimulation.from_state(data, boundaries=boundaries, models=models, **kw)
+
+
+def continued(make, n_steps, m_steps, tmp_path):
+    """(uninterrupted N + M steps, N steps + save to .npz + restore + M steps); *make()* -> (sim, from_state kw)."""
+    ref, _ = make()
+    ref.step(n_steps + m_steps)
+    sim, kw = make()
+    sim.step(n_steps)
+    path = tmp_path / "dem.npz"
+    np.savez(path, **sim.save_state())
+    sim.step(3)  # the original keeps going: the saved copy must not change
+    with np.load(path) as data:
+        back = DemSimulation.from_state(dict(data), **make()[1])
+    back.step(m_steps)
+    assert back.steps == ref.steps and back.t == ref.t
+    for name in ("pos", "vel", "omega", "vel_prev", "omega_prev"):
+        assert np.array_equal(getattr(back.state, name), getattr(ref.state, name)), name
+    return ref, back
+
+
+def falling_onto_a_plane():
+    """A rock thrown up 10 m above a plane, in air (drag: the error controller rejects steps), then bouncing."""
+    mat = Material(kn=1e6, c_cn=2 * 0.3 * math.sqrt(1e6 * M))
+    kw = dict(boundaries=[Plane((0, 0, 0), (0, 0, 1), mat)], models=[FluidForces(None)],
+              integrator=AdaptiveFreeFlight(rtol=1e-8, atol=1e-10), sleeping=False)
+    sim = DemSimulation(ParticleState.spheres([[0.0, 0.0, R + 10.0]], R, mat, vel=[[0.3, 0.0, 2.0]]), **kw)
+    return sim, kw
+
+
+def test_adaptive_free_flight_continues_bit_identically(tmp_path):
+    """The step-size controller is saved: free flight resumes with the estimate of the uninterrupted run."""
+    ref, back = continued(falling_onto_a_plane, 6, 60, tmp_path)
+    integ = ref.integrator
+    assert integ.rejected > 0 and integ.contact_steps > 0 and integ.free_steps > 20  # flight, contact, rebound
+    assert back.integrator.h == integ.h
+    for name in ("free_steps", "rejected", "contact_steps"):
+        assert getattr(back.integrator, name) == getattr(integ, name), name
+    # the saved estimate matters: a restarted controller takes other steps
+    sim, kw = falling_onto_a_plane()
+    sim.step(6)
+    restarted = DemSimulation.from_state(sim.save_state(), **falling_onto_a_plane()[1])
+    restarted.integrator.h = None
+    restarted.step(60)
+    assert restarted.t != ref.t
+
+
+def settling(integrator="predicted_verlet", basset=True):
+    """A 2 mm steel sphere settling from rest in still water (surface at z = 0)."""
+    model = FluidForces(0.0, air=None, basset=basset)
+    kw = dict(models=[model], integrator=integrator, dt=1e-4, sleeping=False)
+    state = ParticleState.spheres([[0.0, 0.0, -0.5], [0.1, 0.0, -0.5]], [1e-3, 2e-3],
+                                  Material(density=7800.0, kn=1e-3))
+    return DemSimulation(state, **kw), kw
+
+
+@pytest.mark.parametrize("integrator", ["predicted_verlet", "adaptive_free_flight"])
+def test_basset_history_continues_bit_identically(integrator, tmp_path):
+    """The Basset history (window and exponential tail) is saved and restored into the model passed again."""
+    ref, back = continued(lambda: settling(integrator), 30, 30, tmp_path)
+    h_ref, h_back = ref.models[0].basset, back.models[0].basset
+    assert np.abs(h_ref.z).max() > 0  # the tail holds history
+    for name in ("t_hist", "r_hist", "z", "known"):
+        assert np.array_equal(getattr(h_back, name), getattr(h_ref, name)), name
+    # the history force matters: without it the sphere is elsewhere
+    plain, _ = settling(integrator, basset=False)
+    plain.step(60)
+    assert not np.array_equal(plain.state.vel, ref.state.vel)
+
+
+def test_from_state_refuses_a_mismatched_basset_setting():
+    on, _ = settling(basset=True)
+    on.step(5)
+    off, _ = settling(basset=False)
+    off.step(5)
+    with pytest.raises(InputError, match=r"model0\.basset\.z.*basset=False"):
+        DemSimulation.from_state(on.save_state(), **settling(basset=False)[1])
+    with pytest.raises(InputError, match=r"lacks.*model0\.basset\.z.*basset=True"):
+        DemSimulation.from_state(off.save_state(), **settling(basset=True)[1])
+    with pytest.raises(InputError, match=r"model0\.basset\.z.*beyond the 0 given"):
+        DemSimulation.from_state(on.save_state(), **{**settling()[1], "models": []})
+
+
+def test_from_state_refuses_a_mismatched_integrator():
+    sim, kw = falling_onto_a_plane()
+    sim.step(3)
+    with pytest.raises(InputError, match=r"integrator\.h"):
+        DemSimulation.from_state(sim.save_state(), **{**kw, "integrator": "predicted_verlet"})

@@ -3,7 +3,9 @@
 A :class:`ForceModel` adds its force (N) and torque (N m) per particle into whole arrays, evaluated at
 the kinematic state the integrator passes (e.g. the report scheme's predicted positions, Step 7H).
 Integrators compute ``a = (F_contacts + F_gravity + sum(models) + F_damping) / (m + sum(added_mass))``
-and never know which models exist. Fluid forces (SPEC §6) plug in as a further ForceModel.
+and never know which models exist. Fluid forces (SPEC §6) plug in as a further ForceModel. A model with a
+memory (the Basset history) is told each accepted state by an optional ``commit(state, pos, vel, t)`` and
+saved with the DEM state through optional ``state_arrays`` / ``restore_state`` (:mod:`.memory`).
 """
 from __future__ import annotations
 

@@ -5,6 +5,8 @@ Each integrator is a class with one method ``step(sim, dt)`` that advances the a
 (:meth:`DemSimulation.contact_forces`, :meth:`DemSimulation.body_forces`,
 :meth:`DemSimulation.global_damping`, :meth:`DemSimulation.inverse_mass`) and never knows which
 force models (fluid, ...) exist: ``a = (F_contacts + F_gravity + sum(models) + F_damping) / (m + m_added)``.
+An integrator with a memory between steps saves it through ``state_arrays`` / ``restore_state``
+(:mod:`.memory`).
 
 * ``"report"`` — the report's predictor–refinement scheme (Fig 4.3 Steps 7F–7J, SPEC §5);
 * ``"velocity_verlet"`` — kick–drift–kick velocity Verlet as in LAMMPS ``fix nve/sphere``: the
@@ -22,6 +24,7 @@ import numba
 import numpy as np
 
 from ..registry import Registry
+from . import memory
 
 integrators: Registry = Registry("DEM integrator", "breachflow.integrators")
 
@@ -195,7 +198,8 @@ class AdaptiveFreeFlight:
     The DEM driver asks :meth:`advance` for the step it took (``variable_step``).  Clearance is computed
     for planes (signed distance), height fields (bed maximum under the particle) and other particles
     (all active ones, brute force over the awake set); other boundary types always use the contact
-    integrator.  The step-size estimate is not part of ``save_state`` (a restored run restarts it).
+    integrator.  The step-size estimate, the work counters and the contact integrator's memory are part of
+    ``save_state`` (:meth:`state_arrays`, :mod:`.memory`).
     """
 
     variable_step = True
@@ -217,6 +221,20 @@ class AdaptiveFreeFlight:
         self.h = None  # next free-flight step (s)
         #: work counters: accepted / rejected free-flight steps, fixed steps of the contact integrator
         self.free_steps = self.rejected = self.contact_steps = 0
+
+    def state_arrays(self) -> dict[str, np.ndarray]:
+        """The controller's memory (:mod:`.memory`): next step ``h`` (NaN: none yet) and the work counters."""
+        out = {"h": np.array(math.nan if self.h is None else self.h),
+               "counters": np.array([self.free_steps, self.rejected, self.contact_steps], np.int64)}
+        memory.save(self.contact, "contact.", out)
+        return out
+
+    def restore_state(self, arrays) -> None:
+        """Take back :meth:`state_arrays`."""
+        h = float(arrays["h"][()])
+        self.h = None if math.isnan(h) else h
+        self.free_steps, self.rejected, self.contact_steps = (int(c) for c in arrays["counters"])
+        memory.restore(self.contact, "contact.", arrays, "contact integrator")
 
     def step(self, sim, dt: float):
         """One fixed step of the contact integrator (the protocol of the fixed-step integrators)."""

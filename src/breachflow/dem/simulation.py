@@ -36,7 +36,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from ..errors import InputError, PhysicsError
-from . import contacts
+from . import contacts, memory
 from .boundaries import Boundary, Plane
 from .forces import G, ForceModel, Gravity, add_global_damping, zero_rows
 from .integrators import integrators
@@ -671,7 +671,9 @@ class DemSimulation:
         the particle arrays (``state.*``), forces of the last step, integrator work arrays, sleep
         counters and wake references, the neighbour list with its shear / rolling histories (live and
         parked), the sleeping-particle grid, the boundaries' histories and motion (``boundary<k>.*``),
-        ``t``, ``steps``, ``dt``. Force models are not saved (they are passed again to :meth:`from_state`).
+        ``t``, ``steps``, ``dt``, and the memory of the integrator and of force models with one
+        (``integrator.*``, ``model<k>.*``, :mod:`.memory`). Force models themselves are not saved (they are
+        passed again to :meth:`from_state`, which restores their memory into them).
         Save with e.g. ``np.savez(path, **sim.save_state())``.
         """
         out: dict[str, np.ndarray] = {}
@@ -696,6 +698,9 @@ class DemSimulation:
             if isinstance(b, Plane):
                 for name in ("point", "velocity", "reaction"):
                     out[f"boundary{k}.{name}"] = getattr(b, name).copy()
+        memory.save(self.integrator, "integrator.", out)
+        for k, m in enumerate(self.models):
+            memory.save(m, f"model{k}.", out)
         return out
 
     @classmethod
@@ -705,7 +710,8 @@ class DemSimulation:
         *boundaries* must be the same kinds in the same order as when saved (their histories and plane
         motion are restored into them); *models* and the other keyword arguments are those of the
         constructor and should match the saved run (the time step and cell geometry are restored from
-        *data* regardless).
+        *data* regardless). The integrator and the models get their saved memory back; one whose memory
+        does not match the saved one (e.g. the Basset force on in one, off in the other) is an InputError.
         """
         try:
             state = ParticleState(**{f.name: np.array(data["state." + f.name]) for f in fields(ParticleState)})
@@ -734,6 +740,14 @@ class DemSimulation:
             if isinstance(b, Plane):
                 for name in ("point", "velocity", "reaction"):
                     setattr(b, name, np.array(data[f"boundary{k}.{name}"], copy=True))
+        memory.restore(sim.integrator, "integrator.", data, "integrator")
+        for k, m in enumerate(sim.models):
+            memory.restore(m, f"model{k}.", data, f"force model {k}")
+        beyond = [k for k in data if k.startswith("model") and not k.startswith(tuple(f"model{j}." for j in
+                                                                                     range(len(sim.models))))]
+        if beyond:
+            raise InputError(f"DEM state holds {', '.join(sorted(beyond))} of force models beyond the "
+                             f"{len(sim.models)} given")
         sim._inv_m = 1.0 / sim.state.mass
         sim._inv_i = 1.0 / sim.state.inertia
         sim._refresh_idx()

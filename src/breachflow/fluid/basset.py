@@ -105,6 +105,20 @@ class BassetHistory:
             self.z = np.concatenate([self.z, np.zeros((n - k, self.lam.size, 3))])
             self.known = np.concatenate([self.known, np.zeros(n - k, bool)])
 
+    _MEMORY = ("t_hist", "r_hist", "z", "known")
+
+    def state_arrays(self) -> dict[str, np.ndarray]:
+        """The history (window states, exponential sums, which rows started), copied."""
+        return {name: getattr(self, name).copy() for name in self._MEMORY}
+
+    def restore_state(self, arrays) -> None:
+        """Take back :meth:`state_arrays` (the kernel, i.e. ``s_min``/``s_max``, must be the same)."""
+        if arrays["z"].shape[1:] != (self.lam.size, 3):
+            raise InputError(f"Basset history saved with {arrays['z'].shape[1]} kernel terms, this one has "
+                             f"{self.lam.size} (a different basset_range)")
+        for name in self._MEMORY:
+            setattr(self, name, np.array(arrays[name], copy=True))
+
     def integral(self, idx, r, t) -> np.ndarray:
         """``H`` (len(idx), 3) of particles *idx* at relative velocities *r* at time *t* (unseen: 0)."""
         self._grow(int(idx.max()) + 1 if idx.size else 0)

@@ -12,7 +12,8 @@ Per particle, with ``V_sub`` the submerged volume (spherical cap while straddlin
 * fluid torque from the gridpoints in the particle's neighbourhood (Step 7E, Fig 4.4);
 * optional (``basset=True``) Basset history force ``-phi 6 a^2 sqrt(pi rho_W mu_W) int r_W' / sqrt(t - tau)``
   (eq 3.13, :mod:`breachflow.fluid.basset`); the history advances through :meth:`FluidForces.commit`, which
-  the DEM and the free-flight integrators call once per accepted step.
+  the DEM and the free-flight integrators call once per accepted step, and is saved with the DEM state
+  (:meth:`FluidForces.state_arrays`).
 
 Terms that are zero are skipped per call (decided on whole arrays, not in the hot loop): no convective
 term or grid torque in a uniform field (the spin torque of a uniform field uses a virtual lattice and is
@@ -225,6 +226,17 @@ class FluidForces:
         p = np.ascontiguousarray(pos[idx])
         _, _, u, v, _ = self._sample(p, state.radius[idx], idx)
         self.basset.commit(idx, self._relative(vel[idx], u, v), t)
+
+    def state_arrays(self) -> dict[str, np.ndarray]:
+        """The model's memory for ``DemSimulation.save_state``: the Basset history (``basset.*``) when on."""
+        if self.basset is None:
+            return {}
+        return {"basset." + k: a for k, a in self.basset.state_arrays().items()}
+
+    def restore_state(self, arrays) -> None:
+        """Take back :meth:`state_arrays`."""
+        if self.basset is not None:
+            self.basset.restore_state({k[len("basset."):]: a for k, a in arrays.items() if k.startswith("basset.")})
 
     # -- optional terms -------------------------------------------------------------------------------
     @staticmethod
