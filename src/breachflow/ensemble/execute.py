@@ -270,17 +270,26 @@ def _local_cluster(n_workers: int | None):
     return cluster, Client(cluster)
 
 
-def local_cluster(n_workers: int | None = None, *, malloc_trim: bool = False):
+def local_cluster(n_workers: int | None = None, *, malloc_trim: bool = False, profile: bool = False):
     """A dask LocalCluster for ensembles: *n_workers* processes (default one per core), one thread each.
 
-    Two dask settings differ from dask's defaults (on other clusters set them in the dask configuration):
+    Dask settings that differ from dask's defaults (:data:`WORKER_CONFIG`; on other clusters set them in
+    the dask configuration):
 
     * ``distributed.scheduler.worker-saturation: 1.0`` -- a worker holds only the member it runs, none
       queued behind it, so a member that kills its worker (a segfault) takes no innocent member down
       with it, and long members balance across workers;
     * ``distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_: null`` (unless *malloc_trim*): dask's
       default 65536 also pins glibc's mmap threshold, so every numpy temporary above 128 kB is mmap'ed
-      and unmapped again, which doubled the time of numpy-heavy members here (``bench_ensemble.py``).
+      and unmapped again, which doubled the time of numpy-heavy members here (``bench_ensemble.py``);
+    * ``distributed.nanny.environ.NUMBA_NUM_THREADS: 1`` -- one compute thread per worker process, as
+      dask already does for OpenMP / MKL / OpenBLAS: a member's numba ``parallel=True`` kernels (the
+      shallow-water solver) cannot start one thread per core in every worker. Set in the worker after
+      it is spawned, not in ``pre-spawn-environ``: the nanny applies that to its own process (the client's,
+      for a local cluster), and numba refuses a changed thread count once its threads run there;
+    * ``distributed.worker.profile.enabled: false`` (unless *profile*): the statistical profiler samples
+      the running member every 10 ms in the worker's event loop; with CPU-bound members it cost 3-4 %
+      of a core per worker (``bench_ensemble.py`` prints the workers' CPU time outside members).
     """
     import logging
 
@@ -289,12 +298,23 @@ def local_cluster(n_workers: int | None = None, *, malloc_trim: bool = False):
 
     n = n_workers or os.cpu_count() or 1
     dashboard = ":0" if _has_bokeh() else None
-    overrides = {"distributed.scheduler.worker-saturation": 1.0}
-    if not malloc_trim:
-        overrides["distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_"] = None
+    overrides = dict(WORKER_CONFIG)
+    if malloc_trim:
+        del overrides["distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_"]
+    if profile:
+        del overrides["distributed.worker.profile.enabled"]
     with dask.config.set(overrides):
         return LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=dashboard,
                             silence_logs=logging.ERROR)
+
+
+#: The dask configuration of :func:`local_cluster` (see there why).
+WORKER_CONFIG = {
+    "distributed.scheduler.worker-saturation": 1.0,
+    "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None,
+    "distributed.nanny.environ.NUMBA_NUM_THREADS": 1,
+    "distributed.worker.profile.enabled": False,
+}
 
 
 def _has_bokeh() -> bool:
