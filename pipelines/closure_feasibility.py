@@ -141,7 +141,7 @@ def figure(ds, path: Path) -> Path:
         ax.set_title(f"masses of {size:g} m")
         for j in range(len(areas_ha)):
             for i in range(len(lengths)):
-                text = "failed" if cat[k, j, i] == 3 else f"{duration_h[k, j, i]:.1f} / {window_h[k, j, i]:.1f} h"
+                text = "failed" if cat[k, j, i] == 3 else f"{duration_h[k, j, i]:.2f} / {window_h[k, j, i]:.2f} h"
                 ax.text(i, j, text, ha="center", va="center", fontsize=7)
     fig.legend(handles=[Patch(color=c, label=lab) for lab, c in CATEGORIES], loc="outside lower center",
                ncol=len(CATEGORIES), fontsize=8)

@@ -281,7 +281,8 @@ def local_cluster(n_workers: int | None = None, *, malloc_trim: bool = False, pr
       with it, and long members balance across workers;
     * ``distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_: null`` (unless *malloc_trim*): dask's
       default 65536 also pins glibc's mmap threshold, so every numpy temporary above 128 kB is mmap'ed
-      and unmapped again, which doubled the time of numpy-heavy members here (``bench_ensemble.py``);
+      and unmapped again, which doubled the time of numpy-heavy members here (``bench_ensemble.py``); a
+      value this process inherited (or an earlier dask cluster set in it) is hidden from the workers;
     * ``distributed.nanny.environ.NUMBA_NUM_THREADS: 1`` -- one compute thread per worker process, as
       dask already does for OpenMP / MKL / OpenBLAS: a member's numba ``parallel=True`` kernels (the
       shallow-water solver) cannot start one thread per core in every worker. Set in the worker after
@@ -303,9 +304,15 @@ def local_cluster(n_workers: int | None = None, *, malloc_trim: bool = False, pr
         del overrides["distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_"]
     if profile:
         del overrides["distributed.worker.profile.enabled"]
-    with dask.config.set(overrides):
-        return LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=dashboard,
-                            silence_logs=logging.ERROR)
+    # spawned workers inherit this process's environment, where an earlier dask cluster's nanny may have
+    # left MALLOC_TRIM_THRESHOLD_=65536 (nannies apply pre-spawn-environ to their own process)
+    hidden = {} if malloc_trim else {k: os.environ.pop(k) for k in ("MALLOC_TRIM_THRESHOLD_",) if k in os.environ}
+    try:
+        with dask.config.set(overrides):
+            return LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=dashboard,
+                                silence_logs=logging.ERROR)
+    finally:
+        os.environ.update(hidden)
 
 
 #: The dask configuration of :func:`local_cluster` (see there why).
