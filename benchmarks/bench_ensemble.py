@@ -104,6 +104,7 @@ class Measured:
 
     wall: float
     client_cpu: float                      # this process: client (+ scheduler and nannies of a local cluster)
+    main_thread_cpu: float = 0.0           # this process's main thread: run() (plan, gather, Dataset, NetCDF)
     worker_cpu: dict = field(default_factory=dict)
     machine_busy: float = 0.0
     steal: float = 0.0
@@ -137,16 +138,19 @@ class meter:
         self.w0 = self._workers()
         self.m0 = machine_cpu()
         self.c0 = process_cpu()
+        self.th0 = time.thread_time()
         self.t0 = time.perf_counter()
         return self
 
     def __exit__(self, *exc):
         wall = time.perf_counter() - self.t0
+        th = time.thread_time() - self.th0
         c1 = process_cpu()
         m1 = machine_cpu()
         w1 = self._workers()
-        self.result = Measured(wall, c1 - self.c0, {k: w1[k] - self.w0[k] for k in self.w0},
-                               m1[0] - self.m0[0], m1[1] - self.m0[1])
+        self.result = Measured(wall=wall, client_cpu=c1 - self.c0, main_thread_cpu=th,
+                               worker_cpu={k: w1[k] - self.w0[k] for k in self.w0},
+                               machine_busy=m1[0] - self.m0[0], steal=m1[1] - self.m0[1])
         return False
 
 
@@ -293,6 +297,9 @@ def main(argv) -> int:
                       f"{1e3 * ((ser if label == 'work' else ser_noop).client_cpu - (ser if label == 'work' else ser_noop).member_cpu) / rn:.1f}",
                       f"{1e3 * a.client_cpu / rn:.1f}", f"{1e3 * b.client_cpu / rn:.1f}",
                       "serial: this process outside members")
+        table.add_row(f"  of which other threads: scheduler, nannies, comms (ms), {label}", "",
+                      f"{1e3 * (a.client_cpu - a.main_thread_cpu) / rn:.1f}",
+                      f"{1e3 * (b.client_cpu - b.main_thread_cpu) / rn:.1f}", "rest: run() in the main thread")
     no1, no2 = r1["noop"], r2["noop"]
     table.add_row(f"zero-work ensemble ({n_noop} members): wall (s)", f"{ser_noop.wall:.2f}", f"{no1.wall:.2f}",
                   f"{no2.wall:.2f}", "")
