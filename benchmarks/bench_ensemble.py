@@ -168,22 +168,22 @@ def serial(spec, out: Path) -> Measured:
     return res
 
 
-def on_cluster(n_workers: int, runs: list[tuple[str, str]], scratch: Path, *, malloc_trim: bool = False,
-               profile: bool = False) -> tuple[float, dict[str, Measured]]:
+def on_cluster(n_workers: int, runs: list[tuple[str, str]], scratch: Path, *, dask_defaults: bool = False
+               ) -> tuple[float, dict[str, Measured]]:
     from distributed import Client
 
     from breachflow.ensemble import parse_spec, run
     from breachflow.ensemble.execute import _quiet_distributed, local_cluster
 
     t = time.perf_counter()
-    cluster = local_cluster(n_workers, malloc_trim=malloc_trim, profile=profile)
+    cluster = local_cluster(n_workers, dask_defaults=dask_defaults)
     client = Client(cluster)
     client.run(lambda: __import__("breachflow.ensemble.runners"))
     startup = time.perf_counter() - t
     results = {}
     try:
         for label, text in runs:
-            out = scratch / f"{label}-{n_workers}-{malloc_trim}-{profile}"
+            out = scratch / f"{label}-{n_workers}-{dask_defaults}"
             with meter(client) as m:
                 ds = run(parse_spec(text), client=client, out=out, progress=False, resume=False,
                          console=_null_console())
@@ -236,8 +236,8 @@ def main(argv) -> int:
     ap.add_argument("--reference-members", type=int, default=3,
                     help="members' worth of work per process in the plain two-process machine reference")
     ap.add_argument("--dask-defaults", action="store_true",
-                    help="also time 2 workers with dask's worker profiler and MALLOC_TRIM_THRESHOLD_=65536 "
-                         "(breachflow's local cluster turns both off)")
+                    help="also time 2 workers with dask's defaults for what breachflow's local cluster changes "
+                         "(MALLOC_TRIM_THRESHOLD_, profiler, NUMBA_NUM_THREADS, housekeeping intervals)")
     args = ap.parse_args(argv)
 
     from rich.console import Console
@@ -262,7 +262,7 @@ def main(argv) -> int:
         start1, r1 = on_cluster(1, [("work", work), ("noop", noop)], scratch)
         ref_alone, ref_both = machine_reference(steps, args.size, args.reference_members)
         start2, r2 = on_cluster(2, [("work", work), ("noop", noop)], scratch)
-        r2d = (on_cluster(2, [("work", work)], scratch, malloc_trim=True, profile=True)[1]
+        r2d = (on_cluster(2, [("work", work)], scratch, dask_defaults=True)[1]
                if args.dask_defaults else {})
     finally:
         shutil.rmtree(scratch, ignore_errors=True)
@@ -312,7 +312,7 @@ def main(argv) -> int:
                   f"VM steal {ser.steal:.1f} / {w1.steal:.1f} / {w2.steal:.1f} s")
     if r2d:
         d = r2d["work"]
-        table.add_row("2 workers with dask's profiler on and MALLOC_TRIM_THRESHOLD_=65536", "", "",
+        table.add_row("2 workers, dask's defaults (execute.WORKER_CONFIG off)", "", "",
                       f"{d.wall:.2f} s", f"busy {d.busy()}; worker CPU outside members "
                       f"{1e3 * (sum(d.worker_cpu.values()) - d.member_cpu) / n:.1f} ms/member; "
                       f"member CPU {d.member_cpu / w2.member_cpu:.2f}x breachflow's cluster")

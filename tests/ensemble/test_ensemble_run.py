@@ -280,6 +280,9 @@ def _worker_settings(dask_worker):
     return {"numba_threads": numba.config.NUMBA_NUM_THREADS, "env": os.environ.get("NUMBA_NUM_THREADS"),
             "omp": os.environ.get("OMP_NUM_THREADS"), "malloc_trim": os.environ.get("MALLOC_TRIM_THRESHOLD_"),
             "profile": dask.config.get("distributed.worker.profile.enabled"),
+            "intervals": [dask.config.get(k) for k in ("distributed.admin.tick.interval",
+                                                       "distributed.worker.memory.monitor-interval",
+                                                       "distributed.admin.system-monitor.interval")],
             "callbacks": sorted(dask_worker.periodic_callbacks)}
 
 
@@ -298,6 +301,7 @@ def test_local_cluster_workers_have_one_compute_thread_and_no_profiler(monkeypat
     assert settings["numba_threads"] == 1 and settings["env"] == "1" and settings["omp"] == "1"
     assert settings["malloc_trim"] is None
     assert settings["profile"] is False and "profile" not in settings["callbacks"]
+    assert settings["intervals"] == ["1s", "1s", "2s"]      # dask: 20ms, 100ms, 500ms
     # the client's process (which hosts the nanny) keeps its numba thread count
     import os
 
