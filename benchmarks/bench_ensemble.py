@@ -1,27 +1,36 @@
-"""Ensemble execution on dask: parallel efficiency 1 vs 2 workers and per-member scheduling overhead.
+"""Ensemble execution on dask: parallel efficiency 1 vs 2 workers, CPU-busy fraction per worker, and the
+per-member scheduling overhead.
 
     python benchmarks/run.py ensemble [--work-seconds 1.0] [--grid 3] [--noop-grid 4] [--size 192]
 
 Members run the built-in ``synthetic`` runner: explicit 2-D diffusion sweeps (numpy, one thread) of a
-random field drawn from the member's seed, calibrated in this process to ``--work-seconds`` per member:
+random field drawn from the member's seed, calibrated in this process to ``--work-seconds`` of CPU time per member:
 real CPU work of equal size in every member. The ensemble is a grid^3 factorial (default 3x3x3 = 27).
 
 Measured in the same run:
 * serial baseline: every member executed in this process, one after the other (same member code, result
   files written) -- no dask;
-* the whole ``breachflow.ensemble.run`` call (submit, execute, gather, Dataset, NetCDF) on a LocalCluster of
-  1 and of 2 worker processes (cluster start-up timed separately, not included);
-* scheduling overhead: a noop^3 ensemble of zero-work members (``steps = 0``) on both clusters, and the
-  difference between the 1-worker run and the serial baseline, per member.
+* the whole ``breachflow.ensemble.run`` call (submit, execute, gather, Dataset, NetCDF) on breachflow's
+  LocalCluster (``local_cluster``) of 1 and of 2 worker processes (cluster start-up timed separately);
+* scheduling overhead: a noop^3 ensemble of zero-work members (``steps = 0``) on both clusters;
+* the machine: the same diffusion work in two plain processes at once vs one alone (no dask) -- the
+  speed-up the machine gives two CPU-bound processes right now.
 
-Parallel efficiency E = T(1 worker) / (2 T(2 workers)); target >= 85 %. The load average before and after
-is printed: other processes on the machine lower E. E splits into the worker utilisation (sum of member
-times / (workers x wall time): what the ensemble machinery loses to scheduling and idling) and the member
-slow-down (sum of member times with 2 workers / with 1: CPU contention, memory bandwidth, other load).
-Member CPU times (thread CPU clock) separate the two: wall / CPU > 1 means the member waited for a core.
-The projection T1' / (2 T2') with T'_k = (sum of member CPU times) / k + (wall time outside members) is
-what E would be on otherwise idle cores if members ran at their CPU speed -- a model, printed as such,
-for machines shared with other work (the time outside members is kept as measured, inflated by the load).
+CPU time is measured per process (psutil: user + system of each worker process, of this process, which
+holds the client, the scheduler and the nannies, and machine-wide /proc/stat counters), so the result
+means something on a machine shared with other work:
+* CPU-busy fraction of a worker = its process CPU time / wall time of the run. Near 100 %: the worker
+  always had a core; lower: it waited for one (other processes, or our own client/scheduler);
+* member CPU time per member, 1 vs 2 workers: whether the work itself got slower with two at once
+  (cache / memory bandwidth), independent of load;
+* worker CPU outside members and client-process CPU, per member: what the dask machinery costs;
+* CPU-time efficiency = worker CPU (1 worker) / (2 x max over workers of worker CPU (2 workers)): what
+  the wall efficiency T1 / (2 T2) is when every worker has a core to itself (load balance + extra CPU
+  per member), short of the idle gaps between members, which the zero-work run measures;
+* the other processes' CPU use during each run (machine busy time minus ours) and the VM's steal time.
+
+Wall-clock parallel efficiency E = T1 / (2 T2); target >= 85 %. On a loaded machine E is bounded by the
+plain-process reference printed next to it.
 """
 from __future__ import annotations
 
@@ -30,6 +39,7 @@ import os
 import shutil
 import tempfile
 import time
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -59,10 +69,10 @@ def calibrate(size: int, target: float) -> tuple[int, float]:
     u = np.random.default_rng(0).random((size, size))
     diffuse(u, 20)
     probe = 50
-    while True:
-        t = time.perf_counter()
+    while True:   # CPU time of this thread: the member size does not depend on the machine's load
+        t = time.thread_time()
         diffuse(u, probe)
-        dt = time.perf_counter() - t
+        dt = time.thread_time() - t
         if dt > 0.2:
             break
         probe *= 2
@@ -70,45 +80,144 @@ def calibrate(size: int, target: float) -> tuple[int, float]:
     return max(1, int(round(target / per_step))), per_step
 
 
-def serial(spec, out: Path) -> float:
+def process_cpu() -> float:
+    """User + system CPU time (s) of the calling process, all its threads."""
+    import psutil
+
+    t = psutil.Process().cpu_times()
+    return t.user + t.system
+
+
+def machine_cpu() -> tuple[float, float]:
+    """Machine-wide (busy, steal) CPU seconds since boot, summed over cores."""
+    import psutil
+
+    t = psutil.cpu_times()
+    idle = t.idle + getattr(t, "iowait", 0.0)
+    steal = getattr(t, "steal", 0.0)
+    return sum(t) - idle - steal, steal
+
+
+@dataclass
+class Measured:
+    """One timed phase: wall time, CPU of our processes, machine-wide busy / steal, member sums."""
+
+    wall: float
+    client_cpu: float                      # this process: client (+ scheduler and nannies of a local cluster)
+    main_thread_cpu: float = 0.0           # this process's main thread: run() (plan, gather, Dataset, NetCDF)
+    worker_cpu: dict = field(default_factory=dict)
+    machine_busy: float = 0.0
+    steal: float = 0.0
+    member_wall: float = 0.0
+    member_cpu: float = 0.0
+    n: int = 1
+
+    @property
+    def ours(self) -> float:
+        return self.client_cpu + sum(self.worker_cpu.values())
+
+    @property
+    def others_cores(self) -> float:
+        """Average number of cores other processes kept busy during the phase."""
+        return max(0.0, self.machine_busy - self.ours) / self.wall
+
+    def busy(self) -> str:
+        return " / ".join(f"{100 * c / self.wall:.0f} %" for c in self.worker_cpu.values())
+
+
+class meter:
+    """Measure a phase: ``with meter(client) as m: ...`` then ``m.result`` (a :class:`Measured`)."""
+
+    def __init__(self, client=None):
+        self.client = client
+
+    def _workers(self) -> dict:
+        return self.client.run(process_cpu) if self.client is not None else {}
+
+    def __enter__(self):
+        self.w0 = self._workers()
+        self.m0 = machine_cpu()
+        self.c0 = process_cpu()
+        self.th0 = time.thread_time()
+        self.t0 = time.perf_counter()
+        return self
+
+    def __exit__(self, *exc):
+        wall = time.perf_counter() - self.t0
+        th = time.thread_time() - self.th0
+        c1 = process_cpu()
+        m1 = machine_cpu()
+        w1 = self._workers()
+        self.result = Measured(wall=wall, client_cpu=c1 - self.c0, main_thread_cpu=th,
+                               worker_cpu={k: w1[k] - self.w0[k] for k in self.w0},
+                               machine_busy=m1[0] - self.m0[0], steal=m1[1] - self.m0[1])
+        return False
+
+
+def serial(spec, out: Path) -> Measured:
     from breachflow.ensemble import execute_member, plan
 
     _, _, _, tasks = plan(spec, out=out)
-    t = time.perf_counter()
-    records = [execute_member(task) for task in tasks]
-    dt = time.perf_counter() - t
+    with meter() as m:
+        records = [execute_member(task) for task in tasks]
     assert all(r["status"] == "ok" for r in records), [r.get("error_message") for r in records if r["status"] != "ok"]
-    return dt, sum(r["elapsed"] for r in records), sum(r["cpu_time"] for r in records)
+    res = m.result
+    res.member_wall = sum(r["elapsed"] for r in records)
+    res.member_cpu = sum(r["cpu_time"] for r in records)
+    res.n = len(records)
+    return res
 
 
-def on_cluster(n_workers: int, runs: list[tuple[str, str]], scratch: Path, *, malloc_trim: bool = False
-               ) -> tuple[float, dict[str, float]]:
+def on_cluster(n_workers: int, runs: list[tuple[str, str]], scratch: Path, *, dask_defaults: bool = False
+               ) -> tuple[float, dict[str, Measured]]:
     from distributed import Client
 
     from breachflow.ensemble import parse_spec, run
     from breachflow.ensemble.execute import _quiet_distributed, local_cluster
 
     t = time.perf_counter()
-    cluster = local_cluster(n_workers, malloc_trim=malloc_trim)
+    cluster = local_cluster(n_workers, dask_defaults=dask_defaults)
     client = Client(cluster)
     client.run(lambda: __import__("breachflow.ensemble.runners"))
     startup = time.perf_counter() - t
-    times = {}
+    results = {}
     try:
         for label, text in runs:
-            out = scratch / f"{label}-{n_workers}-{malloc_trim}"
-            t = time.perf_counter()
-            ds = run(parse_spec(text), client=client, out=out, progress=False, resume=False,
-                     console=_null_console())
-            times[label] = time.perf_counter() - t
-            times[label + "_member_sum"] = float(ds["member_elapsed_time"].sum())
-            times[label + "_cpu_sum"] = float(ds["member_cpu_time"].sum())
+            out = scratch / f"{label}-{n_workers}-{dask_defaults}"
+            with meter(client) as m:
+                ds = run(parse_spec(text), client=client, out=out, progress=False, resume=False,
+                         console=_null_console())
             assert int(ds.attrs["ensemble_failed"]) == 0
+            res = m.result
+            res.member_wall = float(ds["member_elapsed_time"].sum())
+            res.member_cpu = float(ds["member_cpu_time"].sum())
+            res.n = int(ds["member_status"].size)
+            results[label] = res
     finally:
         with _quiet_distributed():
             client.close()
             cluster.close()
-    return startup, times
+    return startup, results
+
+
+def machine_reference(steps: int, size: int, members: int) -> tuple[float, float]:
+    """Wall time of *members* members' diffusion work in one plain process alone, and in each of two
+    plain processes running at once (no dask): the machine's own two-process speed-up right now."""
+    import multiprocessing as mp
+    from concurrent.futures import ProcessPoolExecutor
+
+    from breachflow.ensemble.runners import diffuse
+
+    u = np.random.default_rng(0).random((size, size))
+    with ProcessPoolExecutor(2, mp_context=mp.get_context("spawn")) as pool:
+        list(pool.map(diffuse, [u, u], [1, 1]))           # start and import in both processes
+        t = time.perf_counter()
+        pool.submit(diffuse, u, steps * members).result()
+        alone = time.perf_counter() - t
+        t = time.perf_counter()
+        list(pool.map(diffuse, [u, u], [steps * members] * 2))
+        both = time.perf_counter() - t
+    return alone, both
 
 
 def _null_console():
@@ -124,8 +233,11 @@ def main(argv) -> int:
     ap.add_argument("--grid", type=int, default=3, help="values per parameter (grid^3 members)")
     ap.add_argument("--noop-grid", type=int, default=4, help="values per parameter of the zero-work ensemble")
     ap.add_argument("--size", type=int, default=192, help="diffusion grid side of the synthetic workload")
-    ap.add_argument("--dask-default-env", action="store_true",
-                    help="also time 1 worker with dask's default MALLOC_TRIM_THRESHOLD_=65536 (breachflow unsets it)")
+    ap.add_argument("--reference-members", type=int, default=3,
+                    help="members' worth of work per process in the plain two-process machine reference")
+    ap.add_argument("--dask-defaults", action="store_true",
+                    help="also time 2 workers with dask's defaults for what breachflow's local cluster changes "
+                         "(MALLOC_TRIM_THRESHOLD_, profiler, NUMBA_NUM_THREADS, housekeeping intervals)")
     args = ap.parse_args(argv)
 
     from rich.console import Console
@@ -133,7 +245,7 @@ def main(argv) -> int:
 
     from breachflow.ensemble import parse_spec
 
-    console = Console(width=130)
+    console = Console(width=140)
     load0 = os.getloadavg()
     steps, per_step = calibrate(args.size, args.work_seconds)
     n = args.grid ** 3
@@ -145,51 +257,68 @@ def main(argv) -> int:
                   f"{n} members, {n_noop} zero-work members")
     scratch = Path(tempfile.mkdtemp(prefix="bench-ensemble-"))
     try:
-        t_serial, sum_serial, cpu_serial = serial(parse_spec(work), scratch / "serial")
-        t_serial_noop, _, _ = serial(parse_spec(noop), scratch / "serial-noop")
-        start1, t1 = on_cluster(1, [("work", work), ("noop", noop)], scratch)
-        start2, t2 = on_cluster(2, [("work", work), ("noop", noop)], scratch)
-        _, t1_trim = on_cluster(1, [("work", work)], scratch, malloc_trim=True) if args.dask_default_env else (0, {})
+        ser = serial(parse_spec(work), scratch / "serial")
+        ser_noop = serial(parse_spec(noop), scratch / "serial-noop")
+        start1, r1 = on_cluster(1, [("work", work), ("noop", noop)], scratch)
+        ref_alone, ref_both = machine_reference(steps, args.size, args.reference_members)
+        start2, r2 = on_cluster(2, [("work", work), ("noop", noop)], scratch)
+        r2d = (on_cluster(2, [("work", work)], scratch, dask_defaults=True)[1]
+               if args.dask_defaults else {})
     finally:
         shutil.rmtree(scratch, ignore_errors=True)
     load1 = os.getloadavg()
 
-    eff = t1["work"] / (2 * t2["work"])
+    w1, w2 = r1["work"], r2["work"]
+    eff = w1.wall / (2 * w2.wall)
+    cpu_eff = sum(w1.worker_cpu.values()) / (2 * max(w2.worker_cpu.values()))
     table = Table(title=f"ensemble of {n} members x ~{args.work_seconds:g} s CPU (synthetic runner)", title_justify="left")
-    for col in ("measurement", "time (s)", "per member (s)", "ratio"):
-        table.add_column(col, justify="left" if col == "measurement" else "right")
-    table.add_row("serial in-process (baseline)", f"{t_serial:.2f}", f"{t_serial / n:.3f}", "1.00")
-    table.add_row("dask, 1 worker", f"{t1['work']:.2f}", f"{t1['work'] / n:.3f}", f"{t_serial / t1['work']:.2f} speed-up")
-    table.add_row("dask, 2 workers", f"{t2['work']:.2f}", f"{t2['work'] / n:.3f}", f"{t_serial / t2['work']:.2f} speed-up")
-    table.add_row("[bold]parallel efficiency T1 / (2 T2)[/]", "", "", f"[bold]{100 * eff:.1f} %[/] (target 85 %)")
-    table.add_row("efficiency vs serial T_serial / (2 T2)", "", "", f"{100 * t_serial / (2 * t2['work']):.1f} %")
-    table.add_row("overhead per member, (T1 - T_serial) / n", "", f"{(t1['work'] - t_serial) / n:.4f}", "")
-    table.add_row("member compute time, sum: serial / 1 w / 2 w",
-                  f"{sum_serial:.2f} / {t1['work_member_sum']:.2f} / {t2['work_member_sum']:.2f}",
-                  "", f"{t2['work_member_sum'] / sum_serial:.2f}x serial (contention)")
-    table.add_row("member CPU time, sum: serial / 1 w / 2 w",
-                  f"{cpu_serial:.2f} / {t1['work_cpu_sum']:.2f} / {t2['work_cpu_sum']:.2f}", "",
-                  f"wall/CPU {t2['work_member_sum'] / t2['work_cpu_sum']:.2f} with 2 w (>1: waiting for a core)")
-    table.add_row("worker utilisation, sum member time / (workers T): 1 w / 2 w",
-                  f"{100 * t1['work_member_sum'] / t1['work']:.1f} % / {100 * t2['work_member_sum'] / (2 * t2['work']):.1f} %",
-                  "", "idle + scheduling loss")
-    # idle-core projection: members at their CPU time, the measured time outside members kept as it was
-    proj1 = t1["work_cpu_sum"] + (t1["work"] - t1["work_member_sum"])
-    proj2 = t2["work_cpu_sum"] / 2 + (t2["work"] - t2["work_member_sum"] / 2)
-    table.add_row("projection for idle cores T1' / (2 T2'), T' = CPU/w + non-member time", f"{proj1:.2f} / {proj2:.2f}",
-                  "", f"{100 * proj1 / (2 * proj2):.1f} % (model, not a measurement)")
-    table.add_row(f"zero-work serial ({n_noop} members)", f"{t_serial_noop:.2f}", f"{t_serial_noop / n_noop:.4f}", "")
-    table.add_row(f"zero-work dask, 1 worker ({n_noop})", f"{t1['noop']:.2f}", f"{t1['noop'] / n_noop:.4f}",
-                  f"{t1['noop'] / t_serial_noop:.1f}x serial")
-    table.add_row(f"zero-work dask, 2 workers ({n_noop})", f"{t2['noop']:.2f}", f"{t2['noop'] / n_noop:.4f}",
-                  f"{t2['noop'] / t_serial_noop:.1f}x serial")
-    table.add_row("scheduling overhead per member (1 worker)", "", f"{(t1['noop'] - t_serial_noop) / n_noop:.4f}", "")
-    if t1_trim:
-        table.add_row("dask, 1 worker, dask's MALLOC_TRIM_THRESHOLD_=65536", f"{t1_trim['work']:.2f}",
-                      f"{t1_trim['work'] / n:.3f}", f"{t1_trim['work'] / t1['work']:.2f}x breachflow's cluster")
-    table.add_row("cluster start-up 1 / 2 workers (not in the above)", f"{start1:.2f} / {start2:.2f}", "", "")
+    for col in ("measurement", "serial", "dask, 1 worker", "dask, 2 workers", "ratio / note"):
+        table.add_column(col, justify="left" if col in ("measurement", "ratio / note") else "right")
+    table.add_row("wall time (s)", f"{ser.wall:.2f}", f"{w1.wall:.2f}", f"{w2.wall:.2f}",
+                  f"speed-up vs serial {ser.wall / w1.wall:.2f} / {ser.wall / w2.wall:.2f}")
+    table.add_row("[bold]parallel efficiency T1 / (2 T2)[/]", "", "", "", f"[bold]{100 * eff:.1f} %[/] (target 85 %)")
+    table.add_row("efficiency vs serial T_serial / (2 T2)", "", "", "", f"{100 * ser.wall / (2 * w2.wall):.1f} %")
+    table.add_row("machine reference: 2 plain processes at once vs 1 alone (s)", "", f"{ref_alone:.2f}",
+                  f"{ref_both:.2f}", f"{100 * ref_alone / ref_both:.1f} % (the machine's own 2-process efficiency now)")
+    table.add_row("[bold]CPU-busy fraction per worker[/] (process CPU / wall)", "", w1.busy(), w2.busy(),
+                  "< 100 %: the worker waited for a core")
+    table.add_row("[bold]CPU-time efficiency[/] CPU(1 w) / (2 max CPU(2 w))", "", f"{sum(w1.worker_cpu.values()):.2f}",
+                  f"{max(w2.worker_cpu.values()):.2f}", f"[bold]{100 * cpu_eff:.1f} %[/] (E with a core per worker)")
+    table.add_row("member CPU time per member (s)", f"{ser.member_cpu / n:.3f}", f"{w1.member_cpu / n:.3f}",
+                  f"{w2.member_cpu / n:.3f}", f"2 w / 1 w {w2.member_cpu / w1.member_cpu:.2f} (>1: the work itself slowed)")
+    table.add_row("member wall / member CPU", f"{ser.member_wall / ser.member_cpu:.2f}",
+                  f"{w1.member_wall / w1.member_cpu:.2f}", f"{w2.member_wall / w2.member_cpu:.2f}", ">1: waiting for a core")
+    for label, res, rn in (("work", (w1, w2), n), ("noop", (r1["noop"], r2["noop"]), n_noop)):
+        a, b = res
+        table.add_row(f"worker CPU outside members per member (ms), {label}", "",
+                      f"{1e3 * (sum(a.worker_cpu.values()) - a.member_cpu) / rn:.1f}",
+                      f"{1e3 * (sum(b.worker_cpu.values()) - b.member_cpu) / rn:.1f}", "dask worker machinery")
+        table.add_row(f"client + scheduler + nanny CPU per member (ms), {label}",
+                      f"{1e3 * ((ser if label == 'work' else ser_noop).client_cpu - (ser if label == 'work' else ser_noop).member_cpu) / rn:.1f}",
+                      f"{1e3 * a.client_cpu / rn:.1f}", f"{1e3 * b.client_cpu / rn:.1f}",
+                      "serial: this process outside members")
+        table.add_row(f"  of which other threads: scheduler, nannies, comms (ms), {label}", "",
+                      f"{1e3 * (a.client_cpu - a.main_thread_cpu) / rn:.1f}",
+                      f"{1e3 * (b.client_cpu - b.main_thread_cpu) / rn:.1f}", "rest: run() in the main thread")
+    no1, no2 = r1["noop"], r2["noop"]
+    table.add_row(f"zero-work ensemble ({n_noop} members): wall (s)", f"{ser_noop.wall:.2f}", f"{no1.wall:.2f}",
+                  f"{no2.wall:.2f}", "")
+    table.add_row("[bold]scheduling overhead per member[/] (T_dask - T_serial) / n (ms)", "",
+                  f"{1e3 * (no1.wall - ser_noop.wall) / n_noop:.1f}", f"{1e3 * (no2.wall - ser_noop.wall) / n_noop:.1f}",
+                  "zero-work members; with 2 workers two run at once")
+    table.add_row("overhead per member, work: (T1 - T_serial) / n (ms)", "", f"{1e3 * (w1.wall - ser.wall) / n:.1f}", "", "")
+    table.add_row("other processes on the machine (cores busy, average)", f"{ser.others_cores:.2f}",
+                  f"{w1.others_cores:.2f}", f"{w2.others_cores:.2f}",
+                  f"VM steal {ser.steal:.1f} / {w1.steal:.1f} / {w2.steal:.1f} s")
+    if r2d:
+        d = r2d["work"]
+        table.add_row("2 workers, dask's defaults (execute.WORKER_CONFIG off)", "", "",
+                      f"{d.wall:.2f} s", f"busy {d.busy()}; worker CPU outside members "
+                      f"{1e3 * (sum(d.worker_cpu.values()) - d.member_cpu) / n:.1f} ms/member; "
+                      f"member CPU {d.member_cpu / w2.member_cpu:.2f}x breachflow's cluster")
+    table.add_row("cluster start-up (s, not in the above)", "", f"{start1:.2f}", f"{start2:.2f}", "")
     console.print(table)
     console.print(f"load average before {load0[0]:.2f} {load0[1]:.2f} {load0[2]:.2f}, "
-                  f"after {load1[0]:.2f} {load1[1]:.2f} {load1[2]:.2f} (2 cores: load > ~0.5 from other processes "
-                  "lowers the 2-worker efficiency)")
+                  f"after {load1[0]:.2f} {load1[1]:.2f} {load1[2]:.2f}. Wall-clock ratios on a loaded machine are "
+                  "noisy; the CPU-busy fractions, CPU-time efficiency and the machine reference say why.")
     return 0

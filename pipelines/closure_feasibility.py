@@ -1,112 +1,151 @@
 #!/usr/bin/env python3
 """Closure feasibility sweep: breach length × polder area × mass size, one dask ensemble (issue 8).
 
-    python pipelines/closure_feasibility.py OUTPUT_DIR [--workers N] [--scheduler tcp://HOST:8786]
+    python pipelines/closure_feasibility.py OUTPUT_DIR [--full] [--workers N] [--scheduler tcp://HOST:8786]
+    python pipelines/closure_feasibility.py OUTPUT_DIR --lengths 8 16 --areas 20 200 --sizes 2.5
 
 For which breach lengths, polder areas and mass sizes can the breach be closed inside its closure window?
-Every member computes the closure window of its scenario (SPEC §2) and — with the "closure" member
-runner of the closure-cycle issue — simulates the closure by dropping masses of that size, so that
-``feasible = closure done before the window ends``.
+Every member runs the ``closure`` member runner: the closure simulation of its scenario (SPEC §7: masses of
+that diameter dropped cycle after cycle into the embedded shallow-water flow until the end criteria hold)
+and its closure window (SPEC §2), so ``feasible = closure achieved and closure duration at the placement
+rate <= closure window``. The polder area enters only the window; breach length enters both.
+
+The base scenario is the embedded demo breach (3 m levee, water at the crest) on a coarse grid (2 m,
+first order), 6 masses per cycle at 30 per hour, at most 8 cycles, closed when the masses block half the
+breach cross-section or no speed exceeds 1 m/s: a member takes a few CPU seconds once numba's cache is
+warm. The default grid is 3 × 3 × 3 (27 members, a few minutes on 2 cores); ``--full`` runs 6 × 5 × 5.
 
 Writes ``OUTPUT_DIR/ensemble.nc`` (CF NetCDF, dims breach_length × polder_area × mass_size),
-``OUTPUT_DIR/members/*/`` (one run directory per member) and ``OUTPUT_DIR/closure_feasibility.png`` (one
-panel per mass size: the closure window, and when the closure part ran, which cells are feasible).
-Rerunning resumes: completed members are skipped.
+``OUTPUT_DIR/members/*/`` (one run directory per member: scenario, closure run, result.json) and
+``OUTPUT_DIR/closure_feasibility.png`` (one feasibility map per mass size). Rerunning resumes: completed
+members are skipped.
 """
 from __future__ import annotations
 
 import argparse
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
 
-# The member runner. "window" computes closure windows only; switching to the closure simulation is this
-# one line once the closure-cycle issue registers its runner: RUNNER = "closure".
-RUNNER = "window"
+DEFAULT_GRID = {"lengths": [8, 12, 16], "areas": [20, 60, 200], "sizes": [1.5, 2.0, 2.5]}
+FULL_GRID = {"lengths": [6, 8, 10, 12, 14, 16], "areas": [10, 20, 50, 100, 200], "sizes": [1.0, 1.5, 2.0, 2.5, 3.0]}
 
 SPEC = """
 [ensemble]
 name = "closure feasibility"
-description = "breach length x polder area x mass size for the report's hurricane model problem (SPEC 2, 7)"
-runner = "{runner}"
+description = "breach length x polder area x mass size: closure simulation and closure window (SPEC 2, 7)"
+runner = "closure"
 seed = 2026
 
 [ensemble.vary]
-"breach.length" = ["20 m", "40 m", "60 m", "80 m"]
-"polder.area" = ["400 ha", "800 ha", "1600 ha", "3200 ha"]
-mass_size = {{ parameter = "placement.mass_size", values = ["1 m", "2 m", "3 m"], long_name = "diameter of the dropped masses" }}
+"breach.length" = [{lengths}]
+"polder.area" = [{areas}]
+mass_size = {{ parameter = "placement.diameter", values = [{sizes}], long_name = "diameter of the dropped masses" }}
 
-# the base scenario: the report's hurricane model problem (Table 2.5), Q_D = h_W B v
 [scenario]
 name = "closure feasibility member"
 
+[site]
+preset = "demo_breach"
+levee_length_each_side = "16 m"
+flood_side_extent = "24 m"
+protected_side_extent = "24 m"
+
 [flood]
-surge_height = "2.8 m"
-rise_rate = "40 cm/hr"
-fall_rate = "40 cm/hr"
-breach_time = "0 h"
+surge_height = "3 m"
+rise_rate = "0.3 m/hr"
+fall_rate = "0.3 m/hr"
 
 [polder]
-area = "800 ha"
-inundation_depth = "90 cm"
-
-[levee]
-height = "2.4 m"
+area = "100 ha"
+inundation_depth = "1.5 m"
 
 [breach]
-length = "30 m"
-mean_velocity = "3 m/s"
+length = "12 m"
+depth = "3 m"
+wall_slope = 0
+
+[hydro]
+resolution = "2 m"
+order = 1
+t_max_initial = "90 s"
+t_max = "20 s"
+monitor_radius = "12 m"
+
+[dem]
+max_time = "4 s"
+
+[placement]
+batch = 6
+rate = "30 1/hr"
+release_height = "1 m"
+
+[criteria]
+mode = "any"
+max_cycles = 8
+max_speed = "1 m/s"
+blocked_fraction = 0.5
 """
 
 
-def spec_text(runner: str = RUNNER) -> str:
-    return SPEC.format(runner=runner)
+def spec_text(lengths=DEFAULT_GRID["lengths"], areas=DEFAULT_GRID["areas"], sizes=DEFAULT_GRID["sizes"]) -> str:
+    """The ensemble spec over breach lengths (m), polder areas (ha) and mass diameters (m)."""
+    def quoted(values, unit):
+        return ", ".join(f'"{v:g} {unit}"' for v in values)
+
+    return SPEC.format(lengths=quoted(lengths, "m"), areas=quoted(areas, "ha"), sizes=quoted(sizes, "m"))
+
+
+#: Categories of the feasibility map: (label, colour).
+CATEGORIES = (("feasible", "#1a9850"), ("closed after the window", "#fdae61"),
+              ("not closed in max_cycles", "#d73027"), ("member failed", "#999999"))
+
+
+def categories(ds) -> "np.ndarray":
+    """0 feasible, 1 closed but later than the window, 2 not closed, 3 member failed (per member)."""
+    ok = ds["member_status"].values == 0
+    achieved = ds["closure_achieved"].values == 1
+    feasible = ds["feasible"].values == 1
+    return np.where(~ok, 3, np.where(feasible, 0, np.where(achieved, 1, 2)))
 
 
 def figure(ds, path: Path) -> Path:
-    """One panel per mass size over breach length × polder area: closure window in hours; with the closure
-    results, infeasible cells hatched and the closure duration printed."""
+    """One panel per mass size over breach length × polder area: the feasibility category of each
+    member, with its closure duration / closure window (h) printed in the cell."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.colors import ListedColormap
+    from matplotlib.patches import Patch
 
-    from breachflow.ensemble.io import atomic_path
+    from breachflow.output.atomic import atomic_path
 
+    ds = ds.transpose("mass_size", "polder_area", "breach_length")
+    cat = categories(ds)
     sizes = ds["mass_size"].values
-    fig, axes = plt.subplots(1, len(sizes), figsize=(4.2 * len(sizes), 4.0), squeeze=False, constrained_layout=True)
-    window_h = ds["closure_window"] / 3600.0
-    vmax = float(np.nanmax(window_h.values)) if np.isfinite(window_h.values).any() else 1.0
-    has_closure = "feasible" in ds
-    for ax, size in zip(axes[0], sizes):
-        w = window_h.sel(mass_size=size).transpose("polder_area", "breach_length")
-        lengths, areas_ha = ds["breach_length"].values, ds["polder_area"].values / 1e4
-        im = ax.imshow(w.values, origin="lower", cmap="viridis", vmin=0, vmax=vmax, aspect="auto")
+    lengths, areas_ha = ds["breach_length"].values, ds["polder_area"].values / 1e4
+    duration_h = ds["closure_duration"].values / 3600.0
+    window_h = ds["closure_window"].values / 3600.0
+    cmap = ListedColormap([c for _, c in CATEGORIES])
+    fig, axes = plt.subplots(1, len(sizes), figsize=(3.6 * len(sizes) + 1.0, 3.8), squeeze=False,
+                             constrained_layout=True)
+    for k, (ax, size) in enumerate(zip(axes[0], sizes)):
+        ax.imshow(cat[k], origin="lower", cmap=cmap, vmin=-0.5, vmax=len(CATEGORIES) - 0.5, aspect="auto")
         ax.set_xticks(range(len(lengths)), [f"{v:g}" for v in lengths])
         ax.set_yticks(range(len(areas_ha)), [f"{v:g}" for v in areas_ha])
         ax.set_xlabel("breach length B (m)")
         ax.set_ylabel("polder area A_P (ha)")
-        status = ds["member_status"].sel(mass_size=size).transpose("polder_area", "breach_length").values
-        feas = (ds["feasible"].sel(mass_size=size).transpose("polder_area", "breach_length").values
-                if has_closure else None)
-        for j in range(w.shape[0]):
-            for i in range(w.shape[1]):
-                if status[j, i] != 0:
-                    ax.text(i, j, "failed", ha="center", va="center", color="red", fontsize=8)
-                    continue
-                text = f"{w.values[j, i]:.1f} h"
-                if feas is not None:
-                    ok = feas[j, i] == 1
-                    text += "\nfeasible" if ok else "\nnot feasible"
-                    if not ok:
-                        ax.add_patch(plt.Rectangle((i - 0.5, j - 0.5), 1, 1, fill=False, hatch="///",
-                                                   edgecolor="white", linewidth=0))
-                ax.text(i, j, text, ha="center", va="center", color="white", fontsize=8)
-        ax.set_title(f"masses of {size:g} m" + ("" if has_closure else " (window only)"))
-    fig.colorbar(im, ax=axes[0].tolist(), label="closure window t_B (h)")
-    fig.suptitle("Closure feasibility: closure window" + (" and closure before its end" if has_closure
-                                                           else " — closure part needs the 'closure' runner"))
+        ax.set_title(f"masses of {size:g} m")
+        for j in range(len(areas_ha)):
+            for i in range(len(lengths)):
+                text = "failed" if cat[k, j, i] == 3 else f"{duration_h[k, j, i]:.2f} / {window_h[k, j, i]:.2f} h"
+                ax.text(i, j, text, ha="center", va="center", fontsize=7)
+    fig.legend(handles=[Patch(color=c, label=lab) for lab, c in CATEGORIES], loc="outside lower center",
+               ncol=len(CATEGORIES), fontsize=8)
+    fig.suptitle("Closure feasibility (cell: closure duration / closure window)")
     with atomic_path(path, suffix=".png") as tmp:
         fig.savefig(tmp, dpi=120)
     plt.close(fig)
@@ -116,37 +155,38 @@ def figure(ds, path: Path) -> Path:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("output", type=Path, nargs="?", default=Path("closure_feasibility"))
+    ap.add_argument("--full", action="store_true", help="the full grid (6 x 5 x 5 members) instead of 3 x 3 x 3")
+    ap.add_argument("--lengths", type=float, nargs="+", help="breach lengths (m), overriding the grid's")
+    ap.add_argument("--areas", type=float, nargs="+", help="polder areas (ha), overriding the grid's")
+    ap.add_argument("--sizes", type=float, nargs="+", help="mass diameters (m), overriding the grid's")
     ap.add_argument("--workers", type=int, default=None, help="local worker processes (default: one per core)")
     ap.add_argument("--scheduler", default=None, help="address of an existing dask scheduler")
-    ap.add_argument("--runner", default=RUNNER, help=f"member runner (default {RUNNER!r})")
     args = ap.parse_args(argv)
 
     from rich.console import Console
 
-    from breachflow.ensemble import member_runners, parse_spec, run, runner_available
+    from breachflow.ensemble import parse_spec, run
     from breachflow.ensemble.io import atomic_write_text
 
+    grid = dict(FULL_GRID if args.full else DEFAULT_GRID)
+    for key in grid:
+        if getattr(args, key):
+            grid[key] = getattr(args, key)
+    text = spec_text(**grid)
     console = Console()
-    if args.runner == "window":
-        console.print("[bold yellow]closure part not run:[/] the closure simulation needs the 'closure' member runner "
-                      "(closure-cycle issue), not registered yet"
-                      + ("" if not runner_available("closure") else " — it is available now: use --runner closure")
-                      + ". This run computes the closure window of every member; mass size does not enter it, "
-                      "and no feasibility flag is computed.")
-    elif not runner_available(args.runner):
-        console.print(f"[red]member runner {args.runner!r} is not registered[/] (available: "
-                      f"{', '.join(member_runners.available())})")
-        return 2
     args.output.mkdir(parents=True, exist_ok=True)
     spec_path = args.output / "closure_feasibility.toml"
-    atomic_write_text(spec_path, spec_text(args.runner))
-    ds = run(parse_spec(spec_text(args.runner), path=spec_path), out=args.output, workers=args.workers,
-             scheduler=args.scheduler, console=console)
+    atomic_write_text(spec_path, text)
+    t0 = time.perf_counter()
+    ds = run(parse_spec(text, path=spec_path), out=args.output, workers=args.workers, scheduler=args.scheduler,
+             console=console)
+    wall = time.perf_counter() - t0
     png = figure(ds, args.output / "closure_feasibility.png")
     console.print(f"wrote {png}")
-    if "feasible" in ds:
-        feasible = ds["feasible"].where(ds["member_status"] == 0)
-        console.print(f"feasible members: {int((feasible == 1).sum())} of {int((ds['member_status'] == 0).sum())}")
+    counts = np.bincount(categories(ds).ravel(), minlength=len(CATEGORIES))
+    console.print(f"{ds['member_status'].size} members in {wall:.1f} s wall (member CPU time, sum "
+                  f"{float(np.nansum(ds['member_cpu_time'].values)):.1f} s): "
+                  + ", ".join(f"{n} {label}" for n, (label, _) in zip(counts, CATEGORIES)), highlight=False)
     return 0
 
 

@@ -238,23 +238,74 @@ def test_invalid_result_is_not_written_and_an_old_file_survives(tmp_path):
     assert path.read_bytes() == b"previous result" and list(tmp_path.iterdir()) == [path]
 
 
-def test_closure_feasibility_pipeline_runs_window_members(client, tmp_path, capsys):
+def test_closure_feasibility_pipeline_runs_closure_members(client, tmp_path, capsys):
     import importlib.util
 
     path = Path(__file__).resolve().parents[2] / "pipelines" / "closure_feasibility.py"
     spec = importlib.util.spec_from_file_location("closure_feasibility_pipeline", path)
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
-    assert 'runner = "closure"' in mod.spec_text("closure")      # switching runner is one value
-    assert mod.main([str(tmp_path), "--scheduler", client.scheduler.address]) == 0
-    out = capsys.readouterr().out
-    assert "closure part not run" in out and "'closure' member runner" in out
+    # two real closure members: an 8 m breach closed with 2.5 m masses, into a small and a large polder
+    assert mod.main([str(tmp_path), "--lengths", "8", "--areas", "20", "200", "--sizes", "2.5",
+                     "--scheduler", client.scheduler.address]) == 0
     ds = open_result(tmp_path / "ensemble.nc")
-    assert ds.sizes == {"breach_length": 4, "polder_area": 4, "mass_size": 3}
+    assert ds.sizes == {"breach_length": 1, "polder_area": 2, "mass_size": 1}
     assert (ds["member_status"] == 0).all()
+    assert ds["mass_size"].attrs["units"] == "m" and ds["mass_size"].values.tolist() == [2.5]
+    # SPEC §2 with the pipeline's base scenario: Q_D = h_W B 3 m/s, r_P = Q_D / A_P,
+    # t_B = min(h_W / (r_fall + r_P), d_I / r_P)
+    r_p = 3.0 * 8.0 * 3.0 / np.array([20e4, 200e4])
+    t_b = np.minimum(3.0 / (0.3 / 3600 + r_p), 1.5 / r_p)
+    np.testing.assert_allclose(ds["closure_window"].values.ravel(), t_b, rtol=1e-9)
+    # 6 masses per cycle at 30 masses per hour, at most 8 cycles
+    cycles = ds["cycles"].values.ravel()
+    assert np.all((cycles >= 1) & (cycles <= 8))
+    np.testing.assert_array_equal(ds["masses_placed"].values.ravel(), 6 * cycles)
+    np.testing.assert_allclose(ds["closure_duration"].values.ravel(), 6 * cycles * 120.0)
+    achieved = ds["closure_achieved"].values.ravel() == 1
+    np.testing.assert_array_equal(ds["feasible"].values.ravel() == 1,
+                                  achieved & (ds["closure_duration"].values.ravel() <= t_b))
+    # the placed masses cut the breach discharge
+    assert np.all(ds["final_breach_discharge"].values < ds["initial_breach_discharge"].values)
     assert (tmp_path / "closure_feasibility.png").stat().st_size > 10_000
-    # closure window grows with the polder area (t_I = d_I A_P / Q_D; t_Q rises as r_P falls)
-    assert (ds["closure_window"].diff("polder_area") > 0).all()
+    assert "2 members in" in capsys.readouterr().out
+
+
+def _worker_settings(dask_worker):
+    import os
+
+    import dask
+    import numba
+
+    return {"numba_threads": numba.config.NUMBA_NUM_THREADS, "env": os.environ.get("NUMBA_NUM_THREADS"),
+            "omp": os.environ.get("OMP_NUM_THREADS"), "malloc_trim": os.environ.get("MALLOC_TRIM_THRESHOLD_"),
+            "profile": dask.config.get("distributed.worker.profile.enabled"),
+            "intervals": [dask.config.get(k) for k in ("distributed.admin.tick.interval",
+                                                       "distributed.worker.memory.monitor-interval",
+                                                       "distributed.admin.system-monitor.interval")],
+            "callbacks": sorted(dask_worker.periodic_callbacks)}
+
+
+def test_local_cluster_workers_have_one_compute_thread_and_no_profiler(monkeypatch):
+    from breachflow.ensemble.execute import _quiet_distributed, local_cluster
+
+    monkeypatch.delenv("NUMBA_NUM_THREADS", raising=False)
+    cluster = local_cluster(1)
+    c = distributed.Client(cluster)
+    try:
+        (settings,) = c.run(_worker_settings).values()
+    finally:
+        with _quiet_distributed():
+            c.close()
+            cluster.close()
+    assert settings["numba_threads"] == 1 and settings["env"] == "1" and settings["omp"] == "1"
+    assert settings["malloc_trim"] is None
+    assert settings["profile"] is False and "profile" not in settings["callbacks"]
+    assert settings["intervals"] == ["1s", "1s", "2s"]      # dask: 20ms, 100ms, 500ms
+    # the client's process (which hosts the nanny) keeps its numba thread count
+    import os
+
+    assert "NUMBA_NUM_THREADS" not in os.environ
 
 
 def test_a_member_that_kills_its_worker_is_recorded_and_the_others_complete(client, tmp_path):

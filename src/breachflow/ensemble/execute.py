@@ -270,17 +270,33 @@ def _local_cluster(n_workers: int | None):
     return cluster, Client(cluster)
 
 
-def local_cluster(n_workers: int | None = None, *, malloc_trim: bool = False):
+def local_cluster(n_workers: int | None = None, *, dask_defaults: bool = False):
     """A dask LocalCluster for ensembles: *n_workers* processes (default one per core), one thread each.
 
-    Two dask settings differ from dask's defaults (on other clusters set them in the dask configuration):
+    Dask settings that differ from dask's defaults (:data:`WORKER_CONFIG`; *dask_defaults* keeps only the
+    first; on other clusters set them in the dask configuration):
 
     * ``distributed.scheduler.worker-saturation: 1.0`` -- a worker holds only the member it runs, none
       queued behind it, so a member that kills its worker (a segfault) takes no innocent member down
       with it, and long members balance across workers;
-    * ``distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_: null`` (unless *malloc_trim*): dask's
+    * ``distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_: null``: dask's
       default 65536 also pins glibc's mmap threshold, so every numpy temporary above 128 kB is mmap'ed
-      and unmapped again, which doubled the time of numpy-heavy members here (``bench_ensemble.py``).
+      and unmapped again, which doubled the time of numpy-heavy members here (``bench_ensemble.py``); a
+      value this process inherited (or an earlier dask cluster set in it) is hidden from the workers;
+    * ``distributed.nanny.environ.NUMBA_NUM_THREADS: 1`` -- one compute thread per worker process, as
+      dask already does for OpenMP / MKL / OpenBLAS: a member's numba ``parallel=True`` kernels (the
+      shallow-water solver) cannot start one thread per core in every worker. Set in the worker after
+      it is spawned, not in ``pre-spawn-environ``: the nanny applies that to its own process (the client's,
+      for a local cluster), and numba refuses a changed thread count once its threads run there;
+    * ``distributed.worker.profile.enabled: false``: the statistical profiler samples
+      the running member every 10 ms in the worker's event loop; with CPU-bound members it cost 3-4 %
+      of a core per worker (``bench_ensemble.py`` prints the workers' CPU time outside members);
+    * ``distributed.admin.tick.interval: 1s``, ``distributed.worker.memory.monitor-interval: 1s``,
+      ``distributed.admin.system-monitor.interval: 2s`` (dask: 20 ms, 100 ms, 500 ms) -- the event-loop
+      watchdog, the nannies' memory polls and the dashboard's system samples cost an idle 2-worker
+      cluster 5-6 % of a core in the client's process (scheduler and nannies) and 2 % per worker here;
+      with these intervals about 1 % and 0.3 %. Members run for seconds to minutes, so a memory limit
+      is enforced within a second instead of 0.1 s.
     """
     import logging
 
@@ -289,12 +305,31 @@ def local_cluster(n_workers: int | None = None, *, malloc_trim: bool = False):
 
     n = n_workers or os.cpu_count() or 1
     dashboard = ":0" if _has_bokeh() else None
-    overrides = {"distributed.scheduler.worker-saturation": 1.0}
-    if not malloc_trim:
-        overrides["distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_"] = None
-    with dask.config.set(overrides):
-        return LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=dashboard,
-                            silence_logs=logging.ERROR)
+    overrides = dict(SATURATION_CONFIG if dask_defaults else WORKER_CONFIG)
+    malloc_trim = "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_" not in overrides
+    # spawned workers inherit this process's environment, where an earlier dask cluster's nanny may have
+    # left MALLOC_TRIM_THRESHOLD_=65536 (nannies apply pre-spawn-environ to their own process)
+    hidden = {} if malloc_trim else {k: os.environ.pop(k) for k in ("MALLOC_TRIM_THRESHOLD_",) if k in os.environ}
+    try:
+        with dask.config.set(overrides):
+            return LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=dashboard,
+                                silence_logs=logging.ERROR)
+    finally:
+        os.environ.update(hidden)
+
+
+#: One member per worker at a time (kept with ``local_cluster(dask_defaults=True)``).
+SATURATION_CONFIG = {"distributed.scheduler.worker-saturation": 1.0}
+#: The dask configuration of :func:`local_cluster` (see there why).
+WORKER_CONFIG = {
+    **SATURATION_CONFIG,
+    "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None,
+    "distributed.nanny.environ.NUMBA_NUM_THREADS": 1,
+    "distributed.worker.profile.enabled": False,
+    "distributed.admin.tick.interval": "1s",
+    "distributed.worker.memory.monitor-interval": "1s",
+    "distributed.admin.system-monitor.interval": "2s",
+}
 
 
 def _has_bokeh() -> bool:
