@@ -18,7 +18,20 @@ import pint
 
 from .errors import UnitError, InputError
 
-ureg = pint.UnitRegistry(autoconvert_offset_to_baseunit=True)
+#: UDUNITS/CF exponents (``m s-1``, ``m2 s-1``, ``kg m-3``) become pint powers; the pattern is
+#: cf_xarray's (from MetPy): a letter followed by a signed integer, not inside a number like ``1e-3``.
+_UDUNITS_EXPONENT = re.compile(r"(?<=[A-Za-z])(?![A-Za-z])(?<![0-9\-][eE])(?<![0-9\-])(?=[0-9\-])")
+
+
+def _udunits_powers(text: str) -> str:
+    return _UDUNITS_EXPONENT.sub("**", text)
+
+
+# force_ndarray_like: what pint-xarray requires of a registry (``pint_xarray.setup_registry``), set at
+# creation so that ``ds.pint.quantify()`` works whichever of breachflow and pint_xarray is imported first
+# (pint-xarray keeps ``pint.get_application_registry()``, a proxy that follows ``set_application_registry``).
+ureg = pint.UnitRegistry(autoconvert_offset_to_baseunit=True, force_ndarray_like=True,
+                         preprocessors=[str, _udunits_powers])
 ureg.define("cfs = foot ** 3 / second")
 ureg.define("cms = meter ** 3 / second")
 Q_ = ureg.Quantity

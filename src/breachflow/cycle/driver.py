@@ -30,6 +30,7 @@ from ..hydro.sampling import FieldSampler
 from ..hydro.snapshot import DRY_DEPTH
 from ..schemas import validate
 from ..output import RunDirectory, particles_dataset, trajectories_dataset
+from ..output.cf import pad_particles
 from .criteria import CycleContext, EndCriteria, section_discharge
 from .placement import PlacementPlan
 from .remap import IncrementalPileTop, remap_top
@@ -176,8 +177,7 @@ class ClosureRun:
         if done:
             g0 = done[-1]
             rec = self.rundir.load_restart(g0)
-            with xr.open_dataset(self.rundir.cycle_path(g0)) as ds:
-                snapshot = self._grid_only(ds.load())
+            snapshot = self._grid_only(self.rundir.open_cycle(g0))
             closed = bool(self.rundir.manifest()["cycles"][-1]["summary"].get("closed"))
             if closed or self.rundir.manifest().get("finished"):
                 return self.reports
@@ -359,8 +359,9 @@ class ClosureRun:
         field_ds = validate(self._field_dataset(new_snapshot, st, placed_cycle, resting, rep), "closure_cycle")
         traj = None
         if moving.size:
-            tt = np.broadcast_to(rel.time + t_rec, (moving.size, t_rec.size))
-            traj = validate(trajectories_dataset(moving, tt, frames, vframes, cycle=g), "closure_trajectories")
+            tt = np.broadcast_to(t_rec, (moving.size, t_rec.size))  # seconds since the cycle's release
+            traj = validate(trajectories_dataset(moving, tt, frames, vframes, cycle=g, cycle_start=rel.time),
+                            "closure_trajectories")
         self.rundir.write_cycle(g, field_ds, traj, new_rec, _summary(rep))
         self._live = (g, sim)
         return rep, new_rec, new_snapshot
@@ -381,6 +382,7 @@ class ClosureRun:
         grid = self._grid_only(snapshot)
         part = particles_dataset(st, placed_cycle=placed_cycle, resting=resting,
                                  grid_mapping="crs" if "crs" in grid else None)
+        part = pad_particles(part, self.setup.criteria.max_cycles * self.setup.placement.batch)
         ds = xr.merge([grid, part], combine_attrs="override")
         ds.attrs.update(grid.attrs)
         ds.attrs.update(title=f"breachflow closure run {self.setup.name!r}, cycle {rep.cycle}", cycle=np.int32(rep.cycle),
@@ -390,7 +392,19 @@ class ClosureRun:
                         operation_time_s=float(rep.operation_time))
         for r in rep.criteria:
             ds.attrs[f"criterion_{r.name}"] = f"{r.value:.6g} {r.units} (threshold {r.threshold:.6g}, {'met' if r.satisfied else 'not met'})"
-        return ds
+        return with_cycle_dimension(ds, rep.cycle)
+
+
+def with_cycle_dimension(ds: xr.Dataset, g: int) -> xr.Dataset:
+    """Give a cycle's Dataset the length-1 ``cycle`` dimension coordinate ``xr.open_mfdataset("RUN/cycle_*.nc")``
+    stacks the cycles along: on every per-cycle variable (not on ``crs`` nor on the grid coordinates).
+    The particles are padded to the run's capacity (same ``particle`` index in every cycle) and the
+    steady-state history, whose length varies, is written to the group ``convergence_history``."""
+    ds = ds.copy()
+    for name in list(ds.data_vars):
+        if name != "crs":
+            ds[name] = ds[name].expand_dims("cycle")
+    return ds.assign_coords(cycle=("cycle", np.array([g], "i4"), {"long_name": "closure cycle <g>", "units": "1"}))
 
 
 def _summary(rep: CycleReport) -> dict:

@@ -24,8 +24,7 @@ def plot_plan_view(rundir, out, cycle: int | None = None) -> Path:
     fig, axes = plt.subplots(1, len(show), figsize=(6.2 * len(show), 5.2), squeeze=False, constrained_layout=True)
     vmax = None
     for ax, g in zip(axes[0], show):
-        with xr.open_dataset(rundir.cycle_path(g)) as ds:
-            ds = ds.load()
+        ds = rundir.open_cycle(g)
         speed = np.hypot(ds.u.values, ds.v.values)
         vmax = vmax or max(float(speed.max()), 0.1)
         x, y = ds.x.values, ds.y.values

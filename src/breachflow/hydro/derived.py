@@ -44,6 +44,13 @@ def total_head(z, h, u, v, g=9.81):
     return np.where(_wet(h), np.asarray(z, float) + h + speed(u, v) ** 2 / (2 * g), np.nan)
 
 
+#: Manning's n is s m^(-1/3); UDUNITS (hence CF) has no fractional powers and reads "s m-1/3" as
+#: (1/3) s m-1, so the file stores the number in the SI convention (units "1") and says so.
+MANNING_ATTRS = {"long_name": "Manning roughness coefficient", "units": "1",
+                 "comment": "Manning's n in the SI convention V = R^(2/3) S^(1/2) / n (V in m s-1, R in m), "
+                            "i.e. in s m^(-1/3); stored as a number because UDUNITS cannot express a 1/3 power"}
+
+
 def bed_shear_stress(h, u, v, manning_n, g=9.81, rho=RHO_WATER):
     """``tau = rho g n² |u|² / h^(1/3)`` (Pa), SPEC §3."""
     h = np.asarray(h, float)
@@ -71,7 +78,7 @@ def derived_fields(z, h, u, v, manning_n, *, g=9.81, rho=RHO_WATER, specific_gra
         "total_head": (total_head(z, h, u, v, g), {"long_name": "total head z + h + |u|^2/(2 g)", "units": "m"}),
         "bed_shear_stress": (tau, {"long_name": "bed shear stress (Manning)", "units": "Pa"}),
         "manning_n": (np.broadcast_to(np.asarray(manning_n, float), np.shape(h)).copy(),
-                      {"long_name": "Manning roughness coefficient", "units": "s m-1/3"}),
+                      dict(MANNING_ATTRS)),
         "incipient_grain_size": (incipient_grain_size(tau, specific_gravity, critical_shields, g, rho),
                                  {"long_name": "grain diameter at incipient motion (Shields)", "units": "m",
                                   "specific_gravity": specific_gravity, "critical_shields": critical_shields}),

@@ -11,10 +11,11 @@ from __future__ import annotations
 import numpy as np
 import xarray as xr
 
-#: CF time units of model time; t = 0 is the moment of the breach (SPEC §2, t_F = 0)
-TIME_UNITS = "seconds since 2000-01-01 00:00:00"
-TIME_ATTRS = {"standard_name": "time", "long_name": "model time since the breach (t = 0 at 2000-01-01)",
-              "calendar": "standard", "axis": "T"}
+#: Trajectory time: a relative axis, seconds since the cycle's masses were released (no calendar date:
+#: the closure operation has none; the cycle's start on the operation clock is the attribute
+#: ``cycle_start_time`` of the file)
+TIME_UNITS = "s"
+TIME_ATTRS = {"long_name": "time since the start of the cycle (release of its masses)", "axis": "T"}
 
 _POS_ATTRS = (
     {"long_name": "particle centre x coordinate", "units": "m"},
@@ -56,8 +57,36 @@ def particles_dataset(state, *, placed_cycle, particle_id=None, resting=None, gr
     return ds
 
 
-def trajectories_dataset(trajectory_id, time, pos, vel=None, *, cycle: int, title: str = "") -> xr.Dataset:
-    """CF trajectory DSG from ``time`` (n_traj, n_obs) s and ``pos`` (n_traj, n_obs, 3) m.
+def pad_particles(ds: xr.Dataset, capacity: int) -> xr.Dataset:
+    """Pad the ``particle`` dimension of a :func:`particles_dataset` to *capacity* entries (the run's most
+    masses, ``max_cycles × batch``), so that every cycle file of a run has the same ``particle`` index
+    and the cycles stack with ``xr.open_mfdataset``. Unplaced entries: NaN, ``particle_placed_cycle`` 0,
+    ``particle_active`` / ``particle_resting`` -1 (flag ``not_placed``)."""
+    n = ds.sizes["particle"]
+    if capacity < n:
+        raise ValueError(f"particle capacity {capacity} < {n} particles")
+    out = {}
+    for name, da in ds.data_vars.items():
+        if "particle" not in da.dims:
+            continue
+        fill = {"particle_placed_cycle": 0}.get(name, -1 if da.dtype.kind in "iu" else np.nan)
+        data = np.concatenate([da.values, np.full(capacity - n, fill, da.dtype)])
+        attrs = dict(da.attrs)
+        if "flag_values" in attrs and -1 not in attrs["flag_values"]:
+            attrs["flag_values"] = np.concatenate([np.array([-1], "i1"), attrs["flag_values"]])
+            attrs["flag_meanings"] = "not_placed " + attrs["flag_meanings"]
+        if name == "particle_placed_cycle":
+            attrs["comment"] = "0: not placed yet"
+        out[name] = ("particle", data, attrs)
+    pid = np.arange(capacity, dtype="i4")
+    padded = xr.Dataset(out, coords={"particle": ("particle", pid, dict(ds.particle.attrs))})
+    return padded.assign(**{k: v for k, v in ds.data_vars.items() if "particle" not in v.dims})
+
+
+def trajectories_dataset(trajectory_id, time, pos, vel=None, *, cycle: int, cycle_start: float = 0.0,
+                         title: str = "") -> xr.Dataset:
+    """CF trajectory DSG from ``time`` (n_traj, n_obs) s since the start of the cycle and ``pos``
+    (n_traj, n_obs, 3) m; *cycle_start* is that start on the closure operation's clock (s).
 
     NaN marks observations past the end of a trajectory (they become ``_FillValue`` on write).
     """
@@ -85,7 +114,8 @@ def trajectories_dataset(trajectory_id, time, pos, vel=None, *, cycle: int, titl
                                                                 "coordinates": "time x y z"})
     ds.attrs.update(Conventions="CF-1.8", featureType="trajectory",
                     title=title or f"breachflow trajectories of the moving particles in cycle {cycle}",
-                    cycle=np.int32(cycle))
+                    cycle=np.int32(cycle), cycle_start_time=float(cycle_start),
+                    cycle_start_time_units="s on the closure operation clock (masses placed / placement rate)")
     return ds
 
 

@@ -4,12 +4,19 @@ Layout::
 
     RUN/manifest.json                  what the run is (scenario text + hash, seed) and which cycles are complete
     RUN/cycle_0001.nc                  hydrodynamic grid + particle states at equilibrium (CF-1.8)
-    RUN/cycle_0001_trajectories.nc     trajectories of the cycle's moving particles (CF DSG trajectory)
+    RUN/trajectories_0001.nc           trajectories of the cycle's moving particles (CF DSG trajectory)
     RUN/restart_0001.npz               everything needed to continue bit-identically from this cycle
 
 Every file is written atomically, and the manifest — rewritten atomically *after* a cycle's files —
 is the commit point: a crash leaves at worst stray temp files or files of a cycle the manifest does not
 list, which a resumed run overwrites.
+
+Each cycle file carries a length-1 ``cycle`` dimension coordinate on its per-cycle variables, its
+particles padded to the run's capacity (``max_cycles × batch``: the same ``particle`` index in every
+cycle), and the steady-state history of its solve, whose length varies, in the NetCDF group
+``convergence_history``; so ``xr.open_mfdataset("RUN/cycle_*.nc")`` stacks the cycles. Format 1 (before 2026-11) named the trajectory files ``cycle_NNNN_trajectories.nc`` (caught by that
+glob) and had no ``cycle`` dimension; such directories still resume and combine — file names are taken
+from the manifest — and new cycles are written in the current layout.
 """
 from __future__ import annotations
 
@@ -27,7 +34,10 @@ from .atomic import atomic_write, atomic_write_json, atomic_write_netcdf
 from .cf import netcdf_encoding
 
 MANIFEST = "manifest.json"
-FORMAT_VERSION = 1
+#: the steady-state history of a cycle's solve: a dimension whose length varies from cycle to cycle,
+#: so it lives in its own NetCDF group of the cycle file
+HISTORY_DIM, HISTORY_GROUP = "convergence_check", "convergence_history"
+FORMAT_VERSION = 2
 
 
 def scenario_hash(text: str) -> str:
@@ -81,7 +91,7 @@ class RunDirectory:
                 return man
             if not overwrite:
                 raise InputError(f"{self.path}: holds a run already; use resume or overwrite")
-            for p in self.path.glob("cycle_*.nc"):
+            for p in [*self.path.glob("cycle_*.nc"), *self.path.glob("trajectories_*.nc")]:
                 p.unlink()
             for p in self.path.glob("restart_*.npz"):
                 p.unlink()
@@ -113,7 +123,17 @@ class RunDirectory:
         return self.path / f"cycle_{g:04d}.nc"
 
     def trajectories_path(self, g: int) -> Path:
-        return self.path / f"cycle_{g:04d}_trajectories.nc"
+        """Where cycle *g*'s trajectories are written (not matched by the glob ``cycle_*.nc``)."""
+        return self.path / f"trajectories_{g:04d}.nc"
+
+    def committed_file(self, g: int, kind: str) -> Path | None:
+        """The file of *kind* (``field``, ``trajectories``, ``restart``) the manifest lists for cycle *g*
+        (older run directories used other names), or None."""
+        for c in self.manifest()["cycles"]:
+            if c["cycle"] == g:
+                name = c["files"].get(kind)
+                return self.path / name if name else None
+        return None
 
     def restart_path(self, g: int) -> Path:
         return self.path / f"restart_{g:04d}.npz"
@@ -125,7 +145,15 @@ class RunDirectory:
         if man["cycles"] and g != man["cycles"][-1]["cycle"] + 1:
             raise InputError(f"{self.path}: cycle {g} does not follow the last complete cycle {man['cycles'][-1]['cycle']}")
         files = {}
-        atomic_write_netcdf(field, self.cycle_path(g), encoding=netcdf_encoding(field))
+        hist_vars = [v for v in field.data_vars if HISTORY_DIM in field[v].dims]
+        root, hist = field.drop_vars(hist_vars), field[hist_vars]
+
+        def write_field(tmp):
+            root.to_netcdf(tmp, engine="netcdf4", encoding=netcdf_encoding(root))
+            if hist_vars:
+                hist.to_netcdf(tmp, mode="a", group=HISTORY_GROUP, engine="netcdf4", encoding=netcdf_encoding(hist))
+
+        atomic_write(self.cycle_path(g), write_field)
         files["field"] = self.cycle_path(g).name
         if trajectories is not None:
             atomic_write_netcdf(trajectories, self.trajectories_path(g), encoding=netcdf_encoding(trajectories))
@@ -178,8 +206,17 @@ class RunDirectory:
         return problems
 
     # ----------------------------------------------------------------- archive
-    def open_cycle(self, g: int) -> xr.Dataset:
-        return xr.open_dataset(self.cycle_path(g))
+    def open_cycle(self, g: int, **kwargs) -> xr.Dataset:
+        """Cycle *g*'s grid and particle states, loaded, without the file's length-1 ``cycle`` dimension."""
+        path = self.committed_file(g, "field") or self.cycle_path(g)
+        with xr.open_dataset(path, **kwargs) as ds:
+            ds = ds.load()
+        try:
+            with xr.open_dataset(path, group=HISTORY_GROUP, **kwargs) as hist:
+                ds = ds.merge(hist.load(), combine_attrs="override")
+        except OSError:  # no such group: no history (or a format-1 file holding it in the root group)
+            pass
+        return squeeze_cycle(ds)
 
     def combine(self, out) -> Path:
         """Combine all complete cycles into one NetCDF archive readable with ``xr.open_dataset``.
@@ -192,8 +229,7 @@ class RunDirectory:
             raise InputError(f"{self.path}: no complete cycle to combine")
         fields = []
         for g in cycles:
-            with xr.open_dataset(self.cycle_path(g), decode_times=False) as ds:
-                fields.append(ds.load())
+            fields.append(self.open_cycle(g, decode_times=False))
         grid_vars = [v for v in fields[-1].data_vars if "particle" not in fields[-1][v].dims]
         grids = _pad_to_common_sizes([f[grid_vars] for f in fields])
         stacked = xr.concat(grids, dim="cycle", data_vars="all", coords="minimal",
@@ -201,7 +237,14 @@ class RunDirectory:
         stacked = stacked.assign_coords(cycle=("cycle", np.asarray(cycles, "i4"), {"long_name": "closure cycle <g>", "units": "1"}))
         last = fields[-1]
         part_vars = [v for v in last.data_vars if "particle" in last[v].dims]
-        archive = xr.merge([stacked, last[part_vars]], combine_attrs="override")
+        final = last[part_vars]
+        if "particle_placed_cycle" in final:  # drop the padding of not-yet-placed entries
+            final = final.isel(particle=np.flatnonzero(final.particle_placed_cycle.values > 0))
+            for v in ("particle_active", "particle_resting"):
+                if v in final and -1 in np.asarray(final[v].attrs.get("flag_values", [])):
+                    final[v].attrs["flag_values"] = final[v].attrs["flag_values"][1:]
+                    final[v].attrs["flag_meanings"] = final[v].attrs["flag_meanings"].removeprefix("not_placed ")
+        archive = xr.merge([stacked, final], combine_attrs="override")
         archive.attrs = dict(last.attrs)
         archive.attrs["title"] = "breachflow closure run archive"
         archive.attrs["cycles"] = f"{cycles[0]}..{cycles[-1]}"
@@ -209,8 +252,8 @@ class RunDirectory:
         atomic_write_netcdf(archive, out, encoding=netcdf_encoding(archive))
         trajs = []
         for g in cycles:
-            p = self.trajectories_path(g)
-            if p.exists():
+            p = self.committed_file(g, "trajectories")
+            if p is not None and p.exists():
                 with xr.open_dataset(p, decode_times=False) as t:
                     t = t.load()
                 t["trajectory_cycle"] = ("trajectory", np.full(t.sizes["trajectory"], g, "i4"),
@@ -228,6 +271,14 @@ class RunDirectory:
 
             atomic_write(out, write_both)
         return out
+
+
+def squeeze_cycle(ds: xr.Dataset) -> xr.Dataset:
+    """A cycle file's Dataset without its length-1 ``cycle`` dimension and the per-cycle index coordinates
+    (format 1 files, which have neither, pass unchanged)."""
+    if "cycle" in ds.dims:
+        ds = ds.isel(cycle=0, drop=True)
+    return ds
 
 
 def _pad_to_common_sizes(datasets, dims=None):
