@@ -9,7 +9,9 @@ ships, so nothing is fetched from the web). cfchecker also wants the CF area-typ
 breachflow files use neither (no ``where`` cell methods, no region variables), so empty tables are passed.
 cfchecker needs the UDUNITS-2 library (Debian: ``apt-get install libudunits2-0``); the GDAL check runs
 when ``gdalinfo`` is on PATH (Debian: ``gdal-bin``) and prints each grid's CRS and geotransform.
-Exits non-zero when cfchecker reports an error or a warning. The test suite uses the same functions
+Exits non-zero when cfchecker reports an error or a warning, or when a file requests a CRS (a
+``grid_mapping`` with ``crs_wkt``) that pyproj cannot read or GDAL does not report. The test suite uses
+the same functions
 (``tests/output/test_cf_gis_check.py``).
 """
 from __future__ import annotations
@@ -89,6 +91,50 @@ def gdal_info(path, variable: str = "depth") -> dict | None:
             "output": info.stdout + info.stderr}
 
 
+_CRS_SCRIPT = r"""
+import json, sys
+import netCDF4
+from pyproj import CRS
+out = {"problems": [], "grids": []}
+with netCDF4.Dataset(sys.argv[1]) as nc:
+    mapped = {n: v.getncattr("grid_mapping") for n, v in nc.variables.items() if "grid_mapping" in v.ncattrs()}
+    for gm in sorted(set(mapped.values())):
+        if gm not in nc.variables:
+            out["problems"].append(f"grid_mapping {gm!r} is not a variable")
+            continue
+        attrs = nc.variables[gm].ncattrs()
+        if "crs_wkt" not in attrs:
+            continue
+        wkt = nc.variables[gm].getncattr("crs_wkt")
+        try:
+            CRS.from_wkt(wkt)
+        except Exception as exc:  # not WKT (e.g. "EPSG:32615" stored as is) or not a CRS
+            out["problems"].append(f"{gm}: crs_wkt is not WKT pyproj/GDAL can read ({str(wkt)[:40]!r}: {exc})")
+    out["grids"] = [n for n, v in nc.variables.items() if n in mapped and {"x", "y"} <= set(v.dimensions)]
+print(json.dumps(out))
+"""
+
+
+def crs_problems(path, variable: str = "depth") -> list[str]:
+    """Why GIS would not place *path*'s grid: a ``grid_mapping`` whose ``crs_wkt`` pyproj cannot read, or
+    (with gdalinfo) a grid for which GDAL reports no CRS although the file requests one. Empty when the
+    CRS is readable or the file requests none. Runs in the checker environment (netCDF4, pyproj)."""
+    import json
+
+    python = BIN / "python" if (BIN / "python").exists() else Path(sys.executable)
+    res = subprocess.run([str(python), "-c", _CRS_SCRIPT, str(path)], capture_output=True, text=True)
+    if res.returncode:
+        return [f"cannot inspect the CRS ({res.stderr.strip().splitlines()[-1] if res.stderr.strip() else res.returncode})"]
+    out = json.loads(res.stdout)
+    problems, grids = out["problems"], out["grids"]
+    if problems or not grids or not shutil.which("gdalinfo"):
+        return problems
+    info = gdal_info(path, variable if variable in grids else grids[0])
+    if info["returncode"] != 0 or info["crs"] is None:
+        problems.append(f"gdalinfo: no CRS read for {variable if variable in grids else grids[0]} (the file requests one)")
+    return problems
+
+
 def main(argv: list[str]) -> int:
     if not argv:
         print(__doc__)
@@ -104,6 +150,9 @@ def main(argv: list[str]) -> int:
         for line in rep.messages:
             print("   ", line)
         if rep.errors != 0 or rep.warnings != 0:
+            status = 1
+        for problem in crs_problems(f):
+            print(f"CRS {f}: {problem}")
             status = 1
         info = gdal_info(f)
         if info is not None and info["returncode"] == 0:

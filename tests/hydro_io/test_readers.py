@@ -164,7 +164,15 @@ def test_esri_ascii_needs_units_bed_and_direction(formats, tmp_path):
     with pytest.warns(BreachflowWarning, match="no velocity grid"):
         ds = open_snapshot(asc, bed="0 ft")  # units from the .prj beside the grid
     assert ds.attrs["source_length_unit"] == "survey_foot"
-    assert "grid_mapping" in ds.depth.attrs and ds.crs.attrs["crs_wkt"].startswith("PROJCS")
+    assert "grid_mapping" in ds.depth.attrs
+    # the stored CRS (WKT GDAL reads) is the .prj's projection with metre axes, like the stored
+    # coordinates (tests/output/test_crs.py checks that points land alike with a complete CRS)
+    from pyproj import CRS
+
+    stored, given = CRS.from_wkt(ds.crs.attrs["crs_wkt"]), CRS.from_wkt(prj.read_text())
+    assert [a.unit_name for a in stored.axis_info] == ["metre", "metre"]
+    assert stored.coordinate_operation == given.coordinate_operation
+    assert stored.datum == given.datum and stored.ellipsoid == given.ellipsoid
 
 
 def test_hec_ras_sdf_matches_the_file_text(formats):

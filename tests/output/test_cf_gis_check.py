@@ -114,3 +114,21 @@ def test_gdal_reads_the_crs_and_geotransform_of_the_cycle_grid(checker, cycle_fi
     assert info["size"] == (x.size, y.size)
     np.testing.assert_allclose(info["origin"], (x[0] - dx / 2, y[-1] + dy / 2), atol=1e-6)
     np.testing.assert_allclose(info["pixel_size"], (dx, -dy), atol=1e-9)
+
+
+def test_default_crs_cycle_grid_lands_at_the_documented_local_crs(checker, tmp_path):
+    """No [site] crs: the grid still has a definite CRS (the documented local transverse Mercator),
+    GDAL reads it, and the cycle file passes the checker's CRS test."""
+    from breachflow.hydro.crs import LOCAL_CRS_NAME
+
+    mod, table = checker
+    text = SCENARIO.replace(f'crs = "{EPSG}"\n', "")
+    assert "crs" not in text
+    run = ClosureRun(closure_setup(parse_scenario(text)), tmp_path / "run", text)
+    run.run()
+    grid = run.rundir.cycle_path(1)
+    info = mod.gdal_info(grid, "depth")
+    assert info["returncode"] == 0 and info["crs"] == LOCAL_CRS_NAME, info["output"]
+    assert mod.crs_problems(grid) == []
+    rep = mod.cf_check(grid, table)
+    assert (rep.errors, rep.warnings) == (0, 0), "\n".join(rep.messages or [rep.output])

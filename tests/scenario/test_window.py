@@ -87,7 +87,7 @@ def test_window_is_min_of_balance_and_inundation_and_monotonic_in_polder_area():
 def test_units_round_trip_feet_cfs_acres():
     si = closure_window(fall_rate="0.4 m/hr", **MODEL)
     ft = 0.3048
-    acre = ureg.Quantity(1, "acre").to("m^2").magnitude
+    acre = float(ureg.Quantity(1, "acre").to("m^2").magnitude)  # the registry gives numpy scalars (pint-xarray needs force_ndarray_like)
     us = closure_window(surge_height=f"{2.8 / ft!r} ft", fall_rate=f"{0.4 / ft!r} ft/hr",
                         polder_area=f"{8e6 / acre!r} acre", inundation_depth=f"{0.9 / ft!r} ft",
                         breach_discharge=f"{200 / ft ** 3!r} cfs")

@@ -60,7 +60,7 @@ def register(app: typer.Typer) -> None:
         output: Path = typer.Option(..., "-o", "--output", help="Snapshot NetCDF file to write (atomically)."),
         format: Optional[str] = typer.Option(None, "--format", "-f", help="Reader name (default: from the extensions)."),
         units: Optional[str] = typer.Option(None, "--units", help="Length unit of files that carry none: m or ft."),
-        crs: Optional[str] = typer.Option(None, "--crs", help="CRS as WKT text or a .prj file (overrides the files)."),
+        crs: Optional[str] = typer.Option(None, "--crs", help="CRS as EPSG:nnnn, WKT text or a .prj file (overrides the files); in the files' length unit; stored as WKT."),
         strict: bool = typer.Option(False, "--strict", help="Reject unknown cards instead of warning."),
         time_units: Optional[str] = typer.Option(None, "--time-units", help="Time unit of .dat steps (overrides TIMEUNITS)."),
         plausibility: str = typer.Option("raise", "--plausibility", help="raise | warn | off"),

@@ -44,7 +44,8 @@ _SITE_KEYS = {
 @register_section("site")
 @dataclass
 class SiteSection:
-    """``[site]``: ``preset`` (``typical_breach`` | ``demo_breach``), ``crs`` (WKT or ``EPSG:nnnn``) and
+    """``[site]``: ``preset`` (``typical_breach`` | ``demo_breach``), ``crs`` (``EPSG:nnnn``, WKT or PROJ, in
+    metres; default the local transverse Mercator :data:`breachflow.hydro.crs.LOCAL_CRS`) and
     overrides of the scene: ground/flood elevations, extents, channel, ``polder_slope``, ``manning_n``."""
 
     preset: str = "demo_breach"
@@ -62,7 +63,13 @@ class SiteSection:
             if key in table:
                 over[key] = ctx.quantity(table, key, kind, default_unit="" if kind == "dimensionless" else None,
                                          nonnegative=key not in ("ground_elevation", "flood_water_elevation"))
-        return cls(preset, ctx.raw(table, "crs"), over)
+        crs = ctx.raw(table, "crs")
+        if crs:
+            try:
+                _crs_wkt(crs)
+            except BreachflowError as exc:
+                raise ctx.error(str(exc).removeprefix("[site] crs: "), "crs") from None
+        return cls(preset, crs, over)
 
     def scene(self, levee=None, breach=None) -> BreachScene:
         sc = SITE_PRESETS[self.preset]()
@@ -232,8 +239,7 @@ def closure_setup(scenario, *, overrides: dict | None = None):
     scene = site.scene(levee, breach)
     hydro = scenario.get("hydro") or HydroSection()
     dom = breach_domain(scene, hydro.resolution)
-    if site.crs:
-        dom.crs_wkt = _crs_wkt(site.crs)
+    dom.crs_wkt = _crs_wkt(site.crs)
     X, Y = np.meshgrid(dom.x, dom.y)
     half = 0.5 * scene.breach.length
     region = (np.abs(X) <= half + hydro.monitor_radius) & (np.abs(Y) <= hydro.monitor_radius + half)
@@ -285,11 +291,11 @@ class _WarmStartSWE:
         return (self.cold if initial is None else self.warm).solve(domain, obstacles=obstacles, initial=initial)
 
 
-def _crs_wkt(crs: str) -> str:
-    """WKT of a CRS given as WKT, ``EPSG:nnnn`` or anything pyproj understands."""
-    from pyproj import CRS
+def _crs_wkt(crs: str | None) -> str:
+    """WKT of the site's CRS (``EPSG:nnnn``, WKT, PROJ; in metres: site coordinates are metres); the
+    default is the documented local projected CRS :data:`~breachflow.hydro.crs.LOCAL_CRS`."""
+    from ..hydro.crs import local_crs_wkt, resolve_crs
 
-    try:
-        return CRS.from_user_input(crs).to_wkt()
-    except Exception as exc:  # pyproj raises CRSError
-        raise BreachflowError(f"[site] crs: cannot interpret {crs!r} ({exc})") from None
+    if not crs:
+        return local_crs_wkt()
+    return resolve_crs(crs, where="[site] crs", data_unit="m")

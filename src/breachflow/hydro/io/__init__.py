@@ -101,7 +101,8 @@ def open_snapshot(paths, format: str | None = None, units=None, crs: str | None 
     *paths*: a file or a list of files that together form one snapshot (mesh + datasets + .bc;
     several .asc grids; one .sdf). *format*: reader name (default: from the extensions).
     *units*: the length unit of files that carry none (``"m"``, ``"ft"``; velocities are then in
-    unit/s). *crs*: WKT overriding a ``.prj`` or header. Reader-specific *options* are documented in
+    unit/s). *crs*: ``EPSG:nnnn``, WKT or a PROJ string overriding a ``.prj`` or header; it (or the
+    files' CRS) must be in the files' length unit and is stored as WKT (re-expressed in metres). Reader-specific *options* are documented in
     each reader module (e.g. ``strict=True`` rejects unknown cards; ``time_units=`` for .dat files).
     """
     if isinstance(paths, (str, Path)):
@@ -114,7 +115,21 @@ def open_snapshot(paths, format: str | None = None, units=None, crs: str | None 
             raise InputError(f"file {str(p)!r} does not exist")
     name = format or guess_format(paths)
     reader = READERS.get(name)()
-    return reader.open(paths, units=units, crs=crs, plausibility=plausibility, **options)
+    if crs is not None:
+        from ..crs import resolve_crs
+
+        crs = resolve_crs(crs, where="crs", data_unit=None, metres=False)
+    ds = reader.open(paths, units=units, crs=crs, plausibility=plausibility, **options)
+    if "crs" in ds.variables:
+        # the CRS (given or from the files) as WKT GDAL reads, checked against the files' length unit and
+        # expressed in metres like the coordinates
+        from ..crs import resolve_crs
+        from ..snapshot import set_crs
+
+        unit = ds.attrs.get("source_length_unit") or "m"
+        set_crs(ds, resolve_crs(ds["crs"].attrs["crs_wkt"], data_unit=unit,
+                                where="crs" if crs is not None else f"CRS of {', '.join(p.name for p in paths)}"))
+    return ds
 
 
 __all__ = ["READERS", "open_snapshot", "guess_format", "read_prj"]

@@ -153,13 +153,22 @@ def grid_role(path: Path) -> str | None:
 def prj_length_unit(wkt: str) -> str | None:
     """Linear unit of a projected WKT1 CRS (the last top-level UNIT of PROJCS), as a pint unit name."""
     m = re.findall(r'UNIT\["([^"]+)",\s*([0-9.eE+-]+)', wkt)
-    if not wkt.upper().startswith("PROJCS") or not m:
-        return None
-    name, factor = m[-1]
-    try:
-        f = float(factor)
-    except ValueError:
-        return None
+    if wkt.upper().startswith("PROJCS") and m:
+        try:
+            f = float(m[-1][1])
+        except ValueError:
+            return None
+    else:  # WKT2, EPSG:nnnn, PROJ strings: ask pyproj
+        from ..crs import crs_length_unit
+        from pyproj import CRS
+
+        try:
+            unit = crs_length_unit(CRS.from_user_input(wkt))
+        except Exception:
+            return None
+        if unit is None:
+            return None
+        f = unit[1]
     if abs(f - 1.0) < 1e-12:
         return "m"
     if abs(f - 0.3048006096012192) < 1e-12:
@@ -264,6 +273,4 @@ def open_asc(paths, *, units=None, crs=None, plausibility="raise", roles=None, b
                        source_files=[str(p) for p in files])
     ds.attrs.update(breachflow_reader="asc", source_length_unit=str(unit), source_length_unit_from=unit_from,
                     source_grids="; ".join(f"{r}: {g.path.name}" for r, g in by_role.items()))
-    if crs is not None and abs(to_m - 1.0) > 1e-12:
-        ds.attrs["crs_note"] = f"x, y converted from {unit} to m: multiply by {1 / to_m:.12g} for CRS coordinates"
     return check_plausibility(ds, mode=plausibility, raw_depth=np.nan_to_num(raw_depth))
