@@ -23,6 +23,18 @@ def test_default_run_closes_the_breach_and_combines(tmp_path):
     assert last["closed"] and last["breach_discharge"] < 0.05 * q0
     for png in ("plan_view.png", "closure_progress.png"):
         assert (out / png).stat().st_size > 20_000
+    # the plan view explains itself: a legend of its marks, and why the run counts as closed
+    from breachflow.cycle.plots import closure_reason, plan_view_figure
+
+    fig = plan_view_figure(rd)
+    labels = [t.get_text() for t in fig.legends[0].get_texts()]
+    assert any("no-flow" in t for t in labels) and any("resting" in t for t in labels) \
+        and any("moving" in t for t in labels) and any("contour" in t for t in labels)
+    governing = last["governing"]
+    reason = closure_reason(rd)
+    assert fig._suptitle.get_text() == reason
+    assert reason.startswith(f"closed at cycle {len(man['cycles'])}: ") and governing in reason
+    assert f"{last['criteria'][governing]['value']:.3g}" in reason
     arch = tmp_path / "archive.nc"
     res = runner.invoke(app, ["combine", str(out), "-o", str(arch)])
     assert res.exit_code == 0, res.output

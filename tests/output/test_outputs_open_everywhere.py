@@ -239,3 +239,24 @@ def test_format_1_run_directory_still_combines_and_resumes(run_dir, tmp_path):
     with xr.open_dataset(arch) as a, xr.open_dataset(arch, group="trajectories", decode_times=False) as t:
         assert a.sizes["cycle"] == 3
         assert sorted(set(t.trajectory_cycle.values.tolist())) == [1, 2, 3]
+
+
+def test_readme_recipe_plots_the_closure_window_in_hours(every_output):
+    """The README's notebook line that plots the closure window, run as written on an ensemble result:
+    the y axis says hours and the values are hours (dividing by 3600 kept the label "[s]")."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import pint_xarray  # noqa: F401
+
+    readme = (Path(__file__).resolve().parents[2] / "README.md").read_text()
+    line = next(ln for ln in readme.splitlines() if ln.startswith("ds.closure_window") and ".plot(" in ln)
+    with xr.open_dataset(every_output["ensemble result"]) as ds:
+        ds = ds.load()
+    plt.figure()
+    eval(line.split("  #")[0], {"ds": ds})
+    ax = plt.gca()
+    assert ax.get_ylabel().endswith("[hour]"), ax.get_ylabel()
+    np.testing.assert_allclose(ax.lines[0].get_ydata(), ds.closure_window.values / 3600.0, rtol=1e-12)
+    plt.close("all")

@@ -113,3 +113,39 @@ def test_weir_submergence_and_coefficient_warning():
     assert part == pytest.approx(free * (1 - 27.8 * (0.9 - 0.67) ** 3))
     with pytest.warns(BreachflowWarning, match="outside the report's range"):
         weir_discharge("2 m", bottom_width="20 m", coefficient="2.5 ft**0.5/s")
+
+
+def test_growth_chart_y_axis_is_scaled_to_the_curves(tmp_path, monkeypatch):
+    """The y axis fits the curves drawn (was fixed at 0-500 m: a 51 m cap filled a tenth of it), and a
+    runaway curve (eq 2.2's exponential) leaves the chart instead of flattening the others."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from breachflow.scenario import plots
+    from breachflow.scenario.geometry import LeveeGeometry
+
+    seen = {}
+    real_save = plots._save
+
+    def keep(fig, path):
+        seen["ylim"] = fig.axes[0].get_ylim()
+        return real_save(fig, path)
+
+    monkeypatch.setattr(plots, "_save", keep)
+    plots.growth_chart(tmp_path / "capped.png", levees=[LeveeGeometry(3.048, 3.0, 3.0, 3.0)], max_length="nagy")
+    top = seen["ylim"][1]
+    cap = breach_length("2.4", "8 h", levee=LeveeGeometry(3.048, 3.0, 3.0, 3.0), max_length="nagy")
+    assert float(cap) == pytest.approx(top / 1.1, rel=1e-6)  # 10 % above the cap every curve reaches
+    plots.growth_chart(tmp_path / "all.png")
+    # the default chart: the report's 3.0 m and 4.6 m levees; every curve grows, so its peak is at 8 h
+    ends = [breach_length("all", "8 h", levee=lev) for lev in plots.FIGURE_2_15_LEVEES]
+    peaks = np.maximum(ends[0].values, ends[1].values)
+    names = list(ends[0]["equation"].values)
+    want, runaway = plots.growth_y_max(peaks)
+    assert seen["ylim"][1] == pytest.approx(want, rel=1e-9)
+    assert [names[i] for i in runaway] == [n for n in names if "2.2" in str(n) or "macdonald" in str(n).lower()]
+    others = np.delete(peaks, runaway)
+    assert want == pytest.approx(1.1 * others.max()) and peaks[runaway].min() > want
+    plt.close("all")

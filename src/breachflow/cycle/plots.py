@@ -16,12 +16,45 @@ def _plt():
     return plt
 
 
+def closure_reason(rundir) -> str:
+    """Why the run counts as closed (or not), from the manifest: the criteria met at the last cycle,
+    e.g. "closed at cycle 6: max_speed 0.0766 m/s <= 0.5 m/s; breach discharge -0.00 m³/s"."""
+    man = rundir.manifest()
+    if not man["cycles"]:
+        return "no cycle completed"
+    last = man["cycles"][-1]
+    summ = last["summary"]
+    crit = summ.get("criteria", {})
+    met = [f"{k} {v['value']:.3g} {v['units']} (threshold {v['threshold']:.3g})" for k, v in crit.items()
+           if v.get("satisfied")]
+    q = f"breach discharge {summ.get('breach_discharge', float('nan')):.2f} m³/s"
+    if summ.get("closed"):
+        return f"closed at cycle {last['cycle']}: {', '.join(met) or summ.get('governing', '')} met; {q}"
+    return (f"not closed after {last['cycle']} cycles" + (f" ({', '.join(met)} met, not enough)" if met else "")
+            + f"; {q}")
+
+
 def plot_plan_view(rundir, out, cycle: int | None = None) -> Path:
-    """Speed |u| (m/s) in plan, obstacle cells hatched, resting masses as circles; first and last cycle."""
+    """Write :func:`plan_view_figure` to *out* (PNG)."""
     plt = _plt()
+    fig = plan_view_figure(rundir, cycle)
+    out = Path(out)
+    fig.savefig(out, dpi=110)
+    plt.close(fig)
+    return out
+
+
+def plan_view_figure(rundir, cycle: int | None = None):
+    """Speed |u| (m/s) in plan, no-flow cells hatched, bed contours, resting masses white and moving
+    masses red; first and last cycle (or *cycle*), with a legend and, for the whole run, the reason it
+    counts as closed (:func:`closure_reason`) as the title."""
+    plt = _plt()
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
+
     cycles = rundir.completed_cycles()
     show = [cycles[0], cycles[-1]] if cycle is None and len(cycles) > 1 else [cycle or cycles[-1]]
-    fig, axes = plt.subplots(1, len(show), figsize=(6.2 * len(show), 5.2), squeeze=False, constrained_layout=True)
+    fig, axes = plt.subplots(1, len(show), figsize=(6.2 * len(show), 5.9), squeeze=False, constrained_layout=True)
     vmax = None
     for ax, g in zip(axes[0], show):
         ds = rundir.open_cycle(g)
@@ -36,7 +69,7 @@ def plot_plan_view(rundir, out, cycle: int | None = None) -> Path:
         act = ds.particle_active.values > 0
         for px, py, d, rest in zip(ds.particle_x.values[act], ds.particle_y.values[act],
                                    ds.particle_diameter.values[act], ds.particle_resting.values[act]):
-            ax.add_patch(plt.Circle((px, py), d / 2, fill=False, color="white" if rest else "red", lw=0.8))
+            ax.add_patch(plt.Circle((px, py), d / 2, fill=False, color="white" if rest > 0 else "red", lw=0.8))
         pad = 25.0
         ax.set_xlim(max(x[0], -pad), min(x[-1], pad))
         ax.set_ylim(max(y[0], -pad), min(y[-1], pad))
@@ -45,10 +78,15 @@ def plot_plan_view(rundir, out, cycle: int | None = None) -> Path:
         ax.set_ylabel("y across the levee (m), flood side < 0")
         ax.set_title(f"cycle {g}: {int(act.sum())} masses, max speed {float(speed.max()):.2f} m/s")
     fig.colorbar(m, ax=axes[0].tolist(), label="depth-averaged speed (m/s)")
-    out = Path(out)
-    fig.savefig(out, dpi=110)
-    plt.close(fig)
-    return out
+    handles = [Patch(facecolor="none", edgecolor="black", hatch="////", label="no-flow cells (levee, masses above water)"),
+               Line2D([], [], color="0.6", lw=0.8, label="bed elevation contours"),
+               Line2D([], [], ls="none", marker="o", mfc="none", mec="0.25", ms=9, label="resting mass (white ring)"),
+               Line2D([], [], ls="none", marker="o", mfc="none", mec="red", ms=9, label="moving mass (red ring)"),
+               Patch(facecolor="white", edgecolor="0.7", label="dry")]
+    fig.legend(handles=handles, loc="outside lower center", ncol=5, fontsize=8, frameon=False)
+    if cycle is None:
+        fig.suptitle(closure_reason(rundir), fontsize=10)
+    return fig
 
 
 def plot_closure_progress(rundir, out) -> Path:

@@ -124,10 +124,25 @@ def window_chart(datasets, path, titles=None) -> Path:
 FIGURE_2_15_LEVEES = (LeveeGeometry(3.0, 3.0, 3.0, 3.0), LeveeGeometry(4.6, 3.0, 3.0, 3.0))
 
 
+def growth_y_max(peaks) -> tuple[float, list[int]]:
+    """Top of the growth chart's y axis, scaled to the curves: 10 % above the highest curve, unless one
+    runs away (more than 2.5 times the median curve's peak, like eq 2.2's exponential): those are left
+    to leave the chart (their indices are returned) and the axis fits the others."""
+    peaks = np.asarray([p for p in peaks], float)
+    finite = peaks[np.isfinite(peaks) & (peaks > 0)]
+    if finite.size == 0:
+        return 1.0, []
+    limit = 2.5 * float(np.median(finite))
+    keep = finite[finite <= limit]
+    top = float(keep.max() if keep.size else finite.max())
+    return 1.1 * top, [i for i, p in enumerate(peaks) if np.isfinite(p) and p > limit]
+
+
 def growth_chart(path, *, levees=None, surge_height=None, equations="all", hours: float = 8.0,
-                 max_length=None, y_max: float = 500.0) -> Path:
+                 max_length=None, y_max: float | None = None) -> Path:
     """Fig 2.15-style breach growth curves. With two levees (default: the report's 3.0 m and 4.6 m),
-    each equation is a band between them; with one, a line. ``max_length`` caps the curves."""
+    each equation is a band between them; with one, a line. ``max_length`` caps the curves. The y axis
+    is scaled to the curves (:func:`growth_y_max`) unless *y_max* (m) is given."""
     import warnings
 
     from ..errors import BreachflowWarning
@@ -144,6 +159,10 @@ def growth_chart(path, *, levees=None, surge_height=None, equations="all", hours
     hours_axis = time.values
     names = list(np.atleast_1d(curves[0]["equation"].values)) if "equation" in curves[0].dims else [equations]
     colors = plt.get_cmap("tab10")
+    peaks = [max(float(np.nanmax((c.sel(equation=n) if "equation" in c.dims else c).values)) for c in curves)
+             for n in names]
+    auto_top, runaway = growth_y_max(peaks)
+    y_max = auto_top if y_max is None else float(y_max)
     for i, name in enumerate(names):
         lines = [(c.sel(equation=name) if "equation" in c.dims else c).values for c in curves]
         cls = growth_equations.get(name)
@@ -161,9 +180,20 @@ def growth_chart(path, *, levees=None, surge_height=None, equations="all", hours
             ax.plot(hours_axis, hi, **style, label=label)
     # breach sizes used in flood-routing studies (report §2.6): California Delta narrow / wide breaches
     for (y0, y1), text in (((30, 90), "narrow breach 30–90 m"), ((152, 228), "wide breach 152–228 m")):
+        if y0 >= y_max:
+            continue
         ax.axhspan(y0, y1, color="0.85", alpha=0.5, lw=0, zorder=0)
-        ax.annotate(text + " (Calif. Delta studies)", (hours * 0.995, y1), ha="right", va="top", fontsize=8,
-                    color="0.35")
+        top_visible = y1 < 0.9 * y_max
+        ax.annotate(text + " (Calif. Delta studies)", (hours * 0.995, y1 if top_visible else y0),
+                    ha="right", va="top" if top_visible else "bottom", fontsize=8, color="0.35")
+    for i in runaway:  # say where the curves that leave the chart do so
+        name = names[i]
+        line = np.max([(c.sel(equation=name) if "equation" in c.dims else c).values for c in curves], axis=0)
+        above = np.flatnonzero(line > y_max)
+        if above.size:
+            ax.annotate(f"({growth_equations.get(name).equation}) reaches {peaks[i]:.3g} m at {hours:g} h",
+                        (hours_axis[above[0]], y_max), xytext=(3, -10), textcoords="offset points", fontsize=8,
+                        color=colors(i % 10))
     ax.set_xlim(0, hours)
     ax.set_ylim(0, y_max)
     ax.set_xlabel("breach development time t_D (h)")
