@@ -16,7 +16,7 @@ from ..errors import BreachflowError
 from ..scenario.config import register_section
 from ..scenario.geometry import BreachGeometry, BreachScene, LeveeGeometry, typical_breach
 from .criteria import EndCriteria
-from .placement import PlacementPlan
+from .placement import POSITION_MODES, PlacementPlan
 
 
 def demo_breach() -> BreachScene:
@@ -128,6 +128,25 @@ class DemSection:
 
     values: dict = field(default_factory=dict)
 
+    #: material defaults of a closure run (SI); the rest of the defaults are :class:`~.driver.DemSettings`'
+    MATERIAL_DEFAULTS = {"kn": 2.0e7, "friction": 0.6, "rolling_friction": 0.3, "adhesion": 0.0}
+
+    @classmethod
+    def schema_defaults(cls) -> dict:
+        """Default of every key (SI values with their unit), for the scenario reference."""
+        from ..units import SI_UNITS
+        from .driver import DemSettings
+
+        d = DemSettings()
+        vals = {**{k: getattr(d, k) for k in cls.KINDS if hasattr(d, k)}, **cls.MATERIAL_DEFAULTS,
+                "integrator": d.integrator, "sleeping": d.sleeping}
+        out = {}
+        for k, v in vals.items():
+            unit = SI_UNITS.get(cls.KINDS.get(k, ""), "")
+            out[k] = v if isinstance(v, (bool, str)) or not unit else f"{v:g} {unit}"
+        out["ks"] = "kn (Material default: equal stiffnesses, as the report)"
+        return out
+
     KINDS = {"kn": "stiffness", "ks": "stiffness", "friction": "dimensionless", "rolling_friction": "dimensionless",
              "adhesion": "force",
              "restitution": "dimensionless", "global_damping": "damping", "e_tol": "length", "max_time": "time",
@@ -177,6 +196,37 @@ class PlacementSection:
     plan: PlacementPlan
 
     @classmethod
+    def schema_keys(cls) -> dict:
+        """The keys :meth:`PlacementPlan.from_config` reads, their kinds and the plan's defaults."""
+        from dataclasses import MISSING, fields
+
+        from ..scenario.reference import quantity_schema
+        from ..units import SI_UNITS
+
+        out = {}
+        for f in fields(PlacementPlan):
+            default = f.default if f.default is not MISSING else None
+            kind = PlacementPlan.KEY_KINDS.get(f.name)
+            if kind is None:
+                out[f.name] = {"type": "integer" if f.name == "batch" else "string"}
+                if default is not None:
+                    out[f.name]["default"] = default
+                if f.name == "positions":
+                    out[f.name]["enum"] = list(POSITION_MODES)
+                continue
+            unit = SI_UNITS.get(kind, kind)
+            if f.name == "rate":
+                default = f"{default * 3600:g} 1/hr"
+            elif isinstance(default, tuple):
+                default = [f"{v:g} {unit}" for v in default]
+            elif default is not None:
+                default = f"{default:g} {unit}"
+            out[f.name] = quantity_schema(kind, default=default, positive=f.name in ("diameter", "density", "rate"),
+                                          nonnegative=f.name == "release_height",
+                                          default_unit="m" if f.name in ("start", "stop", "zone", "points") else None)
+        return out
+
+    @classmethod
     def from_table(cls, table, ctx):
         try:
             return cls(PlacementPlan.from_config(table))
@@ -191,6 +241,23 @@ class CriteriaSection:
     """``[criteria]``: ``mode`` (``any``|``all``), ``max_cycles`` and thresholds by criterion name."""
 
     criteria: EndCriteria
+
+    @classmethod
+    def schema_keys(cls) -> dict:
+        """``mode``, ``max_cycles`` and one threshold per registered criterion (its kind and unit)."""
+        from ..scenario.reference import quantity_schema
+        from .criteria import criteria as registry
+
+        out = {"mode": {"type": "string", "enum": ["any", "all"], "default": "any"},
+               "max_cycles": {"type": "integer", "default": 50}}
+        for name in registry.available():
+            c = registry.get(name)
+            spec = quantity_schema(c.kind, default_unit="" if c.kind == "dimensionless" else None, nonnegative=True,
+                                   sweep=False)
+            spec["anyOf"].append({"type": "object", "description": "keyword arguments of the criterion"})
+            spec["description"] = f"threshold ({c.compare} it counts as met; unit {c.units}) {c.description}".strip()
+            out[name] = spec
+        return out
 
     @classmethod
     def from_table(cls, table, ctx):
@@ -252,9 +319,9 @@ def closure_setup(scenario, *, overrides: dict | None = None):
     dem_kw = {}
     if "global_damping" in dem_vals:
         dem_kw["global_damping"] = dem_vals.pop("global_damping")
-    material = Material(density=2650.0, kn=mat_keys.get("kn", 2.0e7), ks=mat_keys.get("ks"),
-                        friction=mat_keys.get("friction", 0.6), adhesion=mat_keys.get("adhesion", 0.0),
-                        rolling_friction=mat_keys.get("rolling_friction", 0.3))
+    mat = {**DemSection.MATERIAL_DEFAULTS, **mat_keys}
+    material = Material(density=2650.0, kn=mat["kn"], ks=mat.get("ks"), friction=mat["friction"],
+                        adhesion=mat["adhesion"], rolling_friction=mat["rolling_friction"])
     fluid = scenario.get("fluid") or FluidSection()
     dem = DemSettings(material=material, drag_law=fluid.drag_law, sampling=fluid.sampling, xi=fluid.xi,
                       **dem_vals, **dem_kw)

@@ -50,6 +50,10 @@ class PlacementPlan:
     release_height: float = 1.0
     rate: float = 20.0 / 3600.0  # masses per second
 
+    #: unit kind of each quantity key of ``[placement]`` (``from_config`` converts with these)
+    KEY_KINDS = {"diameter": "length", "density": "density", "start": "length", "stop": "length",
+                 "zone": "length", "points": "length", "release_height": "length", "rate": "1/s"}
+
     def __post_init__(self):
         self.diameter = tuple(np.broadcast_to(np.asarray(self.diameter, float), (2,)))
         self.density = tuple(np.broadcast_to(np.asarray(self.density, float), (2,)))
@@ -83,10 +87,11 @@ class PlacementPlan:
             vals = v if isinstance(v, (list, tuple)) else [v]
             return tuple(to_si(x, name=f"placement.{key}", kind=kind, positive=True) for x in vals)
 
+        kinds = cls.KEY_KINDS
         if "diameter" in cfg:
-            cfg["diameter"] = pair("diameter", "length")
+            cfg["diameter"] = pair("diameter", kinds["diameter"])
         if "density" in cfg:
-            cfg["density"] = pair("density", "density")
+            cfg["density"] = pair("density", kinds["density"])
         for key in ("start", "stop", "zone"):
             if key in cfg:
                 cfg[key] = tuple(to_si(x, name=f"placement.{key}", kind="length", default_unit="m") for x in cfg[key])
@@ -97,7 +102,7 @@ class PlacementPlan:
             cfg["release_height"] = to_si(cfg["release_height"], name="placement.release_height", kind="length",
                                           nonnegative=True)
         if "rate" in cfg:
-            cfg["rate"] = to_si(cfg["rate"], name="placement.rate", kind="1/s", positive=True)
+            cfg["rate"] = to_si(cfg["rate"], name="placement.rate", kind=kinds["rate"], positive=True)
         return cls(**cfg)
 
     def operation_time(self, masses_placed: int) -> float:
