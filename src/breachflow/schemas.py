@@ -102,7 +102,7 @@ def _check_var(where: str, da, spec: dict, problems: list[str]) -> None:
 
 
 def validate(ds, schema: str | dict, *, source: str | None = None):
-    """Check Dataset *ds* against *schema* (a name or a dict); return *ds* or raise :class:`SchemaError`.
+    """Check Dataset *ds* against *schema* (a name or a dict); return *ds* or raise :class:`~breachflow.errors.SchemaError`.
 
     The error lists every problem found, prefixed by *source* (a file name) when given.
     """

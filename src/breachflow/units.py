@@ -87,7 +87,7 @@ def _dimensionality(kind: str):
 
 
 def parse_quantity(value: Any, *, name: str, kind: str, default_unit: str | None = None) -> pint.Quantity:
-    """Turn *value* into a pint Quantity of the dimension *kind*, or raise :class:`UnitError`.
+    """Turn *value* into a pint Quantity of the dimension *kind*, or raise :class:`~breachflow.errors.UnitError`.
 
     *name* is the parameter's name, used in every message. A bare number is accepted only when
     *default_unit* is given.
@@ -144,7 +144,7 @@ def to_si(value: Any, *, name: str, kind: str, default_unit: str | None = None,
           finite: bool = True, positive: bool = False, nonnegative: bool = False):
     """Convert *value* to its SI magnitude (float, ndarray, or DataArray with SI ``units`` attr).
 
-    Optional checks raise :class:`InputError` naming *name*: ``finite`` (no NaN/inf),
+    Optional checks raise :class:`~breachflow.errors.InputError` naming *name*: ``finite`` (no NaN/inf),
     ``positive`` (> 0), ``nonnegative`` (>= 0).
     """
     q = parse_quantity(value, name=name, kind=kind, default_unit=default_unit)

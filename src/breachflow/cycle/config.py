@@ -197,7 +197,7 @@ class PlacementSection:
 
     @classmethod
     def schema_keys(cls) -> dict:
-        """The keys :meth:`PlacementPlan.from_config` reads, their kinds and the plan's defaults."""
+        """The keys :meth:`~breachflow.cycle.placement.PlacementPlan.from_config` reads, their kinds and the plan's defaults."""
         from dataclasses import MISSING, fields
 
         from ..scenario.reference import quantity_schema

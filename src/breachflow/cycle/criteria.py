@@ -147,7 +147,7 @@ class PlacedVolume(Criterion):
 
 @criteria.register("max_speed")
 class MaxSpeed(Criterion):
-    """SPEC §7 criterion 2: max over wet open cells of |u| (m/s); e.g. 0.2 m/s for fine sands/silts."""
+    """SPEC §7 criterion 2: max over wet open cells of ``|u|`` (m/s); e.g. 0.2 m/s for fine sands/silts."""
 
     name, kind, units = "max_speed", "speed", "m s-1"
     description = "maximum depth-averaged fluid speed"
@@ -203,7 +203,7 @@ class DischargeProxy(Criterion):
 
 @criteria.register("head_gradient")
 class HeadGradient(Criterion):
-    """SPEC §7 criterion 4: max |ΔH| / Δs between neighbouring wet open cells, H = η + |u|²/(2g)."""
+    """SPEC §7 criterion 4: ``max |ΔH| / Δs`` between neighbouring wet open cells, ``H = η + |u|²/(2g)``."""
 
     name, kind, units = "head_gradient", "dimensionless", "1"
     description = "maximum total-head gradient between neighbouring gridpoints"
@@ -242,7 +242,7 @@ class Stability(Criterion):
 
 @criteria.register("speed_change")
 class SpeedChange(Criterion):
-    """SPEC §7 criterion 6: |max speed(g) − max speed(g−1)| (m/s): one more mass no longer helps."""
+    """SPEC §7 criterion 6: ``|max speed(g) − max speed(g−1)|`` (m/s): one more mass no longer helps."""
 
     name, kind, units = "speed_change", "speed", "m s-1"
     description = "change of the maximum fluid speed since the previous cycle"

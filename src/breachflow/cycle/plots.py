@@ -45,7 +45,7 @@ def plot_plan_view(rundir, out, cycle: int | None = None) -> Path:
 
 
 def plan_view_figure(rundir, cycle: int | None = None):
-    """Speed |u| (m/s) in plan, no-flow cells hatched, bed contours, resting masses white and moving
+    """Speed (m/s) in plan, no-flow cells hatched, bed contours, resting masses white and moving
     masses red; first and last cycle (or *cycle*), with a legend and, for the whole run, the reason it
     counts as closed (:func:`closure_reason`) as the title."""
     plt = _plt()

@@ -16,6 +16,7 @@ Contact law (SPEC §5), ``n`` from particle i to its partner, overlap ``u_N > 0`
   ``u_S_hat`` (plastic slip); dashpot ``c_CS v_S`` while sticking, ``c_CF v_S`` while slipping;
 * torque ``(r n) x f_S`` on each partner (lever arm D/2);
 * rolling resistance (extension, ``rolling_friction`` mu_r > 0): :func:`rolling_law`.
+
 Properties of a contact are the minimum of the partners' values.
 """
 from __future__ import annotations
@@ -586,7 +587,7 @@ def wrap_and_check(idx, pos, vel, omega, geom, periodic, box, use_box, active, a
 
 @numba.njit(cache=True, error_model="numpy")
 def displacement_since(idx, pos, pos_ref, geom, periodic):
-    """max |x_i - x_ref_i| over *idx* with periodic minimum image."""
+    """max ``|x_i - x_ref_i|`` over *idx* with periodic minimum image."""
     m = 0.0
     for k in range(idx.shape[0]):
         i = idx[k]
@@ -601,7 +602,7 @@ def displacement_since(idx, pos, pos_ref, geom, periodic):
 
 @numba.njit(cache=True, error_model="numpy")
 def sleep_update(idx, vel, omega, vel_prev, omega_prev, radius, v_sleep, n_sleep, counter, awake, sleep_ids, allow):
-    """Count consecutive slow steps (|v| and r|w| below v_sleep); after n_sleep of them the particle
+    """Count consecutive slow steps (``|v|`` and ``r |w|`` below v_sleep); after n_sleep of them the particle
     sleeps (velocities zeroed) at the next step where *allow* is True. Returns the number that fell asleep (listed in sleep_ids)."""
     ns = 0
     v2 = v_sleep * v_sleep

@@ -2,8 +2,8 @@
 
 Each integrator is a class with one method ``step(sim, dt)`` that advances the awake particles
 ``sim.idx`` by one step. It obtains forces only through the simulation's force assembly
-(:meth:`DemSimulation.contact_forces`, :meth:`DemSimulation.body_forces`,
-:meth:`DemSimulation.global_damping`, :meth:`DemSimulation.inverse_mass`) and never knows which
+(:meth:`~breachflow.dem.simulation.DemSimulation.contact_forces`, :meth:`~breachflow.dem.simulation.DemSimulation.body_forces`,
+:meth:`~breachflow.dem.simulation.DemSimulation.global_damping`, :meth:`~breachflow.dem.simulation.DemSimulation.inverse_mass`) and never knows which
 force models (fluid, ...) exist: ``a = (F_contacts + F_gravity + sum(models) + F_damping) / (m + m_added)``.
 An integrator with a memory between steps saves it through ``state_arrays`` / ``restore_state``
 (:mod:`.memory`).
@@ -41,7 +41,7 @@ def kick(idx, vel, omega, force, torque, inv_m, inv_i, h, lmask, rmask):
 
 @numba.njit(cache=True, error_model="numpy")
 def drift(idx, pos, vel, dt):
-    """x += v dt; returns (max, sum) of the step displacement |v dt| (report Step 11)."""
+    """x += v dt; returns (max, sum) of the step displacement ``|v dt|`` (report Step 11)."""
     mx = 0.0
     sm = 0.0
     for k in range(idx.shape[0]):

@@ -61,11 +61,11 @@ class EquilibriumResult:
 class DemSimulation:
     """A DEM scene of spheres.
 
-    Parameters (SI): ``boundaries`` planes / height fields; ``models`` extra :class:`ForceModel` s (fluid);
+    Parameters (SI): ``boundaries`` planes / height fields; ``models`` extra :class:`~breachflow.dem.forces.ForceModel` s (fluid);
     ``gravity`` vector (m/s^2); ``integrator`` name in ``breachflow.integrators`` or an instance;
     ``dt`` (s; default ``SAFETY * stable limit``, a larger one than the limit is refused);
     ``periodic_x``/``periodic_y`` ``(lo, hi)`` periodic ranges; ``domain`` ``(xmin, xmax, ymin, ymax,
-    zmin, zmax)`` — particles leaving it are deactivated and listed in :attr:`left_domain`;
+    zmin, zmax)`` — particles leaving it are deactivated and listed in ``left_domain``;
     ``skin`` neighbour-list skin (m; default 0.1 median diameter); ``cell_size`` grid cell (m; default
     median diameter + skin); ``sleeping`` on/off; ``plane_2d`` restricts motion to the x–z plane
     (translation in x, z and rotation about y; the report's 2-D setting; out-of-plane components of

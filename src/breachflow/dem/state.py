@@ -107,7 +107,7 @@ class ParticleState:
     """Structure of arrays of N spheres (SPEC §5). All float64 SI unless noted.
 
     ``pos``, ``vel``, ``omega`` (N, 3); ``radius``, ``mass``, ``inertia``, ``density`` (N,);
-    Table 3.1 material fields (N,) (see :data:`MATERIAL_FIELDS`); ``awake`` (N,) bool — sleeping
+    Table 3.1 material fields (N,) (see :data:`~breachflow.dem.state.MATERIAL_FIELDS`); ``awake`` (N,) bool — sleeping
     particles are not integrated but remain contact partners; ``active`` (N,) bool — False once a
     particle has left the domain (it is then ignored everywhere, its index stays valid);
     ``vel_prev``/``omega_prev`` the previous step's velocities (the report's scheme needs ``v(t-1)``).

@@ -138,7 +138,7 @@ def run(spec, *, out=None, scheduler: str | None = None, workers: int | None = N
         write: bool = True) -> xr.Dataset:
     """Run an ensemble and return its result Dataset (also written to ``OUT/ensemble.nc``).
 
-    *spec*: path to a spec TOML, TOML text, a dict or an :class:`EnsembleSpec`. *out*: output directory
+    *spec*: path to a spec TOML, TOML text, a dict or an :class:`~breachflow.ensemble.spec.EnsembleSpec`. *out*: output directory
     (default: the spec's ``output``, else ``<spec>.ensemble/`` next to the spec file).
     Execution: an existing dask *client*; or a *scheduler* address (``"tcp://host:8786"``); or a local
     cluster of *workers* processes (default: the spec's ``workers``, else one per core). With a client or

@@ -433,7 +433,7 @@ def _line_of(text: str, key: str | None) -> int | None:
 
 
 def load_spec(path) -> EnsembleSpec:
-    """Read an ensemble spec TOML file; problems are :class:`ParseError` naming the file and line."""
+    """Read an ensemble spec TOML file; problems are :class:`~breachflow.errors.ParseError` naming the file and line."""
     path = Path(path)
     try:
         text = path.read_text(encoding="utf-8")

@@ -7,7 +7,7 @@ Per particle, with ``V_sub`` the submerged volume (spherical cap while straddlin
 * drag ``f_D = -1/2 A [phi rho_W C_D(R_W) |r_W| r_W + (1 - phi) rho_A C_D(R_A) |r_A| r_A]``,
   ``r_W = v - (u, v, 0)`` relative to the sampled water velocity, ``r_A = v - wind``, ``R = |r| D / nu``;
 * apparent mass: :meth:`FluidForces.added_mass` returns ``xi (rho_W V_sub + rho_A (V - V_sub))``, which the
-  integrators add to ``m``; :meth:`accumulate` adds the convective part ``xi rho_W V_sub (u(x_pred) - u(x)) / dt``
+  integrators add to ``m``; :meth:`FluidForces.accumulate` adds the convective part ``xi rho_W V_sub (u(x_pred) - u(x)) / dt``
   with ``x_pred = x + v dt`` in the frozen field (Fig 4.3 Step 7H);
 * fluid torque from the gridpoints in the particle's neighbourhood (Step 7E, Fig 4.4);
 * optional (``basset=True``) Basset history force ``-phi 6 a^2 sqrt(pi rho_W mu_W) int r_W' / sqrt(t - tau)``
@@ -74,7 +74,7 @@ class FluidForces:
         ``None`` (air only), a number (still water with its surface at that elevation, m),
         :class:`~breachflow.fluid.field.UniformWater`, a snapshot Dataset or a ``FieldSampler``.
     drag_law
-        Name in the ``breachflow.drag_laws`` registry or a :class:`DragLaw` instance (default ``report``).
+        Name in the ``breachflow.drag_laws`` registry or a :class:`~breachflow.fluid.drag.DragLaw` instance (default ``report``).
     sampling
         ``bilinear`` or ``neighbourhood`` when *field* is a Dataset.
     water, air

@@ -55,7 +55,7 @@ def resolve_crs(crs, *, where: str = "crs", data_unit: str | None = "m", name: s
     """WKT (WKT2 2019, what GDAL and pyproj read) of *crs*, checked against *data_unit*, the length
     unit of the coordinates it describes as they were given (``"m"``, ``"ft"``, ``"survey_foot"``;
     None: no check). A projected CRS in other units than metres is returned with metre axes (the
-    coordinates are stored in metres; ``metres=False`` keeps its units). Errors (:class:`InputError`)
+    coordinates are stored in metres; ``metres=False`` keeps its units). Errors (:class:`~breachflow.errors.InputError`)
     name *where*."""
     from pyproj.crs import ProjectedCRS
     from pyproj.crs.coordinate_system import Cartesian2DCS

@@ -28,7 +28,7 @@ bilinear weights are clamped to the outermost centres (the cell value, no extrap
 
 The hot loops are numba kernels over plain arrays; :meth:`FieldSampler.grid_arrays` and
 :meth:`FieldSampler.mesh_arrays` expose those arrays so that other numba kernels can call
-:func:`grid_bilinear_point` / :func:`mesh_barycentric_point` directly without Python.
+``grid_bilinear_point`` / ``mesh_barycentric_point`` directly without Python.
 """
 from __future__ import annotations
 
@@ -354,7 +354,7 @@ def _mesh_neighbourhood_many(node_x, node_y, tri, bed, depth, u, v, bx0, by0, si
 
 @numba.njit(cache=True)
 def _grid_bilinear_packed(pack, x0, y0, dx, dy, px, py, ob, oh, ou, ov, inside):
-    """``pack[j, i] = (bed, depth, u, v)``; same arithmetic as :func:`grid_bilinear_point`."""
+    """``pack[j, i] = (bed, depth, u, v)``; same arithmetic as ``grid_bilinear_point``."""
     ny, nx = pack.shape[0], pack.shape[1]
     for k in range(px.size):
         i, tx = _axis_weight(px[k], x0, dx, nx)
@@ -388,7 +388,7 @@ def _grid_bilinear_packed(pack, x0, y0, dx, dy, px, py, ob, oh, ou, ov, inside):
 @numba.njit(cache=True)
 def _mesh_barycentric_packed(pack, tri, bx0, by0, size, nbx, nby, bstart, bitems, px, py, order,
                              ob, oh, ou, ov, inside):
-    """``pack[n] = (x, y, bed, depth, u, v)``; same arithmetic as :func:`mesh_barycentric_point`."""
+    """``pack[n] = (x, y, bed, depth, u, v)``; same arithmetic as ``mesh_barycentric_point``."""
     for kk in range(order.size):
         k = order[kk]
         x = px[k]
@@ -577,13 +577,13 @@ class FieldSampler:
 
     # -- access for numba callers -----------------------------------------------------------------
     def grid_arrays(self) -> GridArrays:
-        """Plain arrays + origin/spacing of the grid step (for :func:`grid_bilinear_point` etc.)."""
+        """Plain arrays + origin/spacing of the grid step (for ``grid_bilinear_point`` etc.)."""
         if self.kind != "grid":
             raise InputError("grid_arrays(): this snapshot is a mesh; use mesh_arrays()")
         return self._grid
 
     def mesh_arrays(self) -> MeshArrays:
-        """Plain arrays + bucket locator of the mesh step (for :func:`mesh_barycentric_point`)."""
+        """Plain arrays + bucket locator of the mesh step (for ``mesh_barycentric_point``)."""
         if self.kind != "mesh":
             raise InputError("mesh_arrays(): this snapshot is a grid; use grid_arrays()")
         return self._mesh

@@ -367,7 +367,7 @@ def describe_location(ds: xr.Dataset, flat_index: int, dims: tuple, shape: tuple
 def flag_implausible(ds: xr.Dataset, name: str, values, dims: tuple, limits: tuple[float, float],
                      *, what: str, unit: str, mode: str = "raise", hint: str = "check the units",
                      transform=None) -> None:
-    """Warn (or raise :class:`InputError` in ``mode="raise"``) if ``values`` exceed *limits* = (warn, error).
+    """Warn (or raise :class:`~breachflow.errors.InputError` in ``mode="raise"``) if ``values`` exceed *limits* = (warn, error).
 
     *values* is an array or a tuple of same-shaped arrays combined by *transform* (e.g. ``np.hypot``);
     the work is done one leading-axis slice at a time so no full-size temporaries are made.
@@ -399,7 +399,7 @@ def flag_implausible(ds: xr.Dataset, name: str, values, dims: tuple, limits: tup
 
 
 def check_plausibility(ds: xr.Dataset, *, mode: str = "raise", raw_depth=None) -> xr.Dataset:
-    """Check depth, speed and bed elevation of a snapshot against :data:`PLAUSIBLE_LIMITS`.
+    """Check depth, speed and bed elevation of a snapshot against :data:`~breachflow.hydro.snapshot.PLAUSIBLE_LIMITS`.
 
     ``mode``: ``"raise"`` (error above the hard limit, warning above the soft one), ``"warn"`` (only
     warnings) or ``"off"``. ``raw_depth`` (same dims as ``depth``) are the depths as read, before the

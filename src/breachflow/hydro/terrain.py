@@ -271,7 +271,7 @@ def levee_bed(scene, X: np.ndarray, Y: np.ndarray) -> np.ndarray:
 
 def breach_domain(scene, resolution: float, *, levee_no_flow: bool = True, flood_level_profile: bool = True,
                   absorbing_source: bool = True) -> Domain:
-    """Structured-grid :class:`Domain` of a :class:`BreachScene` at *resolution* (m).
+    """Structured-grid :class:`Domain` of a :class:`~breachflow.scenario.geometry.BreachScene` at *resolution* (m).
 
     Extent: the levee length (``2 L_side + B``) along x, ``flood_side_extent`` to
     ``protected_side_extent`` across. Boundary conditions (report §3.2.1, Fig 3.2): the flood source is

@@ -389,7 +389,7 @@ class Scenario:
 
 
 def load_scenario(path) -> Scenario:
-    """Parse a scenario TOML file; every problem is a :class:`ParseError` naming the file and line."""
+    """Parse a scenario TOML file; every problem is a :class:`~breachflow.errors.ParseError` naming the file and line."""
     path = Path(path)
     try:
         text = path.read_text(encoding="utf-8")

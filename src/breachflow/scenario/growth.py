@@ -5,18 +5,18 @@ Each equation is a plug-in class in a named registry with one method, ``length``
 The report's formulas are in hours and metres; the classes convert. Third-party equations register
 through the entry-point groups ``breachflow.breach_growth`` and ``breachflow.breach_max_length``.
 
-Growth (B vs t_D, t_D in hours):
+Growth (B vs t_D, t_D in hours)::
 
-=====  ==========================================  ===============================================
-2.2    MacDonald & Langridge-Monopolis 1984         ``B = 63075 t_D^2.747 / A_L``
-2.3    Pugh 1985 (fuse-plug embankments)            ``B = K (4.02 h_L + 45.7) t_D``,
-                                                    ``K = 0.8039 (h_W/h_L)^2 + 0.003 (h_W/h_L)``
-2.4    USBR 1988                                    ``B = 91 t_D``
-2.5    von Thun & Gillette 1990, erosion-resistant  ``B = 4 h_W t_D``
-2.6    von Thun & Gillette 1990, erodible           ``B = (4 h_W + 61) t_D``
-2.7    Verheij 2002, compacted clay levees          ``B = 13.4 t_D^0.51``
-2.8    Verheij 2002, compacted sand levees          ``B = 37.2 t_D^0.51``
-=====  ==========================================  ===============================================
+    =====  ==========================================  ===============================================
+    2.2    MacDonald & Langridge-Monopolis 1984         ``B = 63075 t_D^2.747 / A_L``
+    2.3    Pugh 1985 (fuse-plug embankments)            ``B = K (4.02 h_L + 45.7) t_D``,
+                                                        ``K = 0.8039 (h_W/h_L)^2 + 0.003 (h_W/h_L)``
+    2.4    USBR 1988                                    ``B = 91 t_D``
+    2.5    von Thun & Gillette 1990, erosion-resistant  ``B = 4 h_W t_D``
+    2.6    von Thun & Gillette 1990, erodible           ``B = (4 h_W + 61) t_D``
+    2.7    Verheij 2002, compacted clay levees          ``B = 13.4 t_D^0.51``
+    2.8    Verheij 2002, compacted sand levees          ``B = 37.2 t_D^0.51``
+    =====  ==========================================  ===============================================
 
 Maximum length: (2.9) ``B = 10 h_W``; (2.10) ``B = 2.5 h_W + 54.9``; (2.11) ``B = 5.19 e^{0.75 h_W}``
 (Nagy 2006; the report's "e = 2.7812" is a typo for 2.71828).
@@ -329,7 +329,7 @@ def breach_length(equation="all", development_time=None, *, surge_height=None, l
     """Breach length B (m) vs development time t_D by growth equations 2.2–2.8 (+ Resio rates).
 
     ``development_time``: times with units (list, DataArray; default 0–8 h); a list becomes the
-    ``development_time`` dimension (stored in s). ``levee``: a :class:`LeveeGeometry` (or a dict of its
+    ``development_time`` dimension (stored in s). ``levee``: a :class:`~breachflow.scenario.geometry.LeveeGeometry` (or a dict of its
     fields with units) for equations needing h_L or A_L; ``surge_height`` defaults to the levee height.
     ``max_length``: a length with units, or the name/number of a maximum-length equation (2.9–2.11),
     caps every curve (``uncapped_breach_length`` is kept as an attribute-documented variable).

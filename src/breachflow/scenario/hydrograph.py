@@ -97,7 +97,7 @@ class MeasuredHydrograph:
 
     @classmethod
     def from_csv(cls, path, *, ground_elevation=None, column: str | None = None) -> "MeasuredHydrograph":
-        """From a CSV file ``time [h], stage [ft]`` (see :func:`read_series_csv`)."""
+        """From a CSV file ``time [h], stage [ft]`` (see :func:`~breachflow.scenario.hydrograph.read_series_csv`)."""
         from ..units import to_si
 
         times, stage, _ = read_series_csv(path, kind="length", column=column)

@@ -1,7 +1,7 @@
 """The scenario-file reference, generated from the parsers: ``data_schemas/scenario.json`` (a JSON schema
 of the scenario TOML) and ``docs/scenario_reference.md``.
 
-Every registered section's ``from_table`` is run against a recording :class:`SectionContext`: the keys it
+Every registered section's ``from_table`` is run against a recording :class:`~breachflow.scenario.config.SectionContext`: the keys it
 allows (``check_keys``), and for each key the converter it calls — ``quantity`` (kind, SI unit, default,
 default unit, sign), ``raw`` (TOML types, default) or ``file``. Sections that parse without the context
 (``[placement]``, ``[criteria]``) describe their keys with a ``schema_keys()`` class method drawn from the

@@ -53,12 +53,12 @@ def closure_window(
     named after the parameter).
 
     Flood: ``surge_height`` h_W + ``fall_rate`` (+ ``rise_rate``, default = fall rate), or ``preset``
-    (a name of :func:`flood_preset`; explicit values override it), or ``hydrograph`` (a
-    :class:`MeasuredHydrograph`, a stage DataArray, or a CSV path ``time [h], stage [m]``).
+    (a name of :func:`~breachflow.scenario.presets.flood_preset`; explicit values override it), or ``hydrograph`` (a
+    :class:`~breachflow.scenario.hydrograph.MeasuredHydrograph`, a stage DataArray, or a CSV path ``time [h], stage [m]``).
     ``flood_duration``: how long after the crest the flood lasts (default: unbounded / end of record).
     Breach: ``breach_discharge`` Q_D, or ``breach_length`` B with ``mean_velocity`` v (default 3 m/s):
     ``Q_D = h_W B v``. ``pump_capacity`` Q_P. ``breach_time``: breaching relative to the crest.
-    Wind: ``wind`` (a :class:`WindRecord`, DataArray or CSV path, times relative to the crest) and
+    Wind: ``wind`` (a :class:`~breachflow.scenario.wind.WindRecord`, DataArray or CSV path, times relative to the crest) and
     ``wind_limit`` (speed, or ``"land"`` 13 m/s / ``"ship"`` 25 m/s; default land).
     """
     measured = _measured(hydrograph)

@@ -71,7 +71,7 @@ class ConvergenceHistory:
 
 
 class SWESimulation:
-    """Time marching of one :class:`Domain` (plus extra obstacles) from a cold or warm start.
+    """Time marching of one :class:`~breachflow.hydro.terrain.Domain` (plus extra obstacles) from a cold or warm start.
 
     *initial* may be a grid snapshot Dataset (warm start: depth, u, v; its water surface is kept where
     the bed changed) or a tuple ``(h, hu, hv)`` of ``(ny, nx)`` arrays. Cells that became obstacles are
@@ -185,7 +185,7 @@ class SWESimulation:
 
     # ------------------------------------------------------------------ marching
     def advance_to(self, t_end: float, max_steps: int = 10**9) -> "SWESimulation":
-        """March to time *t_end* (s). Raises :class:`PhysicsError` on a non-finite state or runaway step."""
+        """March to time *t_end* (s). Raises :class:`~breachflow.errors.PhysicsError` on a non-finite state or runaway step."""
         import numba
 
         o = self.options
