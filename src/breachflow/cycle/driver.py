@@ -382,7 +382,8 @@ class ClosureRun:
         grid = self._grid_only(snapshot)
         part = particles_dataset(st, placed_cycle=placed_cycle, resting=resting,
                                  grid_mapping="crs" if "crs" in grid else None)
-        part = pad_particles(part, self.setup.criteria.max_cycles * self.setup.placement.batch)
+        # the run's capacity (masses inserted otherwise, as the cycle benchmark's pile, can exceed it)
+        part = pad_particles(part, max(self.setup.criteria.max_cycles * self.setup.placement.batch, st.n))
         ds = xr.merge([grid, part], combine_attrs="override")
         ds.attrs.update(grid.attrs)
         ds.attrs.update(title=f"breachflow closure run {self.setup.name!r}, cycle {rep.cycle}", cycle=np.int32(rep.cycle),
