@@ -19,7 +19,7 @@ from pathlib import Path
 from ..errors import InputError
 
 #: Default CRS of closure runs: local transverse Mercator, origin at the 17th Street Canal breach.
-LOCAL_CRS = ("+proj=tmerc +lat_0=30.0168 +lon_0=-90.1213 +k=1 +x_0=0 +y_0=0 +ellps=WGS84 +units=m "
+LOCAL_CRS = ("+proj=tmerc +lat_0=30.0168 +lon_0=-90.1213 +k=1 +x_0=0 +y_0=0 +datum=WGS84 +units=m "
              "+no_defs +type=crs")
 LOCAL_CRS_NAME = "breachflow local transverse Mercator (origin 30.0168 N, 90.1213 W: 17th Street Canal breach)"
 
