@@ -6,6 +6,10 @@ arguments). Inside the package all numbers are SI magnitudes (m, s, kg, Pa) with
 Accepted inputs: a string with units (``"2.8 m"``, ``"9.2 ft"``, ``"40 cm/hr"``, ``"800 ha"``,
 ``"7060 cfs"``), a :class:`pint.Quantity`, an :class:`xarray.DataArray` whose ``attrs["units"]`` names
 its unit, or a bare number / array where a documented default unit exists.
+
+``ureg`` is also pint's application registry, set up as pint-xarray needs it (``force_ndarray_like``; it
+reads UDUNITS exponents such as ``m s-1``), so ``ds.pint.quantify()`` works on every file breachflow
+writes whichever of breachflow and pint_xarray is imported first. Magnitudes are numpy scalars/arrays.
 """
 from __future__ import annotations
 
