@@ -109,7 +109,7 @@ inundation_depth = "90 cm"
 [breach]
 mean_velocity = "3 m/s"
 """)
-    with distributed.Client(processes=False, n_workers=1, threads_per_worker=1, dashboard_address=None) as client:
+    with distributed.Client(processes=False, n_workers=1, threads_per_worker=1, dashboard_address=":0") as client:
         run(spec, out=d / "ens", client=client, progress=False)
     return d / "ens" / "ensemble.nc"
 
