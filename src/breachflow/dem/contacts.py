@@ -177,13 +177,63 @@ def find_pairs(search_idx, pos, radius, margin, geom, periodic, ncell,
 
 
 @numba.njit(cache=True, inline="always", error_model="numpy")
-def contact_law(nx, ny, nz, overlap, vx, vy, vz, hist, p, kn, ks, c_cn, c_cs, c_cf, alpha, beta, dt, out):
-    """Force on particle i from one contact (SPEC §5); updates the shear history *hist* in place.
+def contact_window(u, w, lo, hi):
+    """Active part of the force window ``[lo, hi]`` (s, relative to the evaluation time) for the overlap
+    ``u(tau) = u + w tau``: returns (fraction phi of the window in contact, midpoint m of the active part).
+
+    ``hi <= lo`` (a point evaluation, e.g. :meth:`DemSimulation.refresh_forces`): (1, 0) if u > 0 else (0, 0).
+    """
+    if hi <= lo:
+        return (1.0, 0.0) if u > 0.0 else (0.0, 0.0)
+    a = lo
+    b = hi
+    if w > 0.0:
+        a = max(a, -u / w)
+    elif w < 0.0:
+        b = min(b, -u / w)
+    elif u <= 0.0:
+        return 0.0, 0.0
+    if b <= a:
+        return 0.0, 0.0
+    return (b - a) / (hi - lo), 0.5 * (a + b)
+
+
+@numba.njit(cache=True, inline="always", error_model="numpy")
+def contact_law(nx, ny, nz, overlap, vx, vy, vz, gx, gy, gz, hist, p, kn, ks, c_cn, c_cs, c_cf, alpha, beta, dt, lo,
+                hi, out):
+    """Force on particle i from one contact (SPEC §5), averaged over the integrator's force window;
+    updates the shear history *hist* in place. Returns the window fraction in contact (0: none).
 
     (nx, ny, nz): unit normal from i to the partner; (vx, vy, vz): velocity of the partner's contact
-    point relative to i's; the pair's history is row *p* of *hist*. Writes (fx, fy, fz, ftx, fty, ftz) into *out* (total force, tangential part).
+    point relative to i's at the evaluation time (dashpots, window); (gx, gy, gz): the same over the last
+    step, i.e. with the velocities that moved the positions (the half-step ones of Verlet), which advances
+    the shear displacement consistently with the overlap; *overlap* ``u`` at the evaluation time (may be
+    <= 0); the pair's history is row *p* of *hist* (``u_S`` at the previous evaluation, ``dt`` earlier). Writes
+    (fx, fy, fz, ftx, fty, ftz, compressive normal force) into *out*.
+
+    Window (issue 12): a kick–drift–kick integrator applies the force evaluated at ``t`` over
+    ``[t - dt/2, t + dt/2]`` (``lo = -dt/2, hi = dt/2``). The contact law is piecewise — the dashpot
+    jumps from 0 to ``c_CN v_N`` at onset and back at release, springs have a kink — so a point value
+    makes the impulse depend on where in a step the contact begins (restitution errors up to ~10 % at the
+    default step). Here the overlap is taken linear across the window, ``u(tau) = u + w tau`` with the
+    closing speed ``w = -v_rel . n``, and the law is averaged over it: with phi the fraction of the
+    window in contact and m the midpoint of the in-contact part, ``F = phi [(-k_N u(m) + c_CN v_N) n +
+    k_S u_S(m) + c_t v_S]``, ``u_S(m) = u_S(t) + v_S m`` (capped at the Coulomb limit of ``u(m)``; a
+    contact sliding now and in contact only before now keeps ``u_S`` at that limit instead).
+    When the whole window is in contact (phi = 1, m = 0) this is the usual point value, bit for bit.
+    The shear history counts from the touching time: a fresh contact (zero history, approaching) gets
+    ``u_S = g_S min(dt, u/g_N)`` instead of ``g_S dt``.
     """
     vn = vx * nx + vy * ny + vz * nz
+    w = -vn
+    phi, m = contact_window(overlap, w, lo, hi)
+    if phi <= 0.0:
+        hist[p, 0] = 0.0
+        hist[p, 1] = 0.0
+        hist[p, 2] = 0.0
+        for k in range(7):
+            out[k] = 0.0
+        return 0.0
     tx = vx - vn * nx
     ty = vy - vn * ny
     tz = vz - vn * nz
@@ -202,26 +252,66 @@ def contact_law(nx, ny, nz, overlap, vx, vy, vz, hist, p, kn, ks, c_cn, c_cs, c_
         hx *= sc
         hy *= sc
         hz *= sc
-    hx += tx * dt
-    hy += ty * dt
-    hz += tz * dt
-    us = math.sqrt(hx * hx + hy * hy + hz * hz)
-    us_hat = (alpha + beta * kn * overlap) / ks
-    c_t = c_cs
-    if us >= us_hat:  # plastic slip: the spring is cut back to the Coulomb limit
-        c_t = c_cf
-        if us > 0.0:
-            sc = us_hat / us
-            hx *= sc
-            hy *= sc
-            hz *= sc
-    hist[p, 0] = hx
-    hist[p, 1] = hy
-    hist[p, 2] = hz
-    fnm = -kn * overlap + c_cn * vn
-    ftx = ks * hx + c_t * tx
-    fty = ks * hy + c_t * ty
-    ftz = ks * hz + c_t * tz
+    slipping = False
+    gn = gx * nx + gy * ny + gz * nz
+    if overlap > 0.0:  # in contact at the evaluation time: advance the stored history
+        d = dt
+        if h0 == 0.0 and gn < 0.0 and overlap < -gn * dt:  # fresh contact: it began overlap/g_N ago
+            d = -overlap / gn
+        hx += (gx - gn * nx) * d
+        hy += (gy - gn * ny) * d
+        hz += (gz - gn * nz) * d
+        us = math.sqrt(hx * hx + hy * hy + hz * hz)
+        us_hat = (alpha + beta * kn * overlap) / ks
+        if us >= us_hat:  # plastic slip: the spring is cut back to the Coulomb limit
+            slipping = True
+            if us > 0.0:
+                sc = us_hat / us
+                hx *= sc
+                hy *= sc
+                hz *= sc
+        hist[p, 0] = hx
+        hist[p, 1] = hy
+        hist[p, 2] = hz
+        if slipping and m < 0.0 and us_hat > 0.0:  # sliding before now: the spring sat at the Coulomb limit
+            sc = (alpha + beta * kn * (overlap + w * m)) / ks / us_hat
+            sx = hx * sc
+            sy = hy * sc
+            sz = hz * sc
+        else:  # sticking: the spring's elastic path
+            sx = hx + tx * m
+            sy = hy + ty * m
+            sz = hz + tz * m
+    else:  # in contact only during part of the window: not at the evaluation time
+        hist[p, 0] = 0.0
+        hist[p, 1] = 0.0
+        hist[p, 2] = 0.0
+        if w > 0.0:  # onset ahead, at a = 2m - hi: u_S(m) = v_S (m - a)
+            d = hi - m
+            sx = tx * d
+            sy = ty * d
+            sz = tz * d
+        else:  # release behind, the last history dt ago: u_S(m) = u_S(-dt) + g_S (m + dt)
+            d = m + dt
+            sx = hx + (gx - gn * nx) * d
+            sy = hy + (gy - gn * ny) * d
+            sz = hz + (gz - gn * nz) * d
+    um = overlap + w * m  # overlap at the midpoint of the in-contact part
+    if m != 0.0:  # part of the window only: the Coulomb limit of the mid-window overlap
+        us = math.sqrt(sx * sx + sy * sy + sz * sz)
+        us_hat = (alpha + beta * kn * um) / ks
+        if us >= us_hat:
+            slipping = True
+            if us > 0.0:
+                sc = us_hat / us
+                sx *= sc
+                sy *= sc
+                sz *= sc
+    c_t = c_cf if slipping else c_cs  # friction dashpot while slipping, shear dashpot while sticking
+    fnm = phi * (-kn * um + c_cn * vn)
+    ftx = phi * (ks * sx + c_t * tx)
+    fty = phi * (ks * sy + c_t * ty)
+    ftz = phi * (ks * sz + c_t * tz)
     out[0] = fnm * nx + ftx
     out[1] = fnm * ny + fty
     out[2] = fnm * nz + ftz
@@ -229,6 +319,7 @@ def contact_law(nx, ny, nz, overlap, vx, vy, vz, hist, p, kn, ks, c_cn, c_cs, c_
     out[4] = fty
     out[5] = ftz
     out[6] = -fnm  # compressive normal force magnitude (N)
+    return phi
 
 
 @numba.njit(cache=True, inline="always", error_model="numpy")
@@ -303,31 +394,46 @@ def rolling_law(nx, ny, nz, wx, wy, wz, fn, r_eff, mu_r, kn, i_eff, rhist, p, dt
 
 @numba.njit(cache=True, error_model="numpy")
 def pair_forces(pa, pb, hist, touching, pos, vel, omega, radius, props, awake, active, geom, periodic,
-                dt, wake_speed, force, torque, wake, wake_ids, n_wake):
+                dt, wake_speed, force, torque, wake, wake_ids, n_wake, lo=0.0, hi=0.0):
     """:func:`pair_forces_rolling` without rolling histories (rolling resistance ignored)."""
     rhist = np.zeros((pa.shape[0], 3))
     ones = np.ones(radius.shape[0])
     p = props.copy()
     p[:, 7] = 0.0
     return pair_forces_rolling(pa, pb, hist, rhist, touching, pos, vel, omega, radius, ones, ones, p, awake,
-                               active, geom, periodic, dt, wake_speed, force, torque, wake, wake_ids, n_wake)
+                               active, geom, periodic, dt, wake_speed, force, torque, wake, wake_ids, n_wake, lo, hi)
 
 
 @numba.njit(cache=True, error_model="numpy")
 def pair_forces_rolling(pa, pb, hist, rhist, touching, pos, vel, omega, radius, mass, inertia, props, awake,
-                        active, geom, periodic, dt, wake_speed, force, torque, wake, wake_ids, n_wake):
+                        active, geom, periodic, dt, wake_speed, force, torque, wake, wake_ids, n_wake, lo=0.0, hi=0.0):
+    """:func:`pair_forces_window` with the same velocities for dashpots and shear increments."""
+    return pair_forces_window(pa, pb, hist, rhist, touching, pos, vel, omega, vel, omega, radius, mass, inertia,
+                              props, awake, active, geom, periodic, dt, wake_speed, force, torque, wake, wake_ids,
+                              n_wake, lo, hi)
+
+
+@numba.njit(cache=True, error_model="numpy")
+def pair_forces_window(pa, pb, hist, rhist, touching, pos, vel, omega, vel_h, omega_h, radius, mass, inertia, props,
+                       awake, active, geom, periodic, dt, wake_speed, force, torque, wake, wake_ids, n_wake, lo, hi):
     """Contact forces of all listed pairs; pairs of two sleeping particles are skipped (frozen).
+
+    *vel*, *omega*: velocities at the evaluation time (dashpots); *vel_h*, *omega_h*: the ones that moved
+    the positions over the last step (shear increments), see :func:`contact_law`.
 
     *rhist* (npairs, 3): rolling moment histories (:func:`rolling_law`, if the contact's
     rolling_friction, props column 7, is > 0); *mass*, *inertia* (N,) for the rolling dashpot.
 
     props (N, 8): adhesion, friction, kn, ks, c_cn, c_cs, c_cf (columns 0..6; one cache line per particle). A sleeping partner of a
     moving particle (contact-point speed > wake_speed) gets wake[j] = True and is listed in
-    wake_ids[n_wake[0]...]. Returns #contacts.
+    wake_ids[n_wake[0]...]. Forces are averaged over the force window ``[lo, hi]`` (s, relative to now;
+    :func:`contact_law`), so a pair that touches only within it gets its share. Returns #contacts
+    (overlapping now).
     """
     out = np.empty(7)
     mr = np.empty(3)
     ncontacts = 0
+    reach_t = max(-lo, hi)
     for p in range(pa.shape[0]):
         i = pa[p]
         j = pb[p]
@@ -340,7 +446,8 @@ def pair_forces_rolling(pa, pb, hist, rhist, touching, pos, vel, omega, radius, 
         ri = radius[i]
         rj = radius[j]
         overlap = ri + rj - dist
-        if overlap <= 0.0:
+        if overlap <= 0.0 and overlap * dist + reach_t * abs(
+                (vel[i, 0] - vel[j, 0]) * dx + (vel[i, 1] - vel[j, 1]) * dy + (vel[i, 2] - vel[j, 2]) * dz) <= 0.0:
             hist[p, 0] = 0.0
             hist[p, 1] = 0.0
             hist[p, 2] = 0.0
@@ -349,8 +456,6 @@ def pair_forces_rolling(pa, pb, hist, rhist, touching, pos, vel, omega, radius, 
             rhist[p, 2] = 0.0
             touching[p] = False
             continue
-        touching[p] = True
-        ncontacts += 1
         if dist > 1e-12 * (ri + rj):
             nx = dx / dist
             ny = dy / dist
@@ -364,11 +469,26 @@ def pair_forces_rolling(pa, pb, hist, rhist, touching, pos, vel, omega, radius, 
         vx = vel[j, 0] - vel[i, 0] - (wy * nz - wz * ny)
         vy = vel[j, 1] - vel[i, 1] - (wz * nx - wx * nz)
         vz = vel[j, 2] - vel[i, 2] - (wx * ny - wy * nx)
-        contact_law(nx, ny, nz, overlap, vx, vy, vz, hist, p,
-                    min(props[i, 2], props[j, 2]), min(props[i, 3], props[j, 3]),
-                    min(props[i, 4], props[j, 4]), min(props[i, 5], props[j, 5]),
-                    min(props[i, 6], props[j, 6]), min(props[i, 0], props[j, 0]),
-                    min(props[i, 1], props[j, 1]), dt, out)
+        wx = ri * omega_h[i, 0] + rj * omega_h[j, 0]
+        wy = ri * omega_h[i, 1] + rj * omega_h[j, 1]
+        wz = ri * omega_h[i, 2] + rj * omega_h[j, 2]
+        gx = vel_h[j, 0] - vel_h[i, 0] - (wy * nz - wz * ny)
+        gy = vel_h[j, 1] - vel_h[i, 1] - (wz * nx - wx * nz)
+        gz = vel_h[j, 2] - vel_h[i, 2] - (wx * ny - wy * nx)
+        phi = contact_law(nx, ny, nz, overlap, vx, vy, vz, gx, gy, gz, hist, p,
+                          min(props[i, 2], props[j, 2]), min(props[i, 3], props[j, 3]),
+                          min(props[i, 4], props[j, 4]), min(props[i, 5], props[j, 5]),
+                          min(props[i, 6], props[j, 6]), min(props[i, 0], props[j, 0]),
+                          min(props[i, 1], props[j, 1]), dt, lo, hi, out)
+        touching[p] = overlap > 0.0
+        if overlap <= 0.0:  # touching only within the window: no rolling contact now
+            rhist[p, 0] = 0.0
+            rhist[p, 1] = 0.0
+            rhist[p, 2] = 0.0
+            if phi <= 0.0:
+                continue
+        else:
+            ncontacts += 1
         force[i, 0] += out[0]
         force[i, 1] += out[1]
         force[i, 2] += out[2]
@@ -386,7 +506,7 @@ def pair_forces_rolling(pa, pb, hist, rhist, touching, pos, vel, omega, radius, 
         torque[j, 1] += rj * cy
         torque[j, 2] += rj * cz
         mu_r = min(props[i, 7], props[j, 7])
-        if mu_r > 0.0:
+        if mu_r > 0.0 and overlap > 0.0:
             i_eff = 1.0 / (1.0 / (inertia[i] + mass[i] * ri * ri) + 1.0 / (inertia[j] + mass[j] * rj * rj))
             rolling_law(nx, ny, nz, omega[i, 0] - omega[j, 0], omega[i, 1] - omega[j, 1],
                         omega[i, 2] - omega[j, 2], out[6], ri * rj / (ri + rj), mu_r,
@@ -407,9 +527,10 @@ def pair_forces_rolling(pa, pb, hist, rhist, touching, pos, vel, omega, radius, 
 
 
 @numba.njit(cache=True, error_model="numpy")
-def wall_contact(i, nx, ny, nz, overlap, wvel, hist, rhist, pos, vel, omega, radius, mass, inertia, props,
-                 wprops, dt, force, torque, out, mr):
-    """Contact of particle i with a boundary (n from the centre towards the boundary).
+def wall_contact(i, nx, ny, nz, overlap, wvel, hist, rhist, pos, vel, omega, vel_h, omega_h, radius, mass, inertia,
+                 props, wprops, dt, lo, hi, force, torque, out, mr):
+    """Contact of particle i with a boundary (n from the centre towards the boundary), averaged over the
+    force window ``[lo, hi]`` (:func:`contact_law`); returns the window fraction in contact.
 
     hist / rhist: the boundary's (N, 3) per-particle shear / rolling-moment histories."""
     ri = radius[i]
@@ -419,10 +540,22 @@ def wall_contact(i, nx, ny, nz, overlap, wvel, hist, rhist, pos, vel, omega, rad
     vx = wvel[0] - vel[i, 0] - (wy * nz - wz * ny)
     vy = wvel[1] - vel[i, 1] - (wz * nx - wx * nz)
     vz = wvel[2] - vel[i, 2] - (wx * ny - wy * nx)
-    contact_law(nx, ny, nz, overlap, vx, vy, vz, hist, i,
-                min(props[i, 2], wprops[2]), min(props[i, 3], wprops[3]), min(props[i, 4], wprops[4]),
-                min(props[i, 5], wprops[5]), min(props[i, 6], wprops[6]), min(props[i, 0], wprops[0]),
-                min(props[i, 1], wprops[1]), dt, out)
+    wx = ri * omega_h[i, 0]
+    wy = ri * omega_h[i, 1]
+    wz = ri * omega_h[i, 2]
+    gx = wvel[0] - vel_h[i, 0] - (wy * nz - wz * ny)
+    gy = wvel[1] - vel_h[i, 1] - (wz * nx - wx * nz)
+    gz = wvel[2] - vel_h[i, 2] - (wx * ny - wy * nx)
+    phi = contact_law(nx, ny, nz, overlap, vx, vy, vz, gx, gy, gz, hist, i,
+                      min(props[i, 2], wprops[2]), min(props[i, 3], wprops[3]), min(props[i, 4], wprops[4]),
+                      min(props[i, 5], wprops[5]), min(props[i, 6], wprops[6]), min(props[i, 0], wprops[0]),
+                      min(props[i, 1], wprops[1]), dt, lo, hi, out)
+    if overlap <= 0.0:
+        rhist[i, 0] = 0.0
+        rhist[i, 1] = 0.0
+        rhist[i, 2] = 0.0
+        if phi <= 0.0:
+            return phi
     force[i, 0] += out[0]
     force[i, 1] += out[1]
     force[i, 2] += out[2]
@@ -430,30 +563,34 @@ def wall_contact(i, nx, ny, nz, overlap, wvel, hist, rhist, pos, vel, omega, rad
     torque[i, 1] += ri * (nz * out[3] - nx * out[5])
     torque[i, 2] += ri * (nx * out[4] - ny * out[3])
     mu_r = min(props[i, 7], wprops[7])
-    if mu_r > 0.0:
+    if mu_r > 0.0 and overlap > 0.0:
         rolling_law(nx, ny, nz, omega[i, 0], omega[i, 1], omega[i, 2], out[6], ri, mu_r,
                     min(props[i, 2], wprops[2]), inertia[i] + mass[i] * ri * ri, rhist, i, dt, mr)
         torque[i, 0] += mr[0]
         torque[i, 1] += mr[1]
         torque[i, 2] += mr[2]
+    return phi
 
 
 @numba.njit(cache=True, error_model="numpy")
 def plane_forces(idx, point, normal, wvel, wprops, hist, rhist, pos, vel, omega, radius, mass, inertia, props,
-                 dt, force, torque, reaction):
+                 dt, force, torque, reaction, lo, hi, vel_h, omega_h):
     """Contacts of particles *idx* with the plane through *point* with unit *normal* (into the domain).
 
-    Adds the force on the plane (minus the sum of particle forces) to *reaction*; returns #contacts.
+    Adds the force on the plane (minus the sum of particle forces) to *reaction*; returns #contacts
+    (overlapping now). Forces are averaged over the force window ``[lo, hi]`` (:func:`contact_law`).
     """
     out = np.empty(7)
     mr = np.empty(3)
     n = 0
+    reach_t = max(-lo, hi)
     for k in range(idx.shape[0]):
         i = idx[k]
         dist = ((pos[i, 0] - point[0]) * normal[0] + (pos[i, 1] - point[1]) * normal[1]
                 + (pos[i, 2] - point[2]) * normal[2])
         overlap = radius[i] - dist
-        if overlap <= 0.0:
+        if overlap <= 0.0 and overlap + reach_t * abs((vel[i, 0] - wvel[0]) * normal[0] + (vel[i, 1] - wvel[1])
+                                                      * normal[1] + (vel[i, 2] - wvel[2]) * normal[2]) <= 0.0:
             hist[i, 0] = 0.0
             hist[i, 1] = 0.0
             hist[i, 2] = 0.0
@@ -461,9 +598,11 @@ def plane_forces(idx, point, normal, wvel, wprops, hist, rhist, pos, vel, omega,
             rhist[i, 1] = 0.0
             rhist[i, 2] = 0.0
             continue
-        n += 1
-        wall_contact(i, -normal[0], -normal[1], -normal[2], overlap, wvel, hist, rhist, pos, vel, omega, radius,
-                     mass, inertia, props, wprops, dt, force, torque, out, mr)
+        if overlap > 0.0:
+            n += 1
+        if wall_contact(i, -normal[0], -normal[1], -normal[2], overlap, wvel, hist, rhist, pos, vel, omega, vel_h,
+                        omega_h, radius, mass, inertia, props, wprops, dt, lo, hi, force, torque, out, mr) <= 0.0:
+            continue
         reaction[0] -= out[0]
         reaction[1] -= out[1]
         reaction[2] -= out[2]
@@ -492,15 +631,17 @@ def _bilinear(x0, y0, hx, hy, bed, px, py):
 
 @numba.njit(cache=True, error_model="numpy")
 def heightfield_forces(idx, x0, y0, hx, hy, bed, wprops, hist, rhist, pos, vel, omega, radius, mass, inertia,
-                       props, dt, force, torque):
+                       props, dt, force, torque, lo, hi, vel_h, omega_h):
     """Contacts with the terrain ``z = bed(x, y)`` (bilinear through the grid's cell centres).
 
     The contact point is the foot of the perpendicular from the centre on the local tangent plane,
     refined by three fixed-point iterations (exact on planar patches). Outside the grid: no contact.
+    Forces are averaged over the force window ``[lo, hi]`` (:func:`contact_law`).
     """
     out = np.empty(7)
     mr = np.empty(3)
     wvel = np.zeros(3)
+    reach_t = max(-lo, hi)
     ny, nx = bed.shape
     xmax = x0 + (nx - 1) * hx
     ymax = y0 + (ny - 1) * hy
@@ -534,7 +675,7 @@ def heightfield_forces(idx, x0, y0, hx, hy, bed, wprops, hist, rhist, pos, vel, 
             qx = px - dist * nux
             qy = py - dist * nuy
         overlap = radius[i] - dist
-        if overlap <= 0.0:
+        if overlap <= 0.0 and overlap + reach_t * abs(vel[i, 0] * nux + vel[i, 1] * nuy + vel[i, 2] * nuz) <= 0.0:
             hist[i, 0] = 0.0
             hist[i, 1] = 0.0
             hist[i, 2] = 0.0
@@ -542,9 +683,10 @@ def heightfield_forces(idx, x0, y0, hx, hy, bed, wprops, hist, rhist, pos, vel, 
             rhist[i, 1] = 0.0
             rhist[i, 2] = 0.0
             continue
-        n += 1
-        wall_contact(i, -nux, -nuy, -nuz, overlap, wvel, hist, rhist, pos, vel, omega, radius, mass, inertia,
-                     props, wprops, dt, force, torque, out, mr)
+        if overlap > 0.0:
+            n += 1
+        wall_contact(i, -nux, -nuy, -nuz, overlap, wvel, hist, rhist, pos, vel, omega, vel_h, omega_h, radius, mass,
+                     inertia, props, wprops, dt, lo, hi, force, torque, out, mr)
     return n
 
 

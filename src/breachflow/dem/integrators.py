@@ -12,9 +12,15 @@ An integrator with a memory between steps saves it through ``state_arrays`` / ``
 * ``"velocity_verlet"`` — kick–drift–kick velocity Verlet as in LAMMPS ``fix nve/sphere``: the
   velocity-dependent forces (dashpots, history increments) use the half-step velocity;
 * ``"predicted_verlet"`` — velocity Verlet whose velocity-dependent forces use the predicted
-  full-step velocity ``v(t+1) ~ v(t+1/2) + a(t) dt/2``. With a dashpot the half-step velocity lags
-  by ``a dt/2``, a first-order error in the dissipated energy; the prediction removes it, so the
-  restitution coefficient converges at second order (tests/dem/test_impacts.py measures both).
+  full-step velocity ``v(t+1) ~ v(t+1/2) + dt/2 [a(t) + 3/4 (a(t) - a(t-1))]``. With a dashpot the
+  half-step velocity lags by ``a dt/2``, a first-order error in the dissipated energy; the prediction
+  removes it, so the restitution coefficient converges at second order (measured on errors averaged
+  over 8 onset and 4 release phases, tests/dem/test_impact_phases.py: 0.42 / 0.067 / 0.019 % at ~10 /
+  20 / 40 steps per contact, zeta 0.3; velocity_verlet 4.1 / 2.4 / 1.3 %, first order).
+
+Both Verlet integrators average contact forces over their force window ``[t - dt/2, t + dt/2]``
+(:func:`.contacts.contact_law`), so an impact does not depend on where in a step the contact begins
+or ends; ``report`` evaluates contacts at points (as the report does).
 """
 from __future__ import annotations
 
@@ -68,6 +74,21 @@ def predict(idx, vel, omega, force, torque, inv_m, inv_i, h, lmask, rmask, vout,
 
 
 @numba.njit(cache=True, error_model="numpy")
+def predict_extrapolated(idx, vel, omega, force, torque, force_prev, torque_prev, inv_m, inv_i, h, c, lmask, rmask,
+                         vout, wout):
+    """vout = v + h (F + c (F - F_prev))/m (same for rotation), then F_prev = F; v untouched."""
+    for k in range(idx.shape[0]):
+        i = idx[k]
+        for d in range(3):
+            f = force[i, d]
+            t = torque[i, d]
+            vout[i, d] = vel[i, d] + h * (f + c * (f - force_prev[i, d])) * inv_m[i] * lmask[d]
+            wout[i, d] = omega[i, d] + h * (t + c * (t - torque_prev[i, d])) * inv_i[i] * rmask[d]
+            force_prev[i, d] = f
+            torque_prev[i, d] = t
+
+
+@numba.njit(cache=True, error_model="numpy")
 def report_half(idx, v_prev, v, w_prev, w, force, torque, inv_m, inv_i, dt, lmask, rmask, vh, wh):
     """Report Step 7G/7I: ``v(t+1/2) = (v(t-1) + v(t))/2 + a dt`` (same for rotation)."""
     for k in range(idx.shape[0]):
@@ -111,25 +132,34 @@ def report_finish(idx, pos, vel, omega, v_prev, w_prev, vh, force, torque, inv_m
 
 @integrators.register("velocity_verlet")
 class VelocityVerlet:
-    """Kick–drift–kick velocity Verlet (second order for position-dependent forces)."""
+    """Kick–drift–kick velocity Verlet (second order for position-dependent forces).
+
+    The force at ``t`` acts over ``[t - dt/2, t + dt/2]`` (half kicks on either side): contact forces are
+    averaged over that window (``force_window``, :func:`.contacts.contact_law`), so an impact's outcome
+    does not depend on where in a step the contact begins or ends.
+    """
 
     predict_velocity = False
+    force_window = (-0.5, 0.5)
+    #: predicted_verlet: weight of the force trend in the velocity predictor (0.75: see the class)
+    extrapolate = 0.0
 
     def step(self, sim, dt: float):
         s, w, idx = sim.state, sim.work, sim.idx
         if sim.forces_stale:  # particles were inserted or woken: F(t) is needed for the first kick
             sim.refresh_forces()
+            add_rows(idx, sim.force, sim.torque, w["fp"], w["tp"])  # no force trend known yet
         inv_m, inv_i = sim.inverse_mass()
         kick(idx, s.vel, s.omega, sim.force, sim.torque, inv_m, inv_i, 0.5 * dt, sim.lmask, sim.rmask)
         disp = drift(idx, s.pos, s.vel, dt)
         sim.after_drift()
         if self.predict_velocity:
-            predict(idx, s.vel, s.omega, sim.force, sim.torque, inv_m, inv_i, 0.5 * dt, sim.lmask, sim.rmask,
-                    w["v"], w["w"])
+            predict_extrapolated(idx, s.vel, s.omega, sim.force, sim.torque, w["fp"], w["tp"], inv_m, inv_i, 0.5 * dt,
+                                 self.extrapolate, sim.lmask, sim.rmask, w["v"], w["w"])
             vel, omega = w["v"], w["w"]
         else:
             vel, omega = s.vel, s.omega
-        sim.contact_forces(s.pos, vel, omega, sim.force, sim.torque)
+        sim.contact_forces(s.pos, vel, omega, sim.force, sim.torque, self.force_window, s.vel, s.omega)
         sim.body_forces(s.pos, vel, omega, sim.t + dt, sim.force, sim.torque)
         sim.global_damping(vel, omega, sim.force, sim.torque, 1.0)
         kick(idx, s.vel, s.omega, sim.force, sim.torque, inv_m, inv_i, 0.5 * dt, sim.lmask, sim.rmask)
@@ -138,9 +168,16 @@ class VelocityVerlet:
 
 @integrators.register("predicted_verlet")
 class PredictedVelocityVerlet(VelocityVerlet):
-    """Velocity Verlet with velocity-dependent forces at the predicted full-step velocity."""
+    """Velocity Verlet with velocity-dependent forces at the predicted full-step velocity
+    ``v(t+1) ~ v(t+1/2) + dt/2 [a(t) + 3/4 (a(t) - a(t-1))]``: the half kick of the acceleration at
+    ``t + 3/4 dt``, extrapolated from the last two steps (the force trend is kept between steps,
+    ``work["fp"]``/``work["tp"]``). Without the trend term (``v(t+1/2) + a(t) dt/2``) the prediction lags
+    by ``O(dt^2)`` and a dashpot dissipates too much: restitution -2.4 % at zeta 0.3 and 15 steps per
+    contact; with it -0.2 % (tests/dem/test_impact_phases.py). The shear springs still advance with the
+    half-step velocity that moves the positions."""
 
     predict_velocity = True
+    extrapolate = 0.75
 
 
 @integrators.register("report")

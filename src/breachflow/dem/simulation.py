@@ -138,7 +138,7 @@ class DemSimulation:
         g("_fixed", (n,), bool)
         g("_wake_ids", (n,), np.int64)
         g("_tmp_ids", (n,), np.int64)
-        self.work = {k: grow(getattr(self, "work", {}).get(k), (n, 3)) for k in ("v", "w", "x", "fc", "tc")}
+        self.work = {k: grow(getattr(self, "work", {}).get(k), (n, 3)) for k in ("v", "w", "x", "fc", "tc", "fp", "tp")}
         for b in self.boundaries:
             b.resize(n)
         self._n = n
@@ -272,20 +272,29 @@ class DemSimulation:
         self._row_models = [_accepts_idx(m.added_mass) for m in models]
         self._models_checked = False
 
-    def contact_forces(self, pos, vel, omega, force, torque):
+    def contact_forces(self, pos, vel, omega, force, torque, window=(0.0, 0.0), vel_h=None, omega_h=None):
         """Zero the awake rows of force/torque, then add all contact forces (particles and boundaries).
 
-        Called once per step: it advances the shear histories by one step.
+        Called once per step: it advances the shear histories by one step. *window* ``(lo, hi)`` in
+        steps: the interval around the evaluation time over which the integrator applies these forces
+        (``(-1/2, 1/2)`` for kick–drift–kick Verlet); contact forces are averaged over it so that contact
+        onset and release inside a step are resolved (:func:`.contacts.contact_law`). ``(0, 0)``: point values.
+        *vel*, *omega*: velocities at the evaluation time (dashpots); *vel_h*, *omega_h* (default: the same):
+        the velocities that moved the positions over the step, which advance the shear histories.
         """
         s = self.state
         zero_rows(self.idx, force, torque)
         self._n_wake[0] = 0
-        n = contacts.pair_forces_rolling(self._pa, self._pb, self._hist, self._rhist, self._touch, pos, vel, omega,
-                                         s.radius, s.mass, s.inertia, s._props, s.awake, s.active, self.geom,
-                                         self.periodic, self._dt, self.wake_velocity, force, torque,
-                                         self._wake_flag, self._wake_ids, self._n_wake)
+        lo, hi = window[0] * self._dt, window[1] * self._dt
+        vel_h = vel if vel_h is None else vel_h
+        omega_h = omega if omega_h is None else omega_h
+        n = contacts.pair_forces_window(self._pa, self._pb, self._hist, self._rhist, self._touch, pos, vel, omega,
+                                        vel_h, omega_h, s.radius, s.mass, s.inertia, s._props, s.awake, s.active,
+                                        self.geom, self.periodic, self._dt, self.wake_velocity, force, torque,
+                                        self._wake_flag, self._wake_ids, self._n_wake, lo, hi)
+        view = _StateView(s, pos, vel, omega, vel_h, omega_h)
         for b in self.boundaries:
-            n += b.forces(self.idx, _StateView(s, pos, vel, omega), self._dt, force, torque)
+            n += b.forces(self.idx, view, self._dt, force, torque, lo, hi)
         self.n_contacts = n
 
     def refresh_forces(self):
@@ -576,6 +585,8 @@ class DemSimulation:
         # refreshing F(t) exactly would cost one contact evaluation per wake event
         self.force[ids] = 0.0
         self.torque[ids] = 0.0
+        self.work["fp"][ids] = 0.0  # previous-step force (predicted_verlet's trend): none
+        self.work["tp"][ids] = 0.0
         self._pos_build[ids] = s.pos[ids]
         self.idx = np.union1d(self.idx, ids).astype(np.int64)
         self._attach_woken(ids)
@@ -727,7 +738,11 @@ class DemSimulation:
         for name, typ in cls._SAVED_SCALARS.items():
             setattr(sim, name, typ(data["sim." + name][()]))
         for k in sim.work:
-            sim.work[k] = np.array(data["work." + k], copy=True)
+            if "work." + k in data:
+                sim.work[k] = np.array(data["work." + k], copy=True)
+        for k, f in (("fp", "force"), ("tp", "torque")):  # saved before the force trend was kept: none
+            if "work." + k not in data:
+                sim.work[k] = np.array(data["sim." + f], copy=True)
         sim.left_domain = [int(i) for i in data["sim.left_domain"]]
         if "sgrid.start" in data:
             sim._sgrid = tuple(np.array(data["sgrid." + n], copy=True) for n in ("start", "ent_p", "ent_c")) + (
@@ -777,8 +792,10 @@ def _accepts_idx(method) -> bool:
 class _StateView:
     """The state with substituted kinematics (integrators may pass predicted velocities)."""
 
-    __slots__ = ("pos", "vel", "omega", "radius", "mass", "inertia", "_props")
+    __slots__ = ("pos", "vel", "omega", "vel_h", "omega_h", "radius", "mass", "inertia", "_props")
 
-    def __init__(self, s, pos, vel, omega):
+    def __init__(self, s, pos, vel, omega, vel_h=None, omega_h=None):
         self.pos, self.vel, self.omega, self.radius, self._props = pos, vel, omega, s.radius, s._props
+        self.vel_h = vel if vel_h is None else vel_h
+        self.omega_h = omega if omega_h is None else omega_h
         self.mass, self.inertia = s.mass, s.inertia
