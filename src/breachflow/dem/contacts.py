@@ -226,7 +226,10 @@ def contact_law(nx, ny, nz, overlap, vx, vy, vz, gx, gy, gz, hist, p, kn, ks, c_
     """
     vn = vx * nx + vy * ny + vz * nz
     w = -vn
-    phi, m = contact_window(overlap, w, lo, hi)
+    if overlap > max(-lo, hi) * abs(vn):  # in contact over the whole window (the common case)
+        phi, m = 1.0, 0.0
+    else:
+        phi, m = contact_window(overlap, w, lo, hi)
     if phi <= 0.0:
         hist[p, 0] = 0.0
         hist[p, 1] = 0.0
@@ -408,18 +411,24 @@ def pair_forces(pa, pb, hist, touching, pos, vel, omega, radius, props, awake, a
 def pair_forces_rolling(pa, pb, hist, rhist, touching, pos, vel, omega, radius, mass, inertia, props, awake,
                         active, geom, periodic, dt, wake_speed, force, torque, wake, wake_ids, n_wake, lo=0.0, hi=0.0):
     """:func:`pair_forces_window` with the same velocities for dashpots and shear increments."""
-    return pair_forces_window(pa, pb, hist, rhist, touching, pos, vel, omega, vel, omega, radius, mass, inertia,
-                              props, awake, active, geom, periodic, dt, wake_speed, force, torque, wake, wake_ids,
-                              n_wake, lo, hi)
+    vmax = 0.0
+    for i in range(vel.shape[0]):
+        vmax = max(vmax, math.sqrt(vel[i, 0] ** 2 + vel[i, 1] ** 2 + vel[i, 2] ** 2))
+    return pair_forces_window(pa, pb, hist, rhist, touching, pos, vel, omega, vel, omega, False, radius, mass,
+                              inertia, props, awake, active, geom, periodic, dt, wake_speed, force, torque, wake,
+                              wake_ids, n_wake, lo, hi, vmax)
 
 
 @numba.njit(cache=True, error_model="numpy")
-def pair_forces_window(pa, pb, hist, rhist, touching, pos, vel, omega, vel_h, omega_h, radius, mass, inertia, props,
-                       awake, active, geom, periodic, dt, wake_speed, force, torque, wake, wake_ids, n_wake, lo, hi):
+def pair_forces_window(pa, pb, hist, rhist, touching, pos, vel, omega, vel_h, omega_h, split, radius, mass, inertia,
+                       props, awake, active, geom, periodic, dt, wake_speed, force, torque, wake, wake_ids, n_wake, lo,
+                       hi, vmax):
     """Contact forces of all listed pairs; pairs of two sleeping particles are skipped (frozen).
 
     *vel*, *omega*: velocities at the evaluation time (dashpots); *vel_h*, *omega_h*: the ones that moved
-    the positions over the last step (shear increments), see :func:`contact_law`.
+    the positions over the last step (shear increments, read only if *split*), see :func:`contact_law`.
+    *vmax*: the largest particle speed (pairs farther apart than ``2 vmax`` times the window are skipped
+    without reading velocities).
 
     *rhist* (npairs, 3): rolling moment histories (:func:`rolling_law`, if the contact's
     rolling_friction, props column 7, is > 0); *mass*, *inertia* (N,) for the rolling dashpot.
@@ -434,6 +443,7 @@ def pair_forces_window(pa, pb, hist, rhist, touching, pos, vel, omega, vel_h, om
     mr = np.empty(3)
     ncontacts = 0
     reach_t = max(-lo, hi)
+    far = -2.0 * vmax * reach_t
     for p in range(pa.shape[0]):
         i = pa[p]
         j = pb[p]
@@ -446,8 +456,8 @@ def pair_forces_window(pa, pb, hist, rhist, touching, pos, vel, omega, vel_h, om
         ri = radius[i]
         rj = radius[j]
         overlap = ri + rj - dist
-        if overlap <= 0.0 and overlap * dist + reach_t * abs(
-                (vel[i, 0] - vel[j, 0]) * dx + (vel[i, 1] - vel[j, 1]) * dy + (vel[i, 2] - vel[j, 2]) * dz) <= 0.0:
+        if overlap <= 0.0 and (overlap <= far or overlap * dist + reach_t * abs(
+                (vel[i, 0] - vel[j, 0]) * dx + (vel[i, 1] - vel[j, 1]) * dy + (vel[i, 2] - vel[j, 2]) * dz) <= 0.0):
             hist[p, 0] = 0.0
             hist[p, 1] = 0.0
             hist[p, 2] = 0.0
@@ -469,12 +479,14 @@ def pair_forces_window(pa, pb, hist, rhist, touching, pos, vel, omega, vel_h, om
         vx = vel[j, 0] - vel[i, 0] - (wy * nz - wz * ny)
         vy = vel[j, 1] - vel[i, 1] - (wz * nx - wx * nz)
         vz = vel[j, 2] - vel[i, 2] - (wx * ny - wy * nx)
-        wx = ri * omega_h[i, 0] + rj * omega_h[j, 0]
-        wy = ri * omega_h[i, 1] + rj * omega_h[j, 1]
-        wz = ri * omega_h[i, 2] + rj * omega_h[j, 2]
-        gx = vel_h[j, 0] - vel_h[i, 0] - (wy * nz - wz * ny)
-        gy = vel_h[j, 1] - vel_h[i, 1] - (wz * nx - wx * nz)
-        gz = vel_h[j, 2] - vel_h[i, 2] - (wx * ny - wy * nx)
+        gx, gy, gz = vx, vy, vz
+        if split:
+            wx = ri * omega_h[i, 0] + rj * omega_h[j, 0]
+            wy = ri * omega_h[i, 1] + rj * omega_h[j, 1]
+            wz = ri * omega_h[i, 2] + rj * omega_h[j, 2]
+            gx = vel_h[j, 0] - vel_h[i, 0] - (wy * nz - wz * ny)
+            gy = vel_h[j, 1] - vel_h[i, 1] - (wz * nx - wx * nz)
+            gz = vel_h[j, 2] - vel_h[i, 2] - (wx * ny - wy * nx)
         phi = contact_law(nx, ny, nz, overlap, vx, vy, vz, gx, gy, gz, hist, p,
                           min(props[i, 2], props[j, 2]), min(props[i, 3], props[j, 3]),
                           min(props[i, 4], props[j, 4]), min(props[i, 5], props[j, 5]),
@@ -725,6 +737,16 @@ def wrap_and_check(idx, pos, vel, omega, geom, periodic, box, use_box, active, a
                 left_ids[nleft] = i
                 nleft += 1
     return nleft, bad
+
+
+@numba.njit(cache=True, error_model="numpy")
+def max_speed(idx, vel):
+    """max |v_i| over *idx*."""
+    m = 0.0
+    for k in range(idx.shape[0]):
+        i = idx[k]
+        m = max(m, vel[i, 0] * vel[i, 0] + vel[i, 1] * vel[i, 1] + vel[i, 2] * vel[i, 2])
+    return math.sqrt(m)
 
 
 @numba.njit(cache=True, error_model="numpy")
