@@ -226,7 +226,8 @@ def contact_law(nx, ny, nz, overlap, vx, vy, vz, gx, gy, gz, hist, p, kn, ks, c_
     """
     vn = vx * nx + vy * ny + vz * nz
     w = -vn
-    if overlap > max(-lo, hi) * abs(vn):  # in contact over the whole window (the common case)
+    full = overlap > max(-lo, hi) * abs(vn)  # in contact over the whole window (the common case)
+    if full:
         phi, m = 1.0, 0.0
     else:
         phi, m = contact_window(overlap, w, lo, hi)
@@ -276,6 +277,20 @@ def contact_law(nx, ny, nz, overlap, vx, vy, vz, gx, gy, gz, hist, p, kn, ks, c_
         hist[p, 0] = hx
         hist[p, 1] = hy
         hist[p, 2] = hz
+        if full:  # the point value
+            c_t = c_cf if slipping else c_cs
+            fnm = -kn * overlap + c_cn * vn
+            ftx = ks * hx + c_t * tx
+            fty = ks * hy + c_t * ty
+            ftz = ks * hz + c_t * tz
+            out[0] = fnm * nx + ftx
+            out[1] = fnm * ny + fty
+            out[2] = fnm * nz + ftz
+            out[3] = ftx
+            out[4] = fty
+            out[5] = ftz
+            out[6] = -fnm
+            return 1.0
         if slipping and m < 0.0 and us_hat > 0.0:  # sliding before now: the spring sat at the Coulomb limit
             sc = (alpha + beta * kn * (overlap + w * m)) / ks / us_hat
             sx = hx * sc
@@ -411,24 +426,19 @@ def pair_forces(pa, pb, hist, touching, pos, vel, omega, radius, props, awake, a
 def pair_forces_rolling(pa, pb, hist, rhist, touching, pos, vel, omega, radius, mass, inertia, props, awake,
                         active, geom, periodic, dt, wake_speed, force, torque, wake, wake_ids, n_wake, lo=0.0, hi=0.0):
     """:func:`pair_forces_window` with the same velocities for dashpots and shear increments."""
-    vmax = 0.0
-    for i in range(vel.shape[0]):
-        vmax = max(vmax, math.sqrt(vel[i, 0] ** 2 + vel[i, 1] ** 2 + vel[i, 2] ** 2))
     return pair_forces_window(pa, pb, hist, rhist, touching, pos, vel, omega, vel, omega, False, radius, mass,
                               inertia, props, awake, active, geom, periodic, dt, wake_speed, force, torque, wake,
-                              wake_ids, n_wake, lo, hi, vmax)
+                              wake_ids, n_wake, lo, hi)
 
 
 @numba.njit(cache=True, error_model="numpy")
 def pair_forces_window(pa, pb, hist, rhist, touching, pos, vel, omega, vel_h, omega_h, split, radius, mass, inertia,
                        props, awake, active, geom, periodic, dt, wake_speed, force, torque, wake, wake_ids, n_wake, lo,
-                       hi, vmax):
+                       hi):
     """Contact forces of all listed pairs; pairs of two sleeping particles are skipped (frozen).
 
     *vel*, *omega*: velocities at the evaluation time (dashpots); *vel_h*, *omega_h*: the ones that moved
     the positions over the last step (shear increments, read only if *split*), see :func:`contact_law`.
-    *vmax*: the largest particle speed (pairs farther apart than ``2 vmax`` times the window are skipped
-    without reading velocities).
 
     *rhist* (npairs, 3): rolling moment histories (:func:`rolling_law`, if the contact's
     rolling_friction, props column 7, is > 0); *mass*, *inertia* (N,) for the rolling dashpot.
@@ -443,7 +453,6 @@ def pair_forces_window(pa, pb, hist, rhist, touching, pos, vel, omega, vel_h, om
     mr = np.empty(3)
     ncontacts = 0
     reach_t = max(-lo, hi)
-    far = -2.0 * vmax * reach_t
     for p in range(pa.shape[0]):
         i = pa[p]
         j = pb[p]
@@ -456,8 +465,8 @@ def pair_forces_window(pa, pb, hist, rhist, touching, pos, vel, omega, vel_h, om
         ri = radius[i]
         rj = radius[j]
         overlap = ri + rj - dist
-        if overlap <= 0.0 and (overlap <= far or overlap * dist + reach_t * abs(
-                (vel[i, 0] - vel[j, 0]) * dx + (vel[i, 1] - vel[j, 1]) * dy + (vel[i, 2] - vel[j, 2]) * dz) <= 0.0):
+        if overlap <= 0.0 and overlap * dist + reach_t * abs(
+                (vel[i, 0] - vel[j, 0]) * dx + (vel[i, 1] - vel[j, 1]) * dy + (vel[i, 2] - vel[j, 2]) * dz) <= 0.0:
             hist[p, 0] = 0.0
             hist[p, 1] = 0.0
             hist[p, 2] = 0.0
@@ -737,16 +746,6 @@ def wrap_and_check(idx, pos, vel, omega, geom, periodic, box, use_box, active, a
                 left_ids[nleft] = i
                 nleft += 1
     return nleft, bad
-
-
-@numba.njit(cache=True, error_model="numpy")
-def max_speed(idx, vel):
-    """max |v_i| over *idx*."""
-    m = 0.0
-    for k in range(idx.shape[0]):
-        i = idx[k]
-        m = max(m, vel[i, 0] * vel[i, 0] + vel[i, 1] * vel[i, 1] + vel[i, 2] * vel[i, 2])
-    return math.sqrt(m)
 
 
 @numba.njit(cache=True, error_model="numpy")

@@ -289,11 +289,10 @@ class DemSimulation:
         split = vel_h is not None and vel_h is not vel
         vel_h = vel if vel_h is None else vel_h
         omega_h = omega if omega_h is None else omega_h
-        vmax = contacts.max_speed(self.idx, vel) if hi > lo else 0.0
         n = contacts.pair_forces_window(self._pa, self._pb, self._hist, self._rhist, self._touch, pos, vel, omega,
                                         vel_h, omega_h, split, s.radius, s.mass, s.inertia, s._props, s.awake,
                                         s.active, self.geom, self.periodic, self._dt, self.wake_velocity, force,
-                                        torque, self._wake_flag, self._wake_ids, self._n_wake, lo, hi, vmax)
+                                        torque, self._wake_flag, self._wake_ids, self._n_wake, lo, hi)
         view = _StateView(s, pos, vel, omega, vel_h, omega_h)
         for b in self.boundaries:
             n += b.forces(self.idx, view, self._dt, force, torque, lo, hi)
