@@ -125,6 +125,24 @@ def chung_ooi_4_limits(theta_deg: float, e_n: float = 1.0):
     return vt1 / vt, w1, (vt1 - w1 * R) / (e_n * vn)
 
 
+def column_is_stable(zeta: float, fraction: float, integrator="predicted_verlet") -> bool:
+    """A column of two spheres resting on a floor (k_S = 0.2 k_N, so the normal pair mode sets the limit),
+    normal damping ratio *zeta* (pair), dt = *fraction* x the stable limit: at rest after 2 s?"""
+    from breachflow.dem import stable_dt
+
+    c = 2 * zeta * math.sqrt(K * M / 2)
+    mat = Material(density=RHO, kn=K, ks=0.2 * K, friction=0.5, c_cn=c)
+    lim = stable_dt([M], [K], [0.2 * K], [c])
+    sim = DemSimulation(boundaries=[Plane((0, 0, 0), (0, 0, 1), mat)], sleeping=False, dt=fraction * lim,
+                        integrator=integrator)
+    sim.add_particles([[0, 0, R], [0, 0, 3 * R + 0.01]], R, mat)
+    try:
+        sim.run(2.0)
+    except Exception:  # PhysicsError: non-finite state
+        return False
+    return bool(np.all(np.isfinite(sim.state.vel)) and np.max(np.abs(sim.state.vel)) < 1e-3)
+
+
 def phase_averaged_error(kind: str, zeta: float, n_steps: int, integrator="predicted_verlet") -> float:
     """Mean |restitution error| over the 8 onset phases and 4 release phases: steps per contact
     ``n_steps + 1/8, + 3/8, + 5/8, + 7/8`` (an integer number would make onset and release errors cancel)."""
@@ -164,3 +182,7 @@ if __name__ == "__main__":
         for n_steps in (10, 20, 40, 80):
             line.append(f"{n_steps}: {100 * phase_averaged_error('plane', zeta, n_steps, integ):.4f} %")
         print(f"plane zeta {zeta}: phase-averaged |restitution error| at ~steps/contact " + ", ".join(line))
+    for zeta in (0.3, 0.7, 1.5):
+        ok = [f for f in (0.2, 0.3, 0.4, 0.5, 0.6, 0.8, 0.95) if column_is_stable(zeta, f, integ)]
+        print(f"column of two spheres, zeta {zeta}: at rest after 2 s at dt/limit = {ok}")
+

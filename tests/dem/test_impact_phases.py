@@ -81,3 +81,23 @@ def test_heavily_damped_contacts_stay_stable_at_the_default_step(zeta):
     assert np.all(np.abs(sim.state.vel[:, 2]) < 0.05)  # resting on the floor (rolling freely) ...
     assert sim.state.kinetic_energy() < 0.5 * e0  # ... having lost energy instead of blowing up
     assert np.all(sim.state.pos[:, 2] > 0.2) and np.all(sim.state.pos[:, 2] < 0.8)
+
+
+@pytest.mark.parametrize("zeta", [0.3, 0.7, 1.5])
+def test_persistent_damped_contacts_stay_stable_at_the_default_step(zeta):
+    """A column of two spheres resting on a floor (contacts that last): the default step settles it."""
+    from breachflow.dem import DemSimulation, Material, Plane
+
+    c = 2 * zeta * math.sqrt(K * M / 2)
+    mat = Material(density=2650.0, kn=K, ks=0.2 * K, friction=0.5, c_cn=c)
+    sim = DemSimulation(boundaries=[Plane((0, 0, 0), (0, 0, 1), mat)], sleeping=False)
+    R = 0.25
+    sim.add_particles([[0, 0, R], [0, 0, 3 * R + 0.01]], R, mat)
+    sim.run(2.0)
+    assert np.all(np.isfinite(sim.state.vel)) and np.max(np.abs(sim.state.vel)) < 1e-3
+    # at rest under the weights: floor overlap 2 m g / k, pair overlap m g / k
+    g = 9.80665
+    assert sim.state.pos[0, 2] == pytest.approx(R - 2 * M * g / K, abs=1e-6)
+    assert sim.state.pos[1, 2] - sim.state.pos[0, 2] == pytest.approx(2 * R - M * g / K, abs=1e-6)
+
+
