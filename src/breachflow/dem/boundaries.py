@@ -75,7 +75,7 @@ class Plane(Boundary):
 
     def forces(self, idx, state, dt, force, torque, lo=0.0, hi=0.0) -> int:
         """Add the contact forces on particles *idx*, averaged over the force window ``[lo, hi]`` (s,
-        :func:`.contacts.contact_law`); returns the number of contacts."""
+        :func:`.contact_law.contact_law`); returns the number of contacts."""
         self.reaction[:] = 0.0
         return contacts.plane_forces(idx, self.point, self.normal, self.velocity, self.props, self.hist,
                                      self.rhist, state.pos, state.vel, state.omega, state.radius, state.mass,

@@ -19,7 +19,7 @@ An integrator with a memory between steps saves it through ``state_arrays`` / ``
   20 / 40 steps per contact, zeta 0.3; velocity_verlet 4.1 / 2.4 / 1.3 %, first order).
 
 Both Verlet integrators average contact forces over their force window ``[t - dt/2, t + dt/2]``
-(:func:`.contacts.contact_law`), so an impact does not depend on where in a step the contact begins
+(:func:`.contact_law.contact_law`), so an impact does not depend on where in a step the contact begins
 or ends; ``report`` evaluates contacts at points (as the report does).
 """
 from __future__ import annotations
@@ -135,7 +135,7 @@ class VelocityVerlet:
     """Kick–drift–kick velocity Verlet (second order for position-dependent forces).
 
     The force at ``t`` acts over ``[t - dt/2, t + dt/2]`` (half kicks on either side): contact forces are
-    averaged over that window (``force_window``, :func:`.contacts.contact_law`), so an impact's outcome
+    averaged over that window (``force_window``, :func:`.contact_law.contact_law`), so an impact's outcome
     does not depend on where in a step the contact begins or ends.
     """
 

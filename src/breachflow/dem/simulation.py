@@ -23,7 +23,7 @@ particles fall asleep or wake. :meth:`DemSimulation.sleep` puts given particles 
 cycle's masses that rested at the end of the previous cycle).
 
 Each listed pair keeps a shear history (``_hist``, m) and a rolling-moment history (``_rhist``, N m,
-for ``rolling_friction`` > 0, :func:`.contacts.rolling_law`); both are parked and restored together.
+for ``rolling_friction`` > 0, :func:`.contact_law.rolling_law`); both are parked and restored together.
 :meth:`DemSimulation.save_state` / :meth:`DemSimulation.from_state` round-trip everything for a
 bit-identical continuation.
 """
@@ -278,7 +278,7 @@ class DemSimulation:
         Called once per step: it advances the shear histories by one step. *window* ``(lo, hi)`` in
         steps: the interval around the evaluation time over which the integrator applies these forces
         (``(-1/2, 1/2)`` for kick–drift–kick Verlet); contact forces are averaged over it so that contact
-        onset and release inside a step are resolved (:func:`.contacts.contact_law`). ``(0, 0)``: point values.
+        onset and release inside a step are resolved (:func:`.contact_law.contact_law`). ``(0, 0)``: point values.
         *vel*, *omega*: velocities at the evaluation time (dashpots); *vel_h*, *omega_h* (default: the same):
         the velocities that moved the positions over the step, which advance the shear histories.
         """

@@ -21,7 +21,7 @@ rolling friction ``mu_r`` (extension)  ``rolling_friction``  1
 =====================================  ====================  ==========
 
 ``rolling_friction`` is not in the report (its spheres roll freely); it stands in for the shape
-resistance of angular blocks (elastic–plastic rolling spring, :func:`.contacts.rolling_law`).
+resistance of angular blocks (elastic–plastic rolling spring, :func:`.contact_law.rolling_law`).
 """
 from __future__ import annotations
 

@@ -9,7 +9,7 @@ The stiffest contact is taken conservatively from the extreme properties present
 * normal: two of the lightest particles, ``m_eff = m_min/2``, stiffness ``max k_N``;
 * tangential: the shear spring also turns the spheres (``I = 2/5 m r^2``), so a pair behaves as
   ``m_eff = m_min/7`` (``1/m + r^2/I`` per sphere = 3.5/m) with stiffness ``max k_S``;
-* rolling spring (``rolling_friction`` mu_r > 0, :func:`.contacts.rolling_law`): ``k_r = 2.25 k_N
+* rolling spring (``rolling_friction`` mu_r > 0, :func:`.contact_law.rolling_law`): ``k_r = 2.25 k_N
   mu_r^2 R^2`` against the spin inertia ``2/5 m R^2`` alone (centre held), i.e. a linear mode of
   stiffness ``5.625 mu_r^2 max k_N`` on ``m_min``; it only matters for mu_r > ~0.6.
 

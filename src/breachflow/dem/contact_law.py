@@ -1,0 +1,261 @@
+"""The linear spring–dashpot contact law with friction history and rolling resistance (SPEC §5).
+
+Contact law (SPEC §5), ``n`` from particle i to its partner, overlap ``u_N > 0``:
+
+* normal ``f_N = -k_N u_N n + c_CN (v_rel . n) n`` on i;
+* tangential spring on the accumulated displacement ``u_S`` (kept per pair across steps and
+  rotated into the current tangent plane with its length kept), ``f_S = k_S u_S``;
+  slip limit ``u_S_hat = (alpha + beta k_N u_N) / k_S``; beyond it ``u_S`` is cut back to
+  ``u_S_hat`` (plastic slip); dashpot ``c_CS v_S`` while sticking, ``c_CF v_S`` while slipping;
+* torque ``(r n) x f_S`` on each partner (lever arm D/2);
+* rolling resistance (extension, ``rolling_friction`` mu_r > 0): :func:`rolling_law`.
+
+Properties of a contact are the minimum of the partners' values.
+
+Integrators apply a force over a window around its evaluation time; :func:`contact_law` averages the
+law over that window (issue 12), so contact onset and release inside a step are resolved.
+"""
+from __future__ import annotations
+
+import math
+
+import numba
+
+#: rolling stiffness ``k_r = ROLLING_STIFFNESS * k_N mu_r^2 R_r^2`` (Ai et al. 2011, 3-D value)
+ROLLING_STIFFNESS = 2.25
+#: rolling dashpot ``C_r = ROLLING_DAMPING_RATIO * 2 sqrt(I_r k_r)`` (Ai et al. 2011 eta_r)
+ROLLING_DAMPING_RATIO = 0.3
+
+
+@numba.njit(cache=True, inline="always", error_model="numpy")
+def contact_window(u, w, lo, hi):
+    """Active part of the force window ``[lo, hi]`` (s, relative to the evaluation time) for the overlap
+    ``u(tau) = u + w tau``: returns (fraction phi of the window in contact, midpoint m of the active part).
+
+    ``hi <= lo`` (a point evaluation, e.g. :meth:`DemSimulation.refresh_forces`): (1, 0) if u > 0 else (0, 0).
+    """
+    if hi <= lo:
+        return (1.0, 0.0) if u > 0.0 else (0.0, 0.0)
+    a = lo
+    b = hi
+    if w > 0.0:
+        a = max(a, -u / w)
+    elif w < 0.0:
+        b = min(b, -u / w)
+    elif u <= 0.0:
+        return 0.0, 0.0
+    if b <= a:
+        return 0.0, 0.0
+    return (b - a) / (hi - lo), 0.5 * (a + b)
+
+
+@numba.njit(cache=True, inline="always", error_model="numpy")
+def contact_law(nx, ny, nz, overlap, vx, vy, vz, gx, gy, gz, hist, p, kn, ks, c_cn, c_cs, c_cf, alpha, beta, dt, lo,
+                hi, out):
+    """Force on particle i from one contact (SPEC §5), averaged over the integrator's force window;
+    updates the shear history *hist* in place. Returns the window fraction in contact (0: none).
+
+    (nx, ny, nz): unit normal from i to the partner; (vx, vy, vz): velocity of the partner's contact
+    point relative to i's at the evaluation time (dashpots, window); (gx, gy, gz): the same over the last
+    step, i.e. with the velocities that moved the positions (the half-step ones of Verlet), which advances
+    the shear displacement consistently with the overlap; *overlap* ``u`` at the evaluation time (may be
+    <= 0); the pair's history is row *p* of *hist* (``u_S`` at the previous evaluation, ``dt`` earlier). Writes
+    (fx, fy, fz, ftx, fty, ftz, compressive normal force) into *out*.
+
+    Window (issue 12): a kick–drift–kick integrator applies the force evaluated at ``t`` over
+    ``[t - dt/2, t + dt/2]`` (``lo = -dt/2, hi = dt/2``). The contact law is piecewise — the dashpot
+    jumps from 0 to ``c_CN v_N`` at onset and back at release, springs have a kink — so a point value
+    makes the impulse depend on where in a step the contact begins (restitution errors up to ~10 % at the
+    default step). Here the overlap is taken linear across the window, ``u(tau) = u + w tau`` with the
+    closing speed ``w = -v_rel . n``, and the law is averaged over it: with phi the fraction of the
+    window in contact and m the midpoint of the in-contact part, ``F = phi [(-k_N u(m) + c_CN v_N) n +
+    k_S u_S(m) + c_t v_S]``, ``u_S(m) = u_S(t) + v_S m`` (capped at the Coulomb limit of ``u(m)``; a
+    contact sliding now and in contact only before now keeps ``u_S`` at that limit instead).
+    When the whole window is in contact (phi = 1, m = 0) this is the usual point value, bit for bit.
+    The shear history counts from the touching time: a fresh contact (zero history, approaching) gets
+    ``u_S = g_S min(dt, u/g_N)`` instead of ``g_S dt``.
+    """
+    vn = vx * nx + vy * ny + vz * nz
+    w = -vn
+    full = overlap > max(-lo, hi) * abs(vn)  # in contact over the whole window (the common case)
+    if full:
+        phi, m = 1.0, 0.0
+    else:
+        phi, m = contact_window(overlap, w, lo, hi)
+    if phi <= 0.0:
+        hist[p, 0] = 0.0
+        hist[p, 1] = 0.0
+        hist[p, 2] = 0.0
+        for k in range(7):
+            out[k] = 0.0
+        return 0.0
+    tx = vx - vn * nx
+    ty = vy - vn * ny
+    tz = vz - vn * nz
+    # rotate the history into the current tangent plane, keeping its length
+    h0x = hist[p, 0]
+    h0y = hist[p, 1]
+    h0z = hist[p, 2]
+    h0 = math.sqrt(h0x * h0x + h0y * h0y + h0z * h0z)
+    hn = h0x * nx + h0y * ny + h0z * nz
+    hx = h0x - hn * nx
+    hy = h0y - hn * ny
+    hz = h0z - hn * nz
+    h1 = math.sqrt(hx * hx + hy * hy + hz * hz)
+    if h1 > 0.0:
+        sc = h0 / h1
+        hx *= sc
+        hy *= sc
+        hz *= sc
+    slipping = False
+    gn = gx * nx + gy * ny + gz * nz
+    if overlap > 0.0:  # in contact at the evaluation time: advance the stored history
+        d = dt
+        if h0 == 0.0 and gn < 0.0 and overlap < -gn * dt:  # fresh contact: it began overlap/g_N ago
+            d = -overlap / gn
+        hx += (gx - gn * nx) * d
+        hy += (gy - gn * ny) * d
+        hz += (gz - gn * nz) * d
+        us = math.sqrt(hx * hx + hy * hy + hz * hz)
+        us_hat = (alpha + beta * kn * overlap) / ks
+        if us >= us_hat:  # plastic slip: the spring is cut back to the Coulomb limit
+            slipping = True
+            if us > 0.0:
+                sc = us_hat / us
+                hx *= sc
+                hy *= sc
+                hz *= sc
+        hist[p, 0] = hx
+        hist[p, 1] = hy
+        hist[p, 2] = hz
+        if full:  # the point value
+            c_t = c_cf if slipping else c_cs
+            fnm = -kn * overlap + c_cn * vn
+            ftx = ks * hx + c_t * tx
+            fty = ks * hy + c_t * ty
+            ftz = ks * hz + c_t * tz
+            out[0] = fnm * nx + ftx
+            out[1] = fnm * ny + fty
+            out[2] = fnm * nz + ftz
+            out[3] = ftx
+            out[4] = fty
+            out[5] = ftz
+            out[6] = -fnm
+            return 1.0
+        if slipping and m < 0.0 and us_hat > 0.0:  # sliding before now: the spring sat at the Coulomb limit
+            sc = (alpha + beta * kn * (overlap + w * m)) / ks / us_hat
+            sx = hx * sc
+            sy = hy * sc
+            sz = hz * sc
+        else:  # sticking: the spring's elastic path
+            sx = hx + tx * m
+            sy = hy + ty * m
+            sz = hz + tz * m
+    else:  # in contact only during part of the window: not at the evaluation time
+        hist[p, 0] = 0.0
+        hist[p, 1] = 0.0
+        hist[p, 2] = 0.0
+        if w > 0.0:  # onset ahead, at a = 2m - hi: u_S(m) = v_S (m - a)
+            d = hi - m
+            sx = tx * d
+            sy = ty * d
+            sz = tz * d
+        else:  # release behind, the last history dt ago: u_S(m) = u_S(-dt) + g_S (m + dt)
+            d = m + dt
+            sx = hx + (gx - gn * nx) * d
+            sy = hy + (gy - gn * ny) * d
+            sz = hz + (gz - gn * nz) * d
+    um = overlap + w * m  # overlap at the midpoint of the in-contact part
+    if m != 0.0:  # part of the window only: the Coulomb limit of the mid-window overlap
+        us = math.sqrt(sx * sx + sy * sy + sz * sz)
+        us_hat = (alpha + beta * kn * um) / ks
+        if us >= us_hat:
+            slipping = True
+            if us > 0.0:
+                sc = us_hat / us
+                sx *= sc
+                sy *= sc
+                sz *= sc
+    c_t = c_cf if slipping else c_cs  # friction dashpot while slipping, shear dashpot while sticking
+    fnm = phi * (-kn * um + c_cn * vn)
+    ftx = phi * (ks * sx + c_t * tx)
+    fty = phi * (ks * sy + c_t * ty)
+    ftz = phi * (ks * sz + c_t * tz)
+    out[0] = fnm * nx + ftx
+    out[1] = fnm * ny + fty
+    out[2] = fnm * nz + ftz
+    out[3] = ftx
+    out[4] = fty
+    out[5] = ftz
+    out[6] = -fnm  # compressive normal force magnitude (N)
+    return phi
+
+
+@numba.njit(cache=True, inline="always", error_model="numpy")
+def rolling_law(nx, ny, nz, wx, wy, wz, fn, r_eff, mu_r, kn, i_eff, rhist, p, dt, out):
+    """Rolling resistance moment on particle i: elastic–plastic spring–dashpot ("type C", model EPSD of
+    Ai, Chen, Rotter & Ooi 2011, Powder Technol. 206:269). Updates the moment history ``rhist[p]``.
+
+    (wx, wy, wz) = ``w_i - w_j`` (partner's spin, 0 for a wall); only its tangential part rolls.
+    Spring ``M_k <- M_k - k_r w_t dt`` (history rotated into the current tangent plane, length kept),
+    ``k_r = 2.25 k_N mu_r^2 R_r^2``; capped at full mobilisation ``|M_k| <= M_m = mu_r R_r F_N``;
+    dashpot ``-C_r w_t``, ``C_r = 0.3 * 2 sqrt(I_r k_r)``, only below full mobilisation (Ai's f = 0),
+    ``I_r`` the inertia about the contact point (``(1/I_ri + 1/I_rj)^-1``, ``I_ri = I_i + m_i r_i^2``).
+    Unlike Ai et al., the total ``|M_k + M_d|`` is also capped at ``M_m``: otherwise the dashpot alone
+    exceeds the limit while the spring winds up at a newly formed rolling contact, and a rolling sphere
+    loses extra speed each time a contact forms. The partner gets ``-M``. Writes the moment into out[0:3].
+
+    Why type C and not the constant directional torque (type A, ``-mu_r R_r F_N w/|w|``): type A flips
+    sign every step around ``w = 0`` and cannot hold a sphere at rest on a slope or under a side load
+    (it chatters); the spring gives a true static moment up to ``M_m`` (rest iff the load needs less),
+    and while rolling (fully mobilised) it is exactly type A's constant ``M_m`` — so a rolling sphere on
+    a plane decelerates at ``a = -(5/7) mu_r g`` and one on an incline accelerates at
+    ``(5/7) g (sin t - mu_r cos t)``. Plastic capping only removes spring energy: no energy gain.
+    """
+    wn = wx * nx + wy * ny + wz * nz
+    tx = wx - wn * nx
+    ty = wy - wn * ny
+    tz = wz - wn * nz
+    h0x = rhist[p, 0]
+    h0y = rhist[p, 1]
+    h0z = rhist[p, 2]
+    h0 = math.sqrt(h0x * h0x + h0y * h0y + h0z * h0z)
+    hn = h0x * nx + h0y * ny + h0z * nz
+    hx = h0x - hn * nx
+    hy = h0y - hn * ny
+    hz = h0z - hn * nz
+    h1 = math.sqrt(hx * hx + hy * hy + hz * hz)
+    if h1 > 0.0:
+        sc = h0 / h1
+        hx *= sc
+        hy *= sc
+        hz *= sc
+    kr = ROLLING_STIFFNESS * kn * mu_r * mu_r * r_eff * r_eff
+    hx -= kr * tx * dt
+    hy -= kr * ty * dt
+    hz -= kr * tz * dt
+    m_max = mu_r * r_eff * max(fn, 0.0)
+    mk = math.sqrt(hx * hx + hy * hy + hz * hz)
+    if mk >= m_max:  # full mobilisation: plastic rolling at the limit moment, no dashpot
+        sc = m_max / mk if mk > 0.0 else 0.0
+        hx *= sc
+        hy *= sc
+        hz *= sc
+        cr = 0.0
+    else:
+        cr = ROLLING_DAMPING_RATIO * 2.0 * math.sqrt(i_eff * kr)
+    rhist[p, 0] = hx
+    rhist[p, 1] = hy
+    rhist[p, 2] = hz
+    mx = hx - cr * tx
+    my = hy - cr * ty
+    mz = hz - cr * tz
+    mt = math.sqrt(mx * mx + my * my + mz * mz)
+    if mt > m_max:  # the dashpot may not lift the moment above the limit (e.g. while the spring winds up)
+        sc = m_max / mt
+        mx *= sc
+        my *= sc
+        mz *= sc
+    out[0] = mx
+    out[1] = my
+    out[2] = mz
