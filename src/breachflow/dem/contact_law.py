@@ -32,7 +32,8 @@ def contact_window(u, w, lo, hi):
     """Active part of the force window ``[lo, hi]`` (s, relative to the evaluation time) for the overlap
     ``u(tau) = u + w tau``: returns (fraction phi of the window in contact, midpoint m of the active part).
 
-    ``hi <= lo`` (a point evaluation, e.g. :meth:`DemSimulation.refresh_forces`): (1, 0) if u > 0 else (0, 0).
+    ``hi <= lo`` (a point evaluation, e.g.
+    :meth:`~breachflow.dem.simulation.DemSimulation.refresh_forces`): (1, 0) if u > 0 else (0, 0).
     """
     if hi <= lo:
         return (1.0, 0.0) if u > 0.0 else (0.0, 0.0)

@@ -16,7 +16,8 @@ import math
 import numba
 import numpy as np
 
-from .contact_law import ROLLING_DAMPING_RATIO, ROLLING_STIFFNESS, contact_law, contact_window, rolling_law  # noqa: F401
+from .contact_law import (ROLLING_DAMPING_RATIO, ROLLING_STIFFNESS, contact_law, contact_window,  # noqa: F401
+                          rolling_law)
 
 OFFSET = 1 << 20  # cell-coordinate offset for packing three signed ints into one int64
 
@@ -192,16 +193,17 @@ def pair_forces_window(pa, pb, hist, rhist, touching, pos, vel, omega, vel_h, om
     """Contact forces of all listed pairs; pairs of two sleeping particles are skipped (frozen).
 
     *vel*, *omega*: velocities at the evaluation time (dashpots); *vel_h*, *omega_h*: the ones that moved
-    the positions over the last step (shear increments, read only if *split*), see :func:`contact_law`.
+    the positions over the last step (shear increments, read only if *split*), see
+    :func:`~breachflow.dem.contact_law.contact_law`.
 
-    *rhist* (npairs, 3): rolling moment histories (:func:`rolling_law`, if the contact's
+    *rhist* (npairs, 3): rolling moment histories (:func:`~breachflow.dem.contact_law.rolling_law`, if the contact's
     rolling_friction, props column 7, is > 0); *mass*, *inertia* (N,) for the rolling dashpot.
 
     props (N, 8): adhesion, friction, kn, ks, c_cn, c_cs, c_cf (columns 0..6; one cache line per particle). A sleeping partner of a
     moving particle (contact-point speed > wake_speed) gets wake[j] = True and is listed in
     wake_ids[n_wake[0]...]. Forces are averaged over the force window ``[lo, hi]`` (s, relative to now;
-    :func:`contact_law`), so a pair that touches only within it gets its share. Returns #contacts
-    (overlapping now).
+    :func:`~breachflow.dem.contact_law.contact_law`), so a pair that touches only within it gets its
+    share. Returns #contacts (overlapping now).
     """
     out = np.empty(7)
     mr = np.empty(3)
@@ -305,7 +307,7 @@ def pair_forces_window(pa, pb, hist, rhist, touching, pos, vel, omega, vel_h, om
 def wall_contact(i, nx, ny, nz, overlap, wvel, hist, rhist, pos, vel, omega, vel_h, omega_h, radius, mass, inertia,
                  props, wprops, dt, lo, hi, force, torque, out, mr):
     """Contact of particle i with a boundary (n from the centre towards the boundary), averaged over the
-    force window ``[lo, hi]`` (:func:`contact_law`); returns the window fraction in contact.
+    force window ``[lo, hi]`` (:func:`~breachflow.dem.contact_law.contact_law`); returns the window fraction in contact.
 
     hist / rhist: the boundary's (N, 3) per-particle shear / rolling-moment histories."""
     ri = radius[i]
@@ -353,7 +355,8 @@ def plane_forces(idx, point, normal, wvel, wprops, hist, rhist, pos, vel, omega,
     """Contacts of particles *idx* with the plane through *point* with unit *normal* (into the domain).
 
     Adds the force on the plane (minus the sum of particle forces) to *reaction*; returns #contacts
-    (overlapping now). Forces are averaged over the force window ``[lo, hi]`` (:func:`contact_law`).
+    (overlapping now). Forces are averaged over the force window ``[lo, hi]``
+    (:func:`~breachflow.dem.contact_law.contact_law`).
     """
     out = np.empty(7)
     mr = np.empty(3)
@@ -411,7 +414,7 @@ def heightfield_forces(idx, x0, y0, hx, hy, bed, wprops, hist, rhist, pos, vel, 
 
     The contact point is the foot of the perpendicular from the centre on the local tangent plane,
     refined by three fixed-point iterations (exact on planar patches). Outside the grid: no contact.
-    Forces are averaged over the force window ``[lo, hi]`` (:func:`contact_law`).
+    Forces are averaged over the force window ``[lo, hi]`` (:func:`~breachflow.dem.contact_law.contact_law`).
     """
     out = np.empty(7)
     mr = np.empty(3)
