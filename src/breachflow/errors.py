@@ -37,6 +37,19 @@ class ParseError(BreachflowError, ValueError):
         super().__init__(f"{where}: {message}")
 
 
+class ImplausibleValueError(InputError):
+    """A value read from a file is physically implausible (usually a unit mix-up); names the file and line.
+
+    ``path`` and ``line`` (1-based) locate the value in the source file when the reader knows them.
+    """
+
+    def __init__(self, message: str, *, path=None, line: int | None = None):
+        self.path = None if path is None else str(path)
+        self.line = line
+        self.reason = message
+        super().__init__(message)
+
+
 class SchemaError(BreachflowError, ValueError):
     """A Dataset does not satisfy its schema in ``data_schemas/``."""
 

@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from ..errors import BreachflowWarning, InputError, SchemaError
+from ..errors import BreachflowWarning, ImplausibleValueError, InputError, SchemaError
 from ..schemas import validate
 
 #: CF attributes of every snapshot variable (standard names only where the CF table has one).
@@ -366,11 +366,13 @@ def describe_location(ds: xr.Dataset, flat_index: int, dims: tuple, shape: tuple
 
 def flag_implausible(ds: xr.Dataset, name: str, values, dims: tuple, limits: tuple[float, float],
                      *, what: str, unit: str, mode: str = "raise", hint: str = "check the units",
-                     transform=None) -> None:
-    """Warn (or raise :class:`~breachflow.errors.InputError` in ``mode="raise"``) if ``values`` exceed *limits* = (warn, error).
+                     transform=None, locate=None, key: str | None = None) -> None:
+    """Warn (or raise :class:`~breachflow.errors.ImplausibleValueError`, an ``InputError``, in ``mode="raise"``) if ``values`` exceed *limits* = (warn, error).
 
     *values* is an array or a tuple of same-shaped arrays combined by *transform* (e.g. ``np.hypot``);
     the work is done one leading-axis slice at a time so no full-size temporaries are made.
+    *locate* (from a reader) maps ``(key, {dim: index})`` of the worst value to ``(path, line, note)`` in
+    the source file, or None; the message then starts with ``path:line:`` like a :class:`ParseError`.
     """
     if mode == "off":
         return
@@ -393,31 +395,40 @@ def flag_implausible(ds: xr.Dataset, name: str, values, dims: tuple, limits: tup
         return
     where = describe_location(ds, k, dims, shape)
     msg = f"{name}: implausible {what} {worst:.4g} {unit} at {where}"
+    path = line = None
+    if locate is not None:
+        loc = locate(key or name, dict(zip(dims, (int(i) for i in np.unravel_index(int(k), shape)))))
+        if loc is not None:
+            path, line, note = loc
+            msg = f"{path}:{line}: {msg}" + (f" ({note})" if note else "")
     if worst > error_at and mode == "raise":
-        raise InputError(f"{msg} (above {error_at:g} {unit}; {hint})")
+        raise ImplausibleValueError(f"{msg} (above {error_at:g} {unit}; {hint})", path=path, line=line)
     warnings.warn(f"{msg} (above {warn_at:g} {unit}; {hint})", BreachflowWarning, stacklevel=3)
 
 
-def check_plausibility(ds: xr.Dataset, *, mode: str = "raise", raw_depth=None) -> xr.Dataset:
+def check_plausibility(ds: xr.Dataset, *, mode: str = "raise", raw_depth=None, locate=None) -> xr.Dataset:
     """Check depth, speed and bed elevation of a snapshot against :data:`~breachflow.hydro.snapshot.PLAUSIBLE_LIMITS`.
 
     ``mode``: ``"raise"`` (error above the hard limit, warning above the soft one), ``"warn"`` (only
     warnings) or ``"off"``. ``raw_depth`` (same dims as ``depth``) are the depths as read, before the
     dry convention clipped negative values: dry nodes deeper than the tolerance below the bed are flagged.
+    ``locate(key, index)`` (key ``depth | speed | bed_elevation | negative_depth``) lets a reader name
+    the file and line of the offending value (see :func:`flag_implausible`).
     """
     if mode not in ("raise", "warn", "off"):
         raise InputError(f"plausibility mode must be 'raise', 'warn' or 'off', not {mode!r}")
     dims = ds["depth"].dims
-    flag_implausible(ds, "depth", ds["depth"].values, dims, PLAUSIBLE_LIMITS["depth"], what="water depth", unit="m", mode=mode)
+    kw = dict(mode=mode, locate=locate)
+    flag_implausible(ds, "depth", ds["depth"].values, dims, PLAUSIBLE_LIMITS["depth"], what="water depth", unit="m", key="depth", **kw)
     flag_implausible(ds, "u, v", (ds["u"].values, ds["v"].values), ds["u"].dims, PLAUSIBLE_LIMITS["speed"],
-                     what="speed", unit="m/s", mode=mode, transform=np.hypot)
+                     what="speed", unit="m/s", transform=np.hypot, key="speed", **kw)
     bed = ds["bed_elevation"]
     flag_implausible(ds, "bed_elevation", bed.values, bed.dims, PLAUSIBLE_LIMITS["bed_elevation"],
-                     what="|bed elevation|", unit="m", mode=mode, transform=np.abs)
+                     what="|bed elevation|", unit="m", transform=np.abs, key="bed_elevation", **kw)
     if raw_depth is not None:
         flag_implausible(ds, "depth", np.asarray(raw_depth, dtype=float), dims, PLAUSIBLE_LIMITS["negative_depth"],
-                         what="negative depth (below the bed, beyond the dry convention) of minus", unit="m", mode=mode,
-                         hint="check the file's depth column and units", transform=np.negative)
+                         what="negative depth (below the bed, beyond the dry convention) of minus", unit="m",
+                         hint="check the file's depth column and units", transform=np.negative, key="negative_depth", **kw)
     return ds
 
 

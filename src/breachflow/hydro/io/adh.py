@@ -71,6 +71,8 @@ class MeshData:
     material: np.ndarray
     name: str = ""
     ignored_cards: dict = field(default_factory=dict)
+    node_lines: np.ndarray | None = None  #: line of each node's ND card (sorted like ``node_ids``)
+    face_lines: np.ndarray | None = None  #: line of each element card (sorted like ``face_ids``)
 
 
 class _MeshAccumulator:
@@ -86,6 +88,7 @@ class _MeshAccumulator:
         self.skip_from = 0
         self.ns_open = False
         self.seen_header = False
+        self.last_line = 1
 
     # one card line handled in Python (everything except long runs of ND / element cards)
     def line(self, raw: bytes, lineno: int):
@@ -230,6 +233,7 @@ def read_mesh(path, *, strict: bool = False) -> MeshData:
                 break
             _scan_chunk(acc, block, first)
         last_line = rd.line_no
+    acc.last_line = max(last_line, 1)
     if acc.skip_until:
         raise ParseError(f"block opened at line {acc.skip_from} has no {acc.skip_until}", path=path, line=last_line)
     if not acc.seen_header:
@@ -282,7 +286,11 @@ def _ids(col: np.ndarray, lines: np.ndarray, path, what: str) -> np.ndarray:
 def _assemble_mesh(acc: _MeshAccumulator) -> MeshData:
     path = acc.path
     if not acc.nodes:
-        raise ParseError("mesh has no ND (node) cards", path=path)
+        if acc.elems:
+            card, _, lines = acc.elems[0]
+            raise ParseError(f"mesh has no ND (node) cards: the {card} card here references nodes that are never "
+                             "defined", path=path, line=int(lines[0]))
+        raise ParseError("mesh has no ND (node) cards", path=path, line=acc.last_line)
     nodes = np.concatenate(acc.nodes)
     nlines = np.concatenate(acc.node_lines)
     nid = _ids(nodes[:, 0], nlines, path, "ND card")
@@ -345,13 +353,15 @@ def _assemble_mesh(acc: _MeshAccumulator) -> MeshData:
     if acc.strict and (mat < 1).any():
         k = int(np.argmax(mat < 1))
         raise ParseError(f"material id {mat[k]} must be >= 1 (strict mode)", path=path, line=int(elines[k]))
-    del eids, elines
+    del eids
     idx = np.concatenate(face_blocks)
     del face_blocks
     if not np.array_equal(eorder, np.arange(eorder.size)):
         idx = idx[eorder]
         mat = mat[eorder]
-    return MeshData(path, sid, x, y, z, se, np.ascontiguousarray(idx), mat, acc.name, dict(acc.unknown))
+        elines = elines[eorder]
+    return MeshData(path, sid, x, y, z, se, np.ascontiguousarray(idx), mat, acc.name, dict(acc.unknown),
+                    node_lines=nlines[order].astype(np.int64), face_lines=elines.astype(np.int64))
 
 
 # --------------------------------------------------------------------------------------------------
@@ -374,6 +384,7 @@ class DatDataset:
     values: list = field(default_factory=list)  # per step: (n,) or (n, 2)
     status: list = field(default_factory=list)  # per step: (nc,) int8 or None
     ts_lines: list = field(default_factory=list)
+    value_lines: list = field(default_factory=list)  # per step: line of the first value
     complete: bool = False          # ENDDS seen
     partial_step_line: int | None = None
     line: int = 0
@@ -441,6 +452,8 @@ def read_dat(path, *, strict: bool = False) -> list[DatDataset]:
                 continue
             toks = text.split()
             card = toks[0].upper()
+            if _is_number(toks[0]):
+                raise ParseError(_stray_value_message(cur, lineno), path=path, line=lineno)
             if card in ("BEGSCL", "BEGVEC"):
                 if cur is not None and not legacy:
                     raise ParseError(f"{card}: new dataset before ENDDS of the dataset begun at line {cur.line}", path=path, line=lineno)
@@ -570,7 +583,29 @@ def _read_step(rd: LineReader, ds: DatDataset, toks, lineno: int, legacy: bool) 
     ds.values.append(vals)
     ds.status.append(status)
     ds.ts_lines.append(lineno)
+    ds.value_lines.append(first)
     return True
+
+
+def _is_number(token: str) -> bool:
+    try:
+        float(token)
+    except ValueError:
+        return False
+    return True
+
+
+def _stray_value_message(ds: DatDataset | None, lineno: int) -> str:
+    """Why a value line where a card (TS, ENDDS, ...) is expected is an error: usually one value too many."""
+    msg = "value line where a card (TS, ENDDS, ...) is expected"
+    if ds is not None and ds.times:
+        n = ds.nc if ds.on_faces else ds.nd
+        key = "NC" if ds.on_faces else "ND"
+        if ds.value_lines[-1] + n == lineno:
+            return (f"{msg}: the time step at line {ds.ts_lines[-1]} already has its {key}={n} values; the step has "
+                    f"more values than {key} (a value too many would shift every later value)")
+        return f"{msg} after the time step at line {ds.ts_lines[-1]} ({key}={n})"
+    return msg
 
 
 _CARD_LINE = re.compile(rb"(?m)^[ \t]*(?![nN][aA][nN]|[iI][nN][fF])([A-Za-z_]+)")
@@ -816,7 +851,47 @@ def open_adh(paths, *, units=None, crs=None, strict=False, time_units=None, plau
     partial = [d for d in used if d.partial_step_line is not None]
     if partial:
         ds.attrs["dropped_partial_steps"] = "; ".join(f"{d.path.name}:{d.partial_step_line}" for d in partial)
-    return check_plausibility(ds, mode=plausibility, raw_depth=depth)
+    locate = _locator(mesh, scalar, vel, scalar is roles.get("depth"))
+    return check_plausibility(ds, mode=plausibility, raw_depth=depth, locate=locate)
+
+
+def _dataset_row(ds: DatDataset, mesh: MeshData, node: int) -> int:
+    """0-based value line within a step of node-centred *ds* holding mesh node index *node*."""
+    if ds.nd == int(mesh.node_ids[-1]):  # as in _node_values: line k is node id k
+        return int(mesh.node_ids[node]) - 1
+    return node
+
+
+def _locator(mesh: MeshData, scalar: DatDataset, vel: DatDataset | None, scalar_is_depth: bool):
+    """``locate(key, index)`` for :func:`check_plausibility`: the file and line of a value at a node."""
+
+    def value_line(ds: DatDataset, step: int, node: int):
+        if ds.on_faces:  # element values averaged to the node: name the step and the elements' card lines
+            touching = np.flatnonzero((mesh.faces == node).any(axis=1))
+            note = ("element-centred values averaged to the node; elements on mesh lines "
+                    + ", ".join(str(int(mesh.face_lines[f])) for f in touching[:6]) if mesh.face_lines is not None else "")
+            first = ds.value_lines[step]
+            return (str(ds.path), int(first + touching[0]) if touching.size else ds.ts_lines[step], note)
+        return (str(ds.path), int(ds.value_lines[step] + _dataset_row(ds, mesh, node)), "")
+
+    def locate(key, idx):
+        node = idx.get("node")
+        if node is None:
+            return None
+        step = idx.get("time", 0)
+        if key == "bed_elevation":
+            return (str(mesh.path), int(mesh.node_lines[node]), "ND card") if mesh.node_lines is not None else None
+        if key == "speed":
+            return value_line(vel, step, node) if vel is not None and step < len(vel.value_lines) else None
+        if step >= len(scalar.value_lines):
+            return None
+        path, line, note = value_line(scalar, step, node)
+        if not scalar_is_depth and mesh.node_lines is not None:
+            note = "; ".join(filter(None, [note, f"depth = water surface - bed of {mesh.path.name} line "
+                                                 f"{int(mesh.node_lines[node])}"]))
+        return path, line, note
+
+    return locate
 
 
 def _length_unit(units, bc: BcInfo | None) -> str:
@@ -835,6 +910,9 @@ def _length_unit(units, bc: BcInfo | None) -> str:
         return str(units)
     if bc is not None and bc.length_unit:
         return bc.length_unit
+    if bc is not None:
+        raise InputError(f"{bc.path}: no MP G card (gravity), so metres cannot be told from feet; pass "
+                         "units='m' or units='ft'")
     raise InputError("ADH/SMS files carry no units: pass units='m' or units='ft' (or include the model's .bc "
                      "file, whose MP G card tells metres from feet)")
 

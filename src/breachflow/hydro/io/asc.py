@@ -38,6 +38,25 @@ class AscGrid:
     dy: float
     nodata: float | None
     values: np.ndarray  #: (nrows, ncols), first row = southern after flipping; NaN at NODATA
+    first_data_line: int = 0  #: 1-based line of the first grid value
+
+    def value_line(self, row: int, col: int) -> int:
+        """File line of the value in *row*, *col* (1-based, rows counted from the top as in the file).
+
+        The values are a flat stream (GDAL): the line is found by counting tokens (used for error messages).
+        """
+        k = (row - 1) * self.ncols + (col - 1)
+        with LineReader(self.path) as rd:
+            while rd.line_no < self.first_data_line - 1:
+                rd.readline()
+            while True:
+                raw = rd.readline()
+                if raw is None:
+                    return rd.line_no
+                n = len(raw.split())
+                if k < n:
+                    return rd.line_no
+                k -= n
 
     def geometry(self):
         return (self.ncols, self.nrows, self.x0, self.y0, self.dx, self.dy)
@@ -114,7 +133,7 @@ def read_asc(path) -> AscGrid:
     grid = vals.reshape(nrows, ncols)[::-1].copy()
     if nodata is not None:
         grid[grid == nodata] = np.nan
-    return AscGrid(path, ncols, nrows, x0, y0, dx, dy, nodata, grid)
+    return AscGrid(path, ncols, nrows, x0, y0, dx, dy, nodata, grid, first_data_line)
 
 
 def _locate_bad_value(data: bytes, n: int, path, first_line: int):
@@ -273,4 +292,25 @@ def open_asc(paths, *, units=None, crs=None, plausibility="raise", roles=None, b
                        source_files=[str(p) for p in files])
     ds.attrs.update(breachflow_reader="asc", source_length_unit=str(unit), source_length_unit_from=unit_from,
                     source_grids="; ".join(f"{r}: {g.path.name}" for r, g in by_role.items()))
-    return check_plausibility(ds, mode=plausibility, raw_depth=np.nan_to_num(raw_depth))
+    return check_plausibility(ds, mode=plausibility, raw_depth=np.nan_to_num(raw_depth), locate=_locator(by_role))
+
+
+def _locator(by_role: dict):
+    """``locate(key, index)`` for :func:`check_plausibility`: file, line, row and column from the top."""
+    def locate(key, idx):
+        if "y" not in idx or "x" not in idx:
+            return None
+        j, i = idx["y"], idx["x"]
+        if key in ("depth", "negative_depth"):
+            g = by_role.get("depth") or by_role.get("water_surface")
+        elif key == "bed_elevation":
+            g = by_role.get("bed") or by_role.get("water_surface")
+        else:
+            g = by_role.get("speed")
+            if "u" in by_role and "v" in by_role:
+                g = max((by_role["u"], by_role["v"]), key=lambda a: abs(np.nan_to_num(a.values[j, i])))
+        if g is None:
+            return None
+        row, col = g.nrows - j, i + 1
+        return str(g.path), g.value_line(row, col), f"row {row}, column {col} (from the top, 1-based) of {g.path.name}"
+    return locate

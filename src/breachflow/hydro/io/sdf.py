@@ -70,6 +70,8 @@ class CrossSection:
     water: list = field(default_factory=list)        # per profile (nan = NULL)
     water_line: int = 0
     velocities: dict = field(default_factory=dict)   # profile name -> [(fraction, value)]
+    surface_lines: list = field(default_factory=list)  # file line of each surface point
+    velocity_lines: dict = field(default_factory=dict)  # profile name -> [file line of each velocity point]
 
 
 @dataclass
@@ -154,11 +156,13 @@ def read_sdf(path, *, strict: bool = False) -> SdfData:
                     cur_xs.cut.append(tuple(_numbers(text, 2, 2, path, ln, "cut-line point")))
                 elif list_mode == "SURFACE LINE":
                     cur_xs.surface.append(tuple(_numbers(text, 3, 3, path, ln, "surface-line point (x, y, z)", allow_null=True)))
+                    cur_xs.surface_lines.append(ln)
                 elif list_mode == "VELOCITIES":
                     f, v = _numbers(text, 2, 2, path, ln, "velocity point (fraction, value)")
                     if not -1e-9 <= f <= 1 + 1e-9:
                         raise ParseError(f"velocity position {f:g} is not a fraction of the cut line (0..1)", path=path, line=ln)
                     cur_xs.velocities[cur_profile].append((f, v))
+                    cur_xs.velocity_lines.setdefault(cur_profile, []).append(ln)
                 else:
                     if strict or block in (None,):
                         raise ParseError(f"unexpected line {text[:60]!r}", path=path, line=ln)
@@ -425,7 +429,34 @@ def open_sdf(paths, *, units=None, crs=None, plausibility="raise", strict=False,
     from ..snapshot import validate_snapshot
 
     validate_snapshot(ds, source=str(data.path))
-    return check_plausibility(ds, mode=plausibility)
+    return check_plausibility(ds, mode=plausibility, locate=_locator(data, xs_nodes, offsets))
+
+
+def _locator(data: SdfData, xs_nodes, offsets):
+    """``locate(key, index)`` for :func:`check_plausibility`: the line a node's value comes from."""
+    def locate(key, idx):
+        node = idx.get("node")
+        if node is None:
+            return None
+        s = int(np.searchsorted(offsets, node, side="right")) - 1
+        n = xs_nodes[s]
+        xs = n["xs"]
+        f = n["fr"][node - offsets[s]]
+        k = idx.get("time", 0)
+        path = str(data.path)
+        if key in ("depth", "negative_depth"):
+            return path, xs.water_line or xs.line, f"WATER ELEVATION of cross section {xs.station_text}, profile {data.profiles[k]!r}"
+        if key == "bed_elevation" and xs.surface_lines:
+            sf = _fractions_along(np.asarray(xs.surface, dtype=float)[:, :2])
+            return path, xs.surface_lines[int(np.argmin(np.abs(sf - f)))], f"surface line of cross section {xs.station_text}"
+        if key == "speed":
+            name = data.profiles[k]
+            pts, lines = xs.velocities.get(name), xs.velocity_lines.get(name)
+            if pts and lines:
+                pf = np.array([p[0] for p in pts])
+                return path, lines[int(np.argmin(np.abs(pf - f)))], f"VELOCITIES of cross section {xs.station_text}, profile {name!r}"
+        return None
+    return locate
 
 
 def _orient_downstream(xs_nodes, data: SdfData) -> None:
