@@ -13,6 +13,10 @@ HEC-RAS HDF5 plan files are not read yet (a reader built on the optional ``rashd
 register here as ``rashdf``; third-party readers register through the ``breachflow.readers`` entry
 point group).
 
+Writers (the other direction, :mod:`.writers`, :mod:`.sdf_writer`): ``write_adh(snapshot, prefix)``,
+``write_esri(snapshot, prefix)``, ``write_sdf(snapshot, path)``; :func:`to_unaligned_mesh` puts a grid
+snapshot on an unaligned triangle mesh (:mod:`.meshing`).
+
 Every reader converts to SI once (pint), validates against the snapshot schema and runs the
 plausibility checks (``plausibility="raise" | "warn" | "off"``).
 """
@@ -132,4 +136,21 @@ def open_snapshot(paths, format: str | None = None, units=None, crs: str | None 
     return ds
 
 
-__all__ = ["READERS", "open_snapshot", "guess_format", "read_prj"]
+def __getattr__(name):  # writers and mesh tools import lazily
+    if name in ("write_adh", "write_esri", "ESRI_ROLES"):
+        from . import writers
+
+        return getattr(writers, name)
+    if name == "write_sdf":
+        from .sdf_writer import write_sdf
+
+        return write_sdf
+    if name in ("to_unaligned_mesh", "grid_to_mesh"):
+        from . import meshing
+
+        return getattr(meshing, name)
+    raise AttributeError(name)
+
+
+__all__ = ["READERS", "open_snapshot", "guess_format", "read_prj", "write_adh", "write_esri", "write_sdf",
+           "to_unaligned_mesh", "grid_to_mesh"]

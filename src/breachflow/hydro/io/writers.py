@@ -1,0 +1,198 @@
+"""Writers: a snapshot back into the text formats the readers take (users hand our results to their
+ADH / SMS / HEC-RAS / GIS workflow; tests build "ingested" inputs from our own SWE results).
+
+``write_adh(snapshot, prefix)``   ``PREFIX.3dm`` (bed z at nodes), ``PREFIX_dep.dat``, ``PREFIX_vel.dat``
+                                  and ``PREFIX.bc`` (``MP G`` telling the length unit); as ADH writes them
+``write_esri(snapshot, prefix)``  ``PREFIX_depth.asc``, ``_wse.asc``, ``_terrain.asc``, ``_vx.asc``,
+                                  ``_vy.asc`` (+ ``.prj`` when the snapshot has a CRS); one time step
+``write_sdf(snapshot, path)``     a HEC-RAS GIS export (``RASExport.sdf``): cross sections cut through the
+                                  field, see :mod:`breachflow.hydro.io.sdf_writer`
+
+Values are written in the file unit *units* (``"m"`` or ``"ft"``; velocities in unit/s) with the text
+precision of the tools (``%16.8e`` in ``.dat`` files, 12 significant digits for coordinates). All
+files of one call are written to temporary files first and renamed together at the end, so an error
+leaves no half-written set.
+"""
+from __future__ import annotations
+
+import contextlib
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+from ...errors import InputError
+from ..snapshot import is_mesh, mesh_face_nodes, node_coordinates
+
+
+def _unit_factor(units) -> float:
+    from ...units import ureg
+
+    try:
+        q = ureg.Quantity(1.0, str(units))
+        f = float(q.to("m").magnitude)
+    except Exception:
+        raise InputError(f"units={units!r}: not a length unit (use 'm' or 'ft')") from None
+    return 1.0 / f
+
+
+def _write_all(files: dict) -> list[Path]:
+    """Write ``{path: text}`` atomically as a set (temporary files renamed only when all succeeded)."""
+    from ...output.atomic import atomic_path
+
+    with contextlib.ExitStack() as stack:
+        for path, text in files.items():
+            tmp = stack.enter_context(atomic_path(path))
+            with open(tmp, "w", encoding="utf-8", newline="\n") as fh:
+                fh.write(text)
+    return list(files)
+
+
+def _times(ds: xr.Dataset):
+    """(times in seconds since the first/reference time, RT_JULIAN or None) for the ``time`` axis."""
+    if "time" not in ds["depth"].dims:
+        return np.zeros(1), None
+    t = ds["time"].values
+    if np.issubdtype(t.dtype, np.datetime64):
+        t0 = t[0].astype("datetime64[ms]")
+        secs = (t.astype("datetime64[ms]") - t0).astype(np.int64) / 1e3
+        jd = t0.astype(np.int64) / 1e3 / 86400.0 + 2440587.5
+        return secs, jd
+    return np.asarray(t, dtype=float), None
+
+
+def _step_values(da: xr.DataArray) -> np.ndarray:
+    a = np.asarray(da.values, dtype=float)
+    return a[None] if "time" not in da.dims else a
+
+
+def _fmt_block(values: np.ndarray) -> str:
+    """One ``%16.8e`` row per node (ADH's format); *values* is ``(n,)`` or ``(n, k)``."""
+    v = np.atleast_2d(values.T).T if values.ndim == 1 else values
+    fmt = " ".join(["%16.8e"] * v.shape[1])
+    return "\n".join(fmt % tuple(r) for r in v) + "\n"
+
+
+def adh_texts(snapshot: xr.Dataset, prefix, *, units: str = "m", name: str | None = None) -> dict:
+    """The ``{path: text}`` of :func:`write_adh` (without writing)."""
+    ds = snapshot
+    if not is_mesh(ds):
+        from .meshing import grid_to_mesh
+
+        ds = grid_to_mesh(ds)
+    prefix = Path(prefix)
+    k = _unit_factor(units)
+    x, y = node_coordinates(ds)
+    faces = mesh_face_nodes(ds)
+    bed = np.asarray(ds["bed_elevation"].values, dtype=float)
+    n_node, n_face = x.size, faces.shape[0]
+    mat = np.asarray(ds["material"].values, dtype=int) if "material" in ds.variables else np.ones(n_face, int)
+    mat = np.where(mat >= 1, mat, 1)
+    # mesh: elements before nodes, as ADH writes them; ids 1..n in the snapshot's node order
+    lines = ["MESH2D", f'MESHNAME "{name or prefix.name}"']
+    for e in range(n_face):
+        f = faces[e][faces[e] >= 0] + 1
+        card = "E3T" if f.size == 3 else "E4Q"
+        lines.append(f"{card} {e + 1} {' '.join(map(str, f))} {mat[e]}")
+    lines += [f"ND {i + 1} {x[i] * k:.12g} {y[i] * k:.12g} {bed[i] * k:.12g}" for i in range(n_node)]
+    mesh = "\n".join(lines) + "\n"
+    secs, jd = _times(ds)
+    head = ["DATASET", 'OBJTYPE "mesh2d"']
+
+    def dataset(kind, title, steps):
+        out = head + [kind] + (["VECTYPE 0"] if kind == "BEGVEC" else []) + [f"ND {n_node}", f"NC {n_face}", f'NAME "{title}"']
+        if jd is not None:
+            out.append(f"RT_JULIAN {jd:.8f}")
+        out.append("TIMEUNITS SECONDS")
+        text = "\n".join(out) + "\n"
+        for t, vals in zip(secs, steps):
+            text += f"TS 0 {t:16.8e}\n" + _fmt_block(vals)
+        return text + "ENDDS\n"
+
+    depth = _step_values(ds["depth"]) * k
+    u, v = _step_values(ds["u"]) * k, _step_values(ds["v"]) * k
+    dep = dataset("BEGSCL", "Depth", depth)
+    vel = dataset("BEGVEC", "Depth-Averaged Velocity", [np.column_stack([a, b, np.zeros_like(a)]) for a, b in zip(u, v)])
+    g = 9.81 if abs(k - 1.0) < 1e-12 else 9.80665 * k
+    bc = "\n".join([
+        "! ADH boundary-condition file written by breachflow: units and output times only (not a model setup)",
+        "OP SW2",
+        f"! G = {g:.6g} tells the length unit ({units}) to readers of these files",
+        f"MP G {g:.6g}",
+        "MP RHO 1000.0",
+        f"TC T0 {secs[0]:.9g} 0",
+        f"TC TF {secs[-1]:.9g} 0",
+        "END",
+    ]) + "\n"
+    stem = prefix.name
+    d = prefix.parent
+    return {d / f"{stem}.3dm": mesh, d / f"{stem}_dep.dat": dep, d / f"{stem}_vel.dat": vel, d / f"{stem}.bc": bc}
+
+
+def write_adh(snapshot: xr.Dataset, prefix, *, units: str = "m", name: str | None = None) -> list[Path]:
+    """Write *snapshot* as ADH/SMS text files ``PREFIX.3dm``, ``PREFIX_dep.dat``, ``PREFIX_vel.dat``,
+    ``PREFIX.bc`` and return their paths (read back with ``open_snapshot(paths)``).
+
+    A mesh snapshot is written on its own mesh; a grid snapshot on the mesh of its cell centres
+    (:func:`~breachflow.hydro.io.meshing.grid_to_mesh`; use :func:`to_unaligned_mesh` first for a mesh
+    not aligned with the grid). Dry nodes get depth 0 and velocity 0. Times are seconds (``TIMEUNITS
+    SECONDS``) from the snapshot's time axis, with ``RT_JULIAN`` when it holds dates.
+    """
+    return _write_all(adh_texts(snapshot, prefix, units=units, name=name))
+
+
+#: ESRI grid file suffix per snapshot role (the ``asc`` reader recognises these names)
+ESRI_ROLES = {"depth": "depth", "water_surface": "wse", "bed": "terrain", "u": "vx", "v": "vy"}
+
+
+def esri_texts(snapshot: xr.Dataset, prefix, *, units: str = "m", time_index: int = -1,
+               nodata: float = -9999.0) -> dict:
+    """The ``{path: text}`` of :func:`write_esri` (without writing)."""
+    if is_mesh(snapshot):
+        raise InputError("ESRI ASCII grids need a grid snapshot; this one is a mesh")
+    k = _unit_factor(units)
+    x = np.asarray(snapshot["x"].values, dtype=float)
+    y = np.asarray(snapshot["y"].values, dtype=float)
+    if x.size < 2 or y.size < 2:
+        raise InputError("ESRI ASCII grids need at least 2 x 2 cells")
+    dx, dy = np.diff(x), np.diff(y)
+    if not (np.allclose(dx, dx[0], rtol=1e-9) and np.allclose(dy, dy[0], rtol=1e-9)) or dx[0] <= 0 or dy[0] <= 0:
+        raise InputError("ESRI ASCII grids need uniformly spaced ascending x and y")
+    dx, dy = dx[0], dy[0]
+
+    def field(name):
+        da = snapshot[name]
+        if "time" in da.dims:
+            da = da.isel(time=time_index)
+        return np.asarray(da.transpose("y", "x").values, dtype=float)
+
+    wet = field("depth") > 0.0
+    grids = {"depth": np.where(wet, field("depth"), np.nan), "water_surface": np.where(wet, field("water_surface"), np.nan),
+             "bed": field("bed_elevation"), "u": np.where(wet, field("u"), np.nan), "v": np.where(wet, field("v"), np.nan)}
+    size = f"cellsize     {dx * k:.12g}" if abs(dx - dy) <= 1e-9 * dx else f"dx           {dx * k:.12g}\ndy           {dy * k:.12g}"
+    header = (f"ncols        {x.size}\nnrows        {y.size}\nxllcorner    {(x[0] - dx / 2) * k:.12g}\n"
+              f"yllcorner    {(y[0] - dy / 2) * k:.12g}\n{size}\nNODATA_value {nodata:g}\n")
+    crs = snapshot["crs"].attrs.get("crs_wkt") if "crs" in snapshot.variables else None
+    prefix = Path(prefix)
+    out = {}
+    for role, suffix in ESRI_ROLES.items():
+        a = grids[role][::-1] * k  # first row = northern
+        rows = "\n".join(" ".join(nodata_fmt(v, nodata) for v in r) for r in a)
+        p = prefix.parent / f"{prefix.name}_{suffix}.asc"
+        out[p] = header + rows + "\n"
+        if crs:
+            out[p.with_suffix(".prj")] = crs + "\n"
+    return out
+
+
+def nodata_fmt(v: float, nodata: float) -> str:
+    return f"{nodata:g}" if not np.isfinite(v) else f"{v:.9g}"
+
+
+def write_esri(snapshot: xr.Dataset, prefix, *, units: str = "m", time_index: int = -1,
+               nodata: float = -9999.0) -> list[Path]:
+    """Write one time step of a grid snapshot as ESRI ASCII grids ``PREFIX_{depth,wse,terrain,vx,vy}.asc``
+    (as RAS Mapper maps converted with GDAL: dry cells are NODATA except in the terrain) and a ``.prj``
+    beside each when the snapshot has a CRS. Returns the paths (read back with ``open_snapshot(paths,
+    units=...)``; the reader tells the roles from these names)."""
+    return _write_all(esri_texts(snapshot, prefix, units=units, time_index=time_index, nodata=nodata))
