@@ -5,9 +5,10 @@ Grammar (see ``shared/formats/README.md``; sources: MDAL ``mdal_2dm.cpp``/``mdal
 ADH ``read_geo.c``, the SMS ASCII dataset documentation):
 
 * mesh: ``MESH2D``, ``ND id x y z``, ``E3T|TRI id n1 n2 n3 mat``, ``E4Q id n1..n4 mat``, ``E6T id n1..n6 mat``
-  (corner nodes 1, 3, 5 are used), ``E2L``/``E3L`` (1-D, ignored), ``NS ... -n [name]`` (ignored),
-  ``MESHNAME``, ``NUM_MATERIALS_PER_ELEM``, SMS ``BEGPARAMDEF..ENDPARAMDEF`` and ``BEG2DMBC..END2DMBC``
-  blocks (skipped). Free card order, 1-based ids with gaps, ``#``/``!`` comments, CRLF.
+  (corner nodes 1, 3, 5 are used), ``E2L``/``E3L`` (1-D, ignored), ``NS n1 n2 ... -nN [id] [name]``
+  node strings (kept in :attr:`MeshData.node_strings`; a long string continues on numeric lines or on
+  further ``NS`` cards until the negative id), ``MESHNAME``, ``NUM_MATERIALS_PER_ELEM``, SMS
+  ``BEGPARAMDEF..ENDPARAMDEF``, ``BEG2DMBC..END2DMBC`` and ``BEGCURVE..ENDCURVE`` blocks (skipped). Free card order, 1-based ids with gaps, ``#``/``!`` comments, CRLF.
 * dataset: ``DATASET``/``OBJTYPE``/``BEGSCL|BEGVEC``/``VECTYPE``/``OBJID``/``ND``/``NC``/``NAME``/
   ``RT_JULIAN``/``TIMEUNITS``/``TS istat t`` [+ NC status lines] + values/``ENDDS``; the legacy
   ``SCALAR|VECTOR`` form with ``TS t``. Values are listed per node id (line k is node id k when the
@@ -36,8 +37,10 @@ ELEMENT_CARDS = {
     "E8Q": (8, (0, 2, 4, 6)),
 }
 LINE_ELEMENT_CARDS = {"E2L", "E3L"}
-KNOWN_MESH_CARDS = {"MESH2D", "MESHNAME", "NUM_MATERIALS_PER_ELEM", "NS", "GP", "GM", "MAT", "BEGPARAMDEF",
-                    "ENDPARAMDEF", "BEG2DMBC", "END2DMBC", "ND", *ELEMENT_CARDS, *LINE_ELEMENT_CARDS}
+#: SMS parameter blocks skipped whole (opening card -> closing card)
+SKIP_BLOCKS = {"BEGPARAMDEF": "ENDPARAMDEF", "BEG2DMBC": "END2DMBC", "BEGCURVE": "ENDCURVE"}
+KNOWN_MESH_CARDS = {"MESH2D", "MESHNAME", "NUM_MATERIALS_PER_ELEM", "NS", "GP", "GM", "MAT", "ND", *SKIP_BLOCKS,
+                    *SKIP_BLOCKS.values(), *ELEMENT_CARDS, *LINE_ELEMENT_CARDS}
 
 #: seconds per unit for TIMEUNITS words / abbreviations
 TIME_WORDS = {
@@ -58,6 +61,16 @@ ADH_TIME_CODES = {0: 1.0, 1: 60.0, 2: 3600.0, 3: 86400.0, 4: 604800.0}
 # --------------------------------------------------------------------------------------------------
 
 @dataclass
+class NodeString:
+    """An ``NS`` node string: node ids in order, the optional string id and name, its first line."""
+
+    node_ids: list
+    string_id: int | None
+    name: str
+    line: int
+
+
+@dataclass
 class MeshData:
     """A parsed 2-D mesh: nodes sorted by id, faces as 0-based node indices (``-1`` padded to 4)."""
 
@@ -73,6 +86,7 @@ class MeshData:
     ignored_cards: dict = field(default_factory=dict)
     node_lines: np.ndarray | None = None  #: line of each node's ND card (sorted like ``node_ids``)
     face_lines: np.ndarray | None = None  #: line of each element card (sorted like ``face_ids``)
+    node_strings: list = field(default_factory=list)  #: :class:`NodeString` s (boundary strings)
 
 
 class _MeshAccumulator:
@@ -87,6 +101,9 @@ class _MeshAccumulator:
         self.skip_until: str | None = None
         self.skip_from = 0
         self.ns_open = False
+        self.ns_ids: list[int] = []
+        self.ns_line = 0
+        self.node_strings: list[NodeString] = []
         self.seen_header = False
         self.last_line = 1
 
@@ -112,7 +129,7 @@ class _MeshAccumulator:
                 raise ParseError(f"unexpected numeric line outside a node string: {text[:60]!r}", path=self.path, line=lineno)
             self._node_string(toks, lineno)
             return
-        if self.ns_open:
+        if self.ns_open and card != "NS":  # a long node string continues on the next NS card
             self._close_ns(lineno)
         if card == "ND":
             vals = _record(toks, 4, 4, self.path, lineno, "ND card (ND id x y z)")
@@ -128,10 +145,10 @@ class _MeshAccumulator:
             self.name = text[len(toks[0]):].strip().strip("'\"").strip()
         elif card == "NS":
             self._node_string(toks[1:], lineno)
-        elif card in ("BEGPARAMDEF", "BEG2DMBC"):
-            self.skip_until = "ENDPARAMDEF" if card == "BEGPARAMDEF" else "END2DMBC"
+        elif card in SKIP_BLOCKS:
+            self.skip_until = SKIP_BLOCKS[card]
             self.skip_from = lineno
-        elif card in ("ENDPARAMDEF", "END2DMBC"):
+        elif card in SKIP_BLOCKS.values():
             raise ParseError(f"{card} without its opening block", path=self.path, line=lineno)
         else:
             if self.strict:
@@ -139,16 +156,24 @@ class _MeshAccumulator:
             self.unknown[toks[0][:30]] = self.unknown.get(toks[0][:30], 0) + 1
 
     def _node_string(self, toks, lineno):
-        self.ns_open = True
-        for t in toks:
+        """``NS n1 n2 ... -nN [string id] [name]``; a string may go on over several lines / NS cards."""
+        if not self.ns_open:
+            self.ns_open = True
+            self.ns_ids = []
+            self.ns_line = lineno
+        for k, t in enumerate(toks):
             if not re.fullmatch(r"[-+]?\d+", t):
-                if self.ns_open:
-                    raise ParseError(f"node string: non-integer node id {t[:30]!r}", path=self.path, line=lineno)
-                return  # the optional name after the terminating negative id
-            if int(t) < 0:
+                raise ParseError(f"node string: non-integer node id {t[:30]!r}", path=self.path, line=lineno)
+            v = int(t)
+            self.ns_ids.append(abs(v))
+            if v < 0:  # terminator; what follows on the line is the optional string id and name
                 self.ns_open = False
-            elif not self.ns_open:
-                raise ParseError("node string: values after the terminating negative id", path=self.path, line=lineno)
+                rest = toks[k + 1:]
+                sid = None
+                if rest and re.fullmatch(r"[-+]?\d+", rest[0]):
+                    sid, rest = int(rest[0]), rest[1:]
+                self.node_strings.append(NodeString(self.ns_ids, sid, " ".join(rest).strip("'\""), self.ns_line))
+                return
 
     def _close_ns(self, lineno):
         self.ns_open = False
@@ -361,7 +386,8 @@ def _assemble_mesh(acc: _MeshAccumulator) -> MeshData:
         mat = mat[eorder]
         elines = elines[eorder]
     return MeshData(path, sid, x, y, z, se, np.ascontiguousarray(idx), mat, acc.name, dict(acc.unknown),
-                    node_lines=nlines[order].astype(np.int64), face_lines=elines.astype(np.int64))
+                    node_lines=nlines[order].astype(np.int64), face_lines=elines.astype(np.int64),
+                    node_strings=acc.node_strings)
 
 
 # --------------------------------------------------------------------------------------------------
