@@ -52,3 +52,133 @@ def test_begcurve_blocks_are_skipped(formats, tmp_path):
     bad = _write(tmp_path, "d.2dm", "\n".join(lines[:2] + curve[:-1] + lines[2:]) + "\n")
     with pytest.raises(ParseError, match="block opened at line 3 has no ENDCURVE"):
         read_mesh(bad)
+
+
+# ---------------------------------------------------------------- datasets (MDAL's test files: tools' variants)
+
+MDAL_T0, MDAL_T1 = [1.0, 2.0, 3.0, 4.0, 5.0], [6.0, 7.0, 8.0, 9.0, 10.0]
+
+
+@pytest.fixture()
+def mdal(formats):
+    return formats / "mdal"
+
+
+@pytest.mark.parametrize("name", ["old0", "old1", "old2", "old3"])
+def test_old_scalar_files_with_and_without_headers(mdal, name):
+    """old0: SCALAR/ND/TS; old1: starts at TS, no ND; old2: SCALAR "NaN=...", CRLF, ST card; old3: TIMEUNITS."""
+    f = mdal / f"quad_and_triangle_vertex_scalar_{name}.dat"
+    d = _no_warnings(read_dat, f)
+    assert len(d) == 1 and d[0].nd == 5 and not d[0].vector
+    np.testing.assert_array_equal(np.stack(d[0].values), [MDAL_T0, MDAL_T1])
+    assert d[0].times == [0.0, 3600.0]
+    ds = open_snapshot([mdal / "quad_and_triangle.2dm", f], units="m", roles={f.name: "depth"},
+                       plausibility="off") if name == "old3" else None
+    if ds is not None:  # TIMEUNITS Seconds
+        np.testing.assert_array_equal(ds.time.values, [0.0, 3600.0])
+        np.testing.assert_array_equal(ds.depth.values, [MDAL_T0, MDAL_T1])
+
+
+def test_legacy_files_repeating_the_header_before_every_step(formats, tmp_path):
+    dep = _lines(formats / "adh_demo_dep.dat")
+    ts = [i for i, ln in enumerate(dep) if ln.startswith("TS")]
+    out = []
+    for i in ts:
+        out += ["SCALAR", "ND 12", "ST 0", "TIMEUNITS SECONDS", f"TS {dep[i].split()[2]}", *dep[i + 1:i + 13]]
+    p = _write(tmp_path, "leg_dep.dat", "\n".join(out) + "\n")
+    d = _no_warnings(read_dat, p)[0]
+    ref = read_dat(formats / "adh_demo_dep.dat")[0]
+    assert d.times == ref.times
+    np.testing.assert_array_equal(np.stack(d.values), np.stack(ref.values))
+    bad = _write(tmp_path, "bad_dep.dat", "\n".join(out).replace("ND 12", "ND 11", 2).replace("ND 11", "ND 12", 1) + "\n")
+    with pytest.raises(ParseError, match="ND 11 after the first time step") as ei:
+        read_dat(bad)
+    assert ei.value.line == 19  # 17 lines of the first block, SCALAR, then ND
+    vec = _write(tmp_path, "kind_dep.dat", "\n".join(out[:18] + ["VECTOR"] + out[19:]) + "\n")
+    with pytest.raises(ParseError, match="VECTOR card in a SCALAR dataset"):
+        read_dat(vec)
+
+
+def test_element_centred_datasets_from_els_names_and_from_nc_value_lines(mdal, tmp_path):
+    mesh = mdal / "quad_and_triangle.2dm"  # E4Q 1 (nodes 1 2 4 5), E3T 2 (nodes 2 3 4)
+    sc, vc = mdal / "quad_and_triangle_els_scalar.dat", mdal / "quad_and_triangle_els_vector.dat"
+    d = read_dat(sc)[0]
+    assert d.on_faces and d.nc == 2 and d.values[0].tolist() == [1.0, 2.0]
+    ds = open_snapshot([mesh, sc, vc], units="m", roles={"FaceScalarDataset": "depth"})
+    # element values averaged to the nodes: node 1, 5 only in element 1; node 3 only in element 2
+    assert ds.depth.values[0].tolist() == [1.0, 1.5, 2.0, 1.5, 1.0]
+    assert ds.u.values[0].tolist() == [1.0, 1.5, 2.0, 1.5, 1.0]
+    assert "FaceScalarDataset" in ds.attrs["element_centred_datasets"]
+    # the same values in a file without _els in its name: NC value lines instead of ND
+    p = _write(tmp_path, "faces_depth.dat", sc.read_text())
+    d2 = read_dat(p)[0]
+    assert d2.on_faces and d2.faces_from_count and d2.values[0].tolist() == [1.0, 2.0]
+    two = _write(tmp_path, "two_depth.dat", sc.read_text().replace("ENDDS", "TS 0 7200\n3\n4\nENDDS"))
+    d3 = read_dat(two)[0]
+    assert d3.times == [3600.0, 7200.0] and d3.values[1].tolist() == [3.0, 4.0]
+
+
+def test_tabs_as_separators(mdal):
+    d = _no_warnings(read_dat, mdal / "quad_and_triangle_vertex_scalar_tabs.dat")[0]
+    assert d.name == "VertexScalarDataset" and d.values[0].tolist() == [1.0, 2.0, 3.0, 2.0, 1.0]
+
+
+def test_binary_sms_dataset_is_named_as_not_supported(mdal, tmp_path):
+    with pytest.raises(ParseError, match="binary SMS dataset .*not supported") as ei:
+        read_dat(mdal / "quad_and_triangle_binary.dat")
+    assert ei.value.line == 1
+    with pytest.raises(ParseError, match="binary SMS dataset"):
+        open_snapshot([mdal / "quad_and_triangle.2dm", mdal / "quad_and_triangle_binary.dat"], units="m")
+    with pytest.raises(ParseError, match="binary file"):
+        read_dat(_write(tmp_path, "x.dat", b"DATASET\0\0\1\2"))
+
+
+# ---------------------------------------------------------------- roles and time units
+
+def test_dataset_roles_option_for_names_that_are_not_adh_s(mdal, formats, tmp_path):
+    f = mdal / "quad_and_triangle_vertex_scalar_tabs.dat"
+    with pytest.raises(InputError, match=r"no depth or water-surface dataset.*'VertexScalarDataset'.*roles="):
+        open_snapshot([mdal / "quad_and_triangle.2dm", f], units="m")
+    ds = open_snapshot([mdal / "quad_and_triangle.2dm", f], units="m", roles={"VertexScalarDataset": "depth"})
+    assert ds.depth.values[0].tolist() == [1.0, 2.0, 3.0, 2.0, 1.0]
+    ds = open_snapshot([mdal / "quad_and_triangle.2dm", f], units="m", roles={f.name: "water_surface"}, plausibility="off")
+    np.testing.assert_allclose(ds.depth.values[0], np.maximum(np.array([1.0, 2, 3, 2, 1]) - [20, 30, 40, 50, 10], 0))
+    # national-language names
+    dep = (formats / "adh_demo_dep.dat").read_text()
+    for name in ("Wassertiefe", "Hauteur d'eau", "Calado", "Tirante"):
+        p = _write(tmp_path, "x.dat", dep.replace('"Depth"', f'"{name}"'))
+        snap = open_snapshot([formats / "adh_demo.3dm", p, formats / "adh_demo_vel.dat", formats / "adh_demo.bc"])
+        assert snap.attrs["source_datasets"].startswith(f"depth: {name}")
+    with pytest.raises(InputError, match="choose one of"):
+        open_snapshot([mdal / "quad_and_triangle.2dm", f], units="m", roles={f.name: "speed"})
+    with pytest.raises(InputError, match="no dataset named 'Nope'"):
+        open_snapshot([mdal / "quad_and_triangle.2dm", f], units="m", roles={"Nope": "depth"})
+
+
+def test_old_depth_is_not_taken_for_the_current_depth(formats, tmp_path):
+    dep = (formats / "adh_demo_dep.dat").read_text()
+    body = dep.split("BEGSCL", 1)[1]
+    old = body.replace('"Depth"', '"Old Depth"').replace("1.35000000e+00", "9.99000000e-01")
+    both = _write(tmp_path, "both_dep.dat", dep.split("BEGSCL", 1)[0] + "BEGSCL" + old + "BEGSCL" + body)
+    files = [formats / "adh_demo.3dm", both, formats / "adh_demo_vel.dat", formats / "adh_demo.bc"]
+    with pytest.warns(BreachflowWarning, match="'Old Depth' looks like a previous step.*ignored, 'Depth' is used"):
+        snap = open_snapshot(files)
+    assert snap.depth.values[1].max() == pytest.approx(1.35)
+    only = _write(tmp_path, "old_dep.dat", dep.split("BEGSCL", 1)[0] + "BEGSCL" + old)
+    with pytest.warns(BreachflowWarning, match="only depth dataset: used as depth"):
+        open_snapshot([formats / "adh_demo.3dm", only, formats / "adh_demo_vel.dat", formats / "adh_demo.bc"])
+
+
+def test_missing_timeunits_says_which_default_and_records_it(formats, tmp_path):
+    dep = "\n".join(ln for ln in _lines(formats / "adh_demo_dep.dat") if not ln.startswith("TIMEUNITS")) + "\n"
+    vel = "\n".join(ln for ln in _lines(formats / "adh_demo_vel.dat") if not ln.startswith("TIMEUNITS")) + "\n"
+    files = [formats / "adh_demo.3dm", _write(tmp_path, "n_dep.dat", dep), _write(tmp_path, "n_vel.dat", vel)]
+    with pytest.warns(BreachflowWarning, match="no TIMEUNITS card .* taken as seconds .*MDAL/QGIS assume hours"):
+        snap = open_snapshot(files, units="m")
+    np.testing.assert_array_equal(snap.time.values, [0.0, 3600.0])
+    assert "seconds by default" in snap.attrs["source_time_units"]
+    snap = _no_warnings(open_snapshot, files, units="m", time_units="hours")
+    np.testing.assert_array_equal(snap.time.values, [0.0, 3600.0 * 3600.0])
+    assert "hours (time_units option)" in snap.attrs["source_time_units"]
+    snap = open_snapshot([formats / "adh_demo.3dm", formats / "adh_demo_dep.dat", formats / "adh_demo_vel.dat", formats / "adh_demo.bc"])
+    assert "SECONDS (TIMEUNITS card, adh_demo_dep.dat line 7)" in snap.attrs["source_time_units"]

@@ -101,6 +101,12 @@ class LineReader:
             if not self._fill():
                 return self._buf[self._pos:].rstrip(b"\r") if self._pos < len(self._buf) else None
 
+    def push_back(self, data: bytes, n_lines: int) -> None:
+        """Return *data* (whole lines, *n_lines* of them, just read) to the front of the stream."""
+        self._buf = data + self._buf[self._pos:]
+        self._pos = 0
+        self.line_no -= n_lines
+
     def read_lines(self, n: int) -> tuple[bytes, int]:
         """Up to *n* following lines as one bytes block, and how many lines it holds (fewer at EOF)."""
         parts = []

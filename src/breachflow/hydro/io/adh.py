@@ -17,6 +17,7 @@ ADH ``read_geo.c``, the SMS ASCII dataset documentation):
 from __future__ import annotations
 
 import re
+import struct
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -409,6 +410,8 @@ class DatDataset:
     times: list = field(default_factory=list)
     values: list = field(default_factory=list)  # per step: (n,) or (n, 2)
     status: list = field(default_factory=list)  # per step: (nc,) int8 or None
+    time_units_line: int | None = None
+    faces_from_count: bool = False  # element values detected by the step's line count (NC, not ND)
     ts_lines: list = field(default_factory=list)
     value_lines: list = field(default_factory=list)  # per step: line of the first value
     complete: bool = False          # ENDDS seen
@@ -448,8 +451,10 @@ def read_dat(path, *, strict: bool = False) -> list[DatDataset]:
     and reported with a :class:`BreachflowWarning` naming the line.
     """
     path = Path(path)
+    _refuse_binary(path)
     out: list[DatDataset] = []
     unknown: dict[str, int] = {}
+    els = "_els" in path.stem.lower()  # BASEMENT / MDAL convention: values per element (NC), not per node
     with LineReader(path) as rd:
         first = None
         while first is None:
@@ -460,20 +465,27 @@ def read_dat(path, *, strict: bool = False) -> list[DatDataset]:
             if t and not t.startswith("#"):
                 first = t
         head = first.split()[0].upper()
-        legacy = head in ("SCALAR", "VECTOR")
+        legacy = head in ("SCALAR", "VECTOR", "TS", "ND", "TIMEUNITS")  # old format; may start at TS (MDAL)
         if head != "DATASET" and not legacy:
             raise ParseError(f"not an SMS ASCII dataset: first card {first[:30]!r} (expected DATASET, SCALAR or VECTOR)",
                              path=path, line=rd.line_no)
         cur: DatDataset | None = None
         top: dict = {}
+        pending = None
         if legacy:
-            cur = DatDataset(path, name=path.stem, vector=head == "VECTOR", line=rd.line_no)
+            cur = DatDataset(path, name=path.stem, vector=head == "VECTOR", line=rd.line_no, on_faces=els)
+            if head not in ("SCALAR", "VECTOR"):
+                pending = (first, rd.line_no)
         while True:
-            raw = rd.readline()
-            if raw is None:
-                break
-            lineno = rd.line_no
-            text = as_text(raw, path, lineno).strip()
+            if pending is not None:
+                (text, lineno), pending = pending, None
+            else:
+                raw = rd.readline()
+                if raw is None:
+                    break
+                lineno = rd.line_no
+                text = as_text(raw, path, lineno)
+            text = text.replace("\t", " ").strip()
             if not text or text[0] in "#!":
                 continue
             toks = text.split()
@@ -483,8 +495,9 @@ def read_dat(path, *, strict: bool = False) -> list[DatDataset]:
             if card in ("BEGSCL", "BEGVEC"):
                 if cur is not None and not legacy:
                     raise ParseError(f"{card}: new dataset before ENDDS of the dataset begun at line {cur.line}", path=path, line=lineno)
-                cur = DatDataset(path, name=path.stem, vector=card == "BEGVEC", line=lineno,
-                                 nd=top.get("nd"), nc=top.get("nc"), time_units=top.get("tu"), rt_julian=top.get("rt"))
+                cur = DatDataset(path, name=path.stem, vector=card == "BEGVEC", line=lineno, on_faces=els,
+                                 nd=top.get("nd"), nc=top.get("nc"), time_units=top.get("tu"), rt_julian=top.get("rt"),
+                                 time_units_line=top.get("tu_line"))
                 continue
             if card == "ENDDS":
                 if cur is None:
@@ -502,8 +515,9 @@ def read_dat(path, *, strict: bool = False) -> list[DatDataset]:
                 if target is None:
                     top[key] = n
                 else:
-                    if target.times:
-                        raise ParseError(f"{card} card after the first time step", path=path, line=lineno)
+                    if target.times and not (legacy and getattr(target, key) == n):  # legacy files repeat the header
+                        raise ParseError(f"{card} {n} after the first time step (the dataset has {card} "
+                                         f"{getattr(target, key)})", path=path, line=lineno)
                     setattr(target, key, n)
             elif card == "NAME":
                 name = text[len(toks[0]):].strip()
@@ -517,9 +531,12 @@ def read_dat(path, *, strict: bool = False) -> list[DatDataset]:
                     raise ParseError("TIMEUNITS card without a value", path=path, line=lineno)
                 time_unit_seconds(toks[1], path=path, line=lineno)  # validate now
                 if target is None:
-                    top["tu"] = toks[1]
+                    top["tu"], top["tu_line"] = toks[1], lineno
                 else:
-                    target.time_units = toks[1]
+                    if target.times and target.time_units is not None and \
+                            time_unit_seconds(target.time_units) != time_unit_seconds(toks[1]):
+                        raise ParseError(f"TIMEUNITS {toks[1]} after steps in {target.time_units}", path=path, line=lineno)
+                    target.time_units, target.time_units_line = toks[1], lineno
             elif card == "RT_JULIAN":
                 rt = to_float(toks[1] if len(toks) > 1 else None, path=path, line=lineno, what="RT_JULIAN card")
                 if target is None:
@@ -538,7 +555,10 @@ def read_dat(path, *, strict: bool = False) -> list[DatDataset]:
                     target.on_faces = vt == 1
                 else:
                     top["vectype"] = vt
-            elif card in ("OBJID", "DATASET", "SCALAR", "VECTOR", "BEGDSET", "TIMEZONE", "DATAREF", "RT_HOURS"):
+            elif card in ("SCALAR", "VECTOR") and legacy and cur is not None:
+                if (card == "VECTOR") != cur.vector:  # a repeated legacy header must not change the kind
+                    raise ParseError(f"{card} card in a {'VECTOR' if cur.vector else 'SCALAR'} dataset", path=path, line=lineno)
+            elif card in ("OBJID", "DATASET", "SCALAR", "VECTOR", "BEGDSET", "TIMEZONE", "DATAREF", "RT_HOURS", "ST"):
                 pass
             elif card == "TS":
                 if cur is None:
@@ -578,6 +598,9 @@ def _read_step(rd: LineReader, ds: DatDataset, toks, lineno: int, legacy: bool) 
     if ds.times and t <= ds.times[-1]:
         raise ParseError(f"time {t:g} does not increase (previous step {ds.times[-1]:g})", path=path, line=lineno)
     n = ds.nc if ds.on_faces else ds.nd
+    if n is None and legacy and not ds.times:  # old files may have no ND card: the first step's lines tell
+        n = _count_value_lines(rd)
+        setattr(ds, "nc" if ds.on_faces else "nd", n)
     if n is None:
         raise ParseError(f"TS card before the {'NC' if ds.on_faces else 'ND'} count card", path=path, line=lineno)
     status = None
@@ -595,7 +618,14 @@ def _read_step(rd: LineReader, ds: DatDataset, toks, lineno: int, legacy: bool) 
     first = rd.line_no + 1
     block, got = rd.read_lines(n)
     if got < n or _has_card(block):
-        return _partial_or_error(ds, block, got, n, lineno, first)
+        m = _CARD_LINE.search(block)
+        i = block.count(b"\n", 0, m.start()) if m else got
+        if not ds.times and not ds.on_faces and ds.nc and ds.nc != n and i == ds.nc and status is None:
+            # values per element (NC lines) rather than per node: element-centred dataset (TUFLOW, BASEMENT)
+            rd.push_back(block[_line_offset(block, i):], got - i)
+            block, ds.on_faces, ds.faces_from_count, n = block[:_line_offset(block, i)], True, True, ds.nc
+        else:
+            return _partial_or_error(ds, block, got, n, lineno, first)
     if ds.vector:
         ncols = len(block.split(b"\n", 1)[0].split())
         if ncols not in (2, 3):
@@ -611,6 +641,48 @@ def _read_step(rd: LineReader, ds: DatDataset, toks, lineno: int, legacy: bool) 
     ds.ts_lines.append(lineno)
     ds.value_lines.append(first)
     return True
+
+
+def _line_offset(block: bytes, i: int) -> int:
+    """Byte offset of line *i* (0-based) in *block*."""
+    pos = 0
+    for _ in range(i):
+        pos = block.index(b"\n", pos) + 1
+    return pos
+
+
+def _count_value_lines(rd: LineReader) -> int:
+    """How many value lines follow (up to the next card or the end), without consuming them."""
+    lines = []
+    n = 0
+    while True:
+        raw = rd.readline()
+        if raw is None:
+            break
+        lines.append(raw)
+        t = raw.split()
+        if t and not _is_number(t[0].decode("latin-1")):
+            break
+        n += 1 if t else 0
+    rd.push_back(b"".join(ln + b"\n" for ln in lines), len(lines))
+    return n
+
+
+#: first 4 bytes of a binary SMS dataset file: the version card 3000 as a 32-bit integer (MDAL mdal_binary_dat.cpp)
+BINARY_DAT_MAGIC = (struct.pack("<i", 3000), struct.pack(">i", 3000))
+
+
+def _refuse_binary(path: Path) -> None:
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(512)
+    except OSError as exc:
+        raise ParseError(f"cannot open file ({exc.strerror})", path=path) from None
+    if head[:4] in BINARY_DAT_MAGIC:
+        raise ParseError("binary SMS dataset (version card 3000): not supported; export it from SMS as an ASCII "
+                         "dataset (.dat with DATASET / BEGSCL cards)", path=path, line=1)
+    if b"\0" in head:
+        raise ParseError("binary file (NUL bytes): not a text (ASCII) file of this format", path=path, line=1)
 
 
 def _is_number(token: str) -> bool:
@@ -703,10 +775,16 @@ def read_bc(path) -> BcInfo:
 # the reader: mesh + datasets (+ .bc) -> UGRID mesh snapshot
 # --------------------------------------------------------------------------------------------------
 
+#: dataset NAME / file-name patterns per role, English and the names national tools write (German
+#: Hydro_AS-2D / BASEMENT: Wassertiefe, WSPL; French hauteur, cote; Spanish/Italian calado, tirante...)
 _ROLE_PATTERNS = (
-    ("water_surface", re.compile(r"water.?surface|\bwse\b|\bwsel?\b|elevation|stage|\bhead\b|\beta\b", re.I)),
-    ("depth", re.compile(r"depth|\bdep\b", re.I)),
+    ("water_surface", re.compile(r"water.?surface|\bwse\b|\bwsel?\b|(?<!bed )(?<!bottom )(?<!ground )elevation|stage|"
+                                 r"\bhead\b|\beta\b|wasserspiegel|\bwspl?\w*|niveau|\bcote\b|\bnivel\b|waterstand|livello", re.I)),
+    ("depth", re.compile(r"depth|\bdep\b|tiefe|hauteur|profondeur|calado|profundidad|tirante|diepte", re.I)),
 )
+#: names of previous-step / initial-state datasets (ADH "Old Depth", SMS "Initial ...")
+_OLD = re.compile(r"\b(old|prev|previous|initial|last|alt|ancien)\b", re.I)
+ROLES = ("depth", "water_surface", "velocity", "ignore")
 
 
 def dataset_role(ds: DatDataset) -> str | None:
@@ -718,6 +796,65 @@ def dataset_role(ds: DatDataset) -> str | None:
             if pat.search(text or ""):
                 return role
     return None
+
+
+def assign_roles(datasets: list[DatDataset], roles: dict | None = None) -> tuple[dict, list]:
+    """``{role: dataset}`` and the ignored datasets' descriptions.
+
+    *roles* maps a dataset NAME, a file name or a file stem to ``depth``, ``water_surface``,
+    ``velocity`` or ``ignore``; other datasets get their role from the name patterns. A dataset whose name
+    marks a previous step or initial state ("Old Depth") is used only when nothing else has that role,
+    with a warning; when both exist the current one wins and the old one is reported as ignored.
+    """
+    roles = dict(roles or {})
+    for key, role in roles.items():
+        if role not in ROLES:
+            raise InputError(f"roles[{key!r}] = {role!r}: choose one of {', '.join(ROLES)}")
+    given: dict[int, str] = {}
+    for key, role in roles.items():
+        hits = [i for i, d in enumerate(datasets) if key in (d.name, d.path.name, d.path.stem, str(d.path))]
+        if not hits:
+            raise InputError(f"roles: no dataset named {key!r}; the datasets are "
+                             + ", ".join(f"{d.name!r} ({d.path.name})" for d in datasets))
+        for i in hits:
+            given[i] = role
+    out: dict[str, DatDataset] = {}
+    ignored, old = [], []
+    for i, d in enumerate(datasets):  # explicit roles first
+        role = given.get(i)
+        if role in (None, "ignore"):
+            continue
+        if role in out:
+            raise InputError(f"roles: two datasets for {role}: {out[role].name!r} and {d.name!r}")
+        if role == "velocity" and not d.vector:
+            raise InputError(f"roles: dataset {d.name!r} ({d.path.name}) is scalar; velocity needs a vector dataset")
+        if role != "velocity" and d.vector:
+            raise InputError(f"roles: dataset {d.name!r} ({d.path.name}) is a vector; {role} needs a scalar dataset")
+        out[role] = d
+    for i, d in enumerate(datasets):
+        if i in given:
+            if given[i] == "ignore":
+                ignored.append(f"{d.name} ({d.path.name}, roles=ignore)")
+            continue
+        role = dataset_role(d)
+        if role is not None and _OLD.search(d.name or ""):
+            old.append((role, d))
+            continue
+        if role is None or role in out:
+            ignored.append(f"{d.name} ({d.path.name})")
+            continue
+        out[role] = d
+    for role, d in old:
+        if role in out:
+            ignored.append(f"{d.name} ({d.path.name}, a previous-step dataset)")
+            warnings.warn(f"{d.path.name}: dataset {d.name!r} looks like a previous step / initial state: ignored, "
+                          f"{out[role].name!r} is used as {role}", BreachflowWarning, stacklevel=3)
+        else:
+            out[role] = d
+            warnings.warn(f"{d.path.name}: dataset {d.name!r} looks like a previous step / initial state but is the "
+                          f"only {role} dataset: used as {role}; pass roles={{{d.name!r}: '{role}'}} to confirm or "
+                          "give the current dataset", BreachflowWarning, stacklevel=3)
+    return out, ignored
 
 
 def _node_values(ds: DatDataset, mesh: MeshData, step: int) -> np.ndarray:
@@ -767,7 +904,8 @@ def _ccw(mesh: MeshData) -> np.ndarray:
     return f
 
 
-def open_adh(paths, *, units=None, crs=None, strict=False, time_units=None, plausibility="raise", **unused):
+def open_adh(paths, *, units=None, crs=None, strict=False, time_units=None, plausibility="raise", roles=None,
+             **unused):
     """ADH / SMS mesh + datasets → mesh snapshot (SI). See :func:`breachflow.hydro.io.open_snapshot`."""
     from ...units import ureg
     from ..snapshot import check_plausibility, mesh_snapshot
@@ -789,17 +927,11 @@ def open_adh(paths, *, units=None, crs=None, strict=False, time_units=None, plau
     mesh = read_mesh(meshes[0], strict=strict)
     to_m = float(ureg.Quantity(1.0, length_unit).to("m").magnitude)
     datasets = [d for p in dats for d in read_dat(p, strict=strict)]
-    roles: dict[str, DatDataset] = {}
-    ignored = []
-    for d in datasets:
-        role = dataset_role(d)
-        if role is None or role in roles:
-            ignored.append(f"{d.name} ({d.path.name})")
-            continue
-        roles[role] = d
+    roles, ignored = assign_roles(datasets, roles)
     if "depth" not in roles and "water_surface" not in roles:
         raise InputError("no depth or water-surface dataset among " + (", ".join(f"{d.name!r} ({d.path.name})" for d in datasets) or "no .dat files")
-                         + "; ADH writes *_dep.dat (NAME \"Depth\")")
+                         + "; ADH writes *_dep.dat (NAME \"Depth\"); name the roles with roles={'NAME or file': "
+                         "'depth' | 'water_surface' | 'velocity' | 'ignore'}")
     scalar = roles.get("depth") or roles["water_surface"]
     vel = roles.get("velocity")
     t_override = None
@@ -808,11 +940,24 @@ def open_adh(paths, *, units=None, crs=None, strict=False, time_units=None, plau
     elif bc is not None and bc.output_time_code is not None:
         t_override = None  # the .dat's own TIMEUNITS wins; AWRITE only fills a missing one below
     used = [d for d in (scalar, vel) if d is not None]
-    times = []
+    times, time_notes = [], []
     for d in used:
         spu = t_override
-        if spu is None and d.time_units is None and bc is not None and bc.output_time_code is not None:
+        if spu is not None:
+            note = f"{time_units} (time_units option)"
+        elif d.time_units is not None:
+            note = f"{d.time_units} (TIMEUNITS card, {d.path.name} line {d.time_units_line})"
+        elif bc is not None and bc.output_time_code is not None:
             spu = ADH_TIME_CODES[bc.output_time_code]
+            note = f"{spu:g} s per unit (SERIES AWRITE output code {bc.output_time_code} in {bc.path.name})"
+        else:
+            note = (f"seconds by default: {d.path.name} has no TIMEUNITS card (ADH's own unit is the second; "
+                    "MDAL/QGIS would assume hours for such a file)")
+            if len(d.times) > 1:
+                warnings.warn(f"{d.path}: no TIMEUNITS card and no .bc SERIES AWRITE: step times taken as seconds "
+                              "(ADH's unit; MDAL/QGIS assume hours); pass time_units='hours' (or another unit) if the "
+                              "file came from another tool", BreachflowWarning, stacklevel=2)
+        time_notes.append(f"{d.path.name}: {note}")
         times.append(np.asarray(d.times, dtype=float) * d.seconds_per_unit(spu))
     nt = len(times[0])
     if vel is not None:
@@ -869,7 +1014,13 @@ def open_adh(paths, *, units=None, crs=None, strict=False, time_units=None, plau
         source_length_unit=length_unit,
         source_length_unit_from=("user" if units else f"MP G {bc.gravity:g} in {bc.path.name}"),
         source_datasets="; ".join(f"{role}: {d.name} ({d.path.name}, {len(d.times)} steps)" for role, d in roles.items()),
+        source_time_units="; ".join(time_notes),
     )
+    faces = [d for d in used if d.on_faces]
+    if faces:
+        ds.attrs["element_centred_datasets"] = "; ".join(
+            f"{d.path.name}: {d.name} ({'NC value lines per step' if d.faces_from_count else '_els file name' if '_els' in d.path.stem.lower() else 'VECTYPE 1'}; "
+            "averaged to the nodes)" for d in faces)
     if ignored:
         ds.attrs["ignored_datasets"] = "; ".join(ignored)
     if mesh.name:
