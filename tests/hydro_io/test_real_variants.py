@@ -182,3 +182,28 @@ def test_missing_timeunits_says_which_default_and_records_it(formats, tmp_path):
     assert "hours (time_units option)" in snap.attrs["source_time_units"]
     snap = open_snapshot([formats / "adh_demo.3dm", formats / "adh_demo_dep.dat", formats / "adh_demo_vel.dat", formats / "adh_demo.bc"])
     assert "SECONDS (TIMEUNITS card, adh_demo_dep.dat line 7)" in snap.attrs["source_time_units"]
+
+
+# ---------------------------------------------------------------- ESRI ASCII grids
+
+def test_grids_with_other_extensions_nan_nodata_and_nan_cells(formats, tmp_path):
+    ref = open_snapshot([formats / "depth_max.asc", formats / "velocity_max.asc"], units="ft", bed="0 ft", velocity_direction=0)
+    dep = (formats / "depth_max.asc").read_text()
+    # GDAL's float grids: NODATA_value nan and nan cells
+    nan = dep.replace("NODATA_value -9999", "NODATA_value nan").replace("-9999", "nan")
+    wd = _write(tmp_path, "res-0001.wd", nan)        # LISFLOOD-FP depth
+    txt = _write(tmp_path, "speed.txt", (formats / "velocity_max.asc").read_text().replace("-9999", "NaN"))
+    snap = _no_warnings(open_snapshot, [wd, txt], units="ft", bed="0 ft", velocity_direction=0,
+                        roles={"speed.txt": "speed"})
+    np.testing.assert_array_equal(snap.depth.values, ref.depth.values)
+    np.testing.assert_array_equal(snap.u.values, ref.u.values)
+    # format given instead of roles / a known suffix
+    t2 = _write(tmp_path, "depth_map.txt", dep)
+    snap = open_snapshot([t2], format="asc", units="ft", bed="0 ft", plausibility="off")
+    np.testing.assert_array_equal(snap.depth.values, ref.depth.values)
+    with pytest.raises(InputError, match="cannot tell the format"):
+        open_snapshot([t2], units="ft", bed="0 ft")
+    inf = _write(tmp_path, "depth_inf.asc", dep.replace("0.42", "inf"))
+    with pytest.raises(ParseError, match="'inf' is not finite") as ei:
+        open_snapshot([inf], units="ft", bed="0 ft")
+    assert ei.value.line == 7

@@ -76,9 +76,9 @@ class SdfReader:
 
 @READERS.register("asc")
 class AscReader:
-    """ESRI ASCII grids (RAS Mapper maps converted to text)."""
+    """ESRI ASCII grids (RAS Mapper maps converted with GDAL, LISFLOOD-FP results, ...)."""
 
-    extensions = (".asc",)
+    extensions = (".asc", ".wd", ".elev", ".vx", ".vy", ".dem")
 
     def open(self, paths, **options) -> xr.Dataset:
         from .asc import open_asc
@@ -86,14 +86,24 @@ class AscReader:
         return open_asc(paths, **options)
 
 
-def guess_format(paths) -> str:
-    """Reader name from the files' extensions (``.prj`` and ``.bc`` are companions, not decisive)."""
+def guess_format(paths, roles=None) -> str:
+    """Reader name from the files' extensions (``.prj`` and ``.bc`` are companions, not decisive).
+
+    Grids with another extension (LISFLOOD-FP ``.wd``/``.elev``/``.Vx``, ``.txt``) are ESRI grids when
+    their extension is a LISFLOOD-FP one or every file is named in *roles*.
+    """
+    from .asc import SUFFIX_ROLES
+
     exts = {Path(p).suffix.lower() for p in paths} - {".prj"}
     for name in READERS.available():
         cls = READERS.get(name)
         primary = [e for e in getattr(cls, "extensions", ()) if e not in (".bc", ".dat")]
         if exts & set(primary):
             return name
+    named = {Path(k).name for k in (roles or {})}
+    grids = [Path(p) for p in paths if Path(p).suffix.lower() != ".prj"]
+    if grids and all(p.suffix.lower() in SUFFIX_ROLES or p.name in named for p in grids):
+        return "asc"
     raise InputError(f"cannot tell the format of {', '.join(map(str, paths))} from the extension(s); "
                      f"pass format= one of {', '.join(READERS.available())}")
 
@@ -117,7 +127,7 @@ def open_snapshot(paths, format: str | None = None, units=None, crs: str | None 
     for p in paths:
         if not p.exists():
             raise InputError(f"file {str(p)!r} does not exist")
-    name = format or guess_format(paths)
+    name = format or guess_format(paths, options.get("roles"))
     reader = READERS.get(name)()
     if crs is not None:
         from ..crs import resolve_crs

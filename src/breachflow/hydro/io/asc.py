@@ -10,6 +10,10 @@ its name: ``depth``/``dep``; ``wse``/``water surface``/``stage``; ``terrain``/``
 ``vx``/``velocity_x`` and ``vy``/``velocity_y``; ``velocity``/``vel``/``speed`` (magnitude only: needs
 ``velocity_direction=`` in degrees anticlockwise from +x, since a map of speed has no direction).
 
+Files may have any extension when the format (``format="asc"``) or their role (``roles=``) is given;
+LISFLOOD-FP's ``.wd``, ``.elev``, ``.Vx``, ``.Vy``, ``.dem`` tell their role by the extension. ``NODATA_value
+nan`` and NaN cells (``nan``, ``-nan``, ``1.#QNAN`` as GDAL / MSVC write them) are NODATA; ``inf`` is an error.
+
 NODATA handling: depth / velocity NODATA cells are dry (0); a water-surface NODATA cell is dry; terrain
 NODATA is an error (the snapshot grid must have a bed everywhere). Without a terrain grid the bed is
 ``wse − depth`` (where both are known) or the ``bed=`` option.
@@ -80,7 +84,7 @@ def read_asc(path) -> AscGrid:
                 rd.readline()
                 continue
             toks = text.split()
-            if not re.match(r"[A-Za-z_]", toks[0]):
+            if not re.match(r"[A-Za-z_]", toks[0]) or toks[0].lower() in _NAN_TOKENS:
                 break
             rd.readline()
             key = toks[0].lower()
@@ -118,7 +122,10 @@ def read_asc(path) -> AscGrid:
                              path=path, line=first_data_line)
         x0 = num(xs[0]) + (dx / 2 if xs[0] == "xllcorner" else 0.0)
         y0 = num(ys[0]) + (dy / 2 if ys[0] == "yllcorner" else 0.0)
-        nodata = num("nodata_value") if "nodata_value" in head else None
+        nodata = None
+        if "nodata_value" in head:
+            tok, line = head["nodata_value"]
+            nodata = float("nan") if tok.strip().lower() in _NAN_TOKENS else num("nodata_value")
         rest = []
         while True:
             block, _ = rd.read_chunk()
@@ -128,28 +135,40 @@ def read_asc(path) -> AscGrid:
     data = b"".join(rest)
     n = nrows * ncols
     vals = parse_floats(data)
-    if vals is None or vals.size != n or not np.isfinite(vals).all():
-        _locate_bad_value(data, n, path, first_data_line)
+    if vals is None or vals.size != n or np.isinf(vals).any():
+        vals = _slow_values(data, n, path, first_data_line)
     grid = vals.reshape(nrows, ncols)[::-1].copy()
-    if nodata is not None:
-        grid[grid == nodata] = np.nan
+    if nodata is not None and np.isfinite(nodata):
+        grid[grid == nodata] = np.nan  # NaN cells (GDAL writes "nan") are NODATA as well
     return AscGrid(path, ncols, nrows, x0, y0, dx, dy, nodata, grid, first_data_line)
 
 
-def _locate_bad_value(data: bytes, n: int, path, first_line: int):
+_NAN_TOKENS = {"nan", "-nan", "+nan", "1.#qnan", "-1.#qnan", "-1.#ind", "1.#ind", "nan(ind)", "-nan(ind)"}
+
+
+def _slow_values(data: bytes, n: int, path, first_line: int) -> np.ndarray:
+    """Token by token: NaN spellings (GDAL, MSVC) are NODATA cells; the line of a bad token is named."""
+    out = np.empty(n)
     count = 0
     for i, raw in enumerate(data.split(b"\n")):
         for tok in raw.split():
-            try:
-                v = float(tok)
-            except ValueError:
-                raise ParseError(f"non-numeric grid value {as_text(tok, path, 0)[:30]!r}", path=path, line=first_line + i) from None
-            if not np.isfinite(v):
-                raise ParseError(f"grid value {as_text(tok, path, 0)!r} is not finite (use NODATA_value)", path=path, line=first_line + i)
-            count += 1
-            if count > n:
+            text = as_text(tok, path, 0)
+            if text.lower() in _NAN_TOKENS:
+                v = np.nan
+            else:
+                try:
+                    v = float(tok)
+                except ValueError:
+                    raise ParseError(f"non-numeric grid value {text[:30]!r}", path=path, line=first_line + i) from None
+                if not np.isfinite(v):
+                    raise ParseError(f"grid value {text!r} is not finite (use NODATA_value)", path=path, line=first_line + i)
+            if count >= n:
                 raise ParseError(f"more than nrows x ncols = {n} values", path=path, line=first_line + i)
-    raise ParseError(f"expected nrows x ncols = {n} values, found {count}", path=path, line=first_line + max(data.count(b"\n") - 1, 0))
+            out[count] = v
+            count += 1
+    if count != n:
+        raise ParseError(f"expected nrows x ncols = {n} values, found {count}", path=path, line=first_line + max(data.count(b"\n") - 1, 0))
+    return out
 
 
 _ROLES = (
@@ -162,7 +181,15 @@ _ROLES = (
 )
 
 
+#: LISFLOOD-FP result grids are ESRI ASCII grids whose extension tells the quantity (LISFLOOD-FP manual:
+#: .wd water depth, .elev water-surface elevation, .Vx/.Vy velocity components, .dem terrain)
+SUFFIX_ROLES = {".wd": "depth", ".elev": "water_surface", ".vx": "u", ".vy": "v", ".dem": "bed", ".dep": "depth",
+                ".wse": "water_surface"}
+
+
 def grid_role(path: Path) -> str | None:
+    if path.suffix.lower() in SUFFIX_ROLES:
+        return SUFFIX_ROLES[path.suffix.lower()]
     for role, pat in _ROLES:
         if pat.search(path.stem):
             return role
@@ -206,13 +233,10 @@ def open_asc(paths, *, units=None, crs=None, plausibility="raise", roles=None, b
 
     unknown_options("asc", unused)
     paths = [Path(p) for p in paths]
-    grids_p = [p for p in paths if p.suffix.lower() == ".asc"]
     prjs = [p for p in paths if p.suffix.lower() == ".prj"]
-    others = [p for p in paths if p.suffix.lower() not in (".asc", ".prj")]
-    if others:
-        raise InputError(f"asc reader: unexpected file(s) {', '.join(map(str, others))}")
+    grids_p = [p for p in paths if p.suffix.lower() != ".prj"]  # .asc, or any extension (.wd, .txt, ...)
     if not grids_p:
-        raise InputError("asc reader: no .asc file given")
+        raise InputError("asc reader: no grid file given")
     roles = {Path(k).name: v for k, v in (roles or {}).items()}
     by_role: dict[str, AscGrid] = {}
     for p in grids_p:
