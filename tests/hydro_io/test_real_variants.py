@@ -207,3 +207,39 @@ def test_grids_with_other_extensions_nan_nodata_and_nan_cells(formats, tmp_path)
     with pytest.raises(ParseError, match="'inf' is not finite") as ei:
         open_snapshot([inf], units="ft", bed="0 ft")
     assert ei.value.line == 7
+
+
+# ---------------------------------------------------------------- HEC-RAS sdf
+
+def test_sdf_keywords_without_spaces_and_water_surface_extents(formats, tmp_path):
+    from breachflow.hydro.io.sdf import read_sdf
+
+    text = (formats / "RASExport.sdf").read_text()
+    ref = open_snapshot(formats / "RASExport.sdf")
+    var = (text.replace("BEGIN STREAM NETWORK:", "BEGINSTREAMNETWORK:").replace("END STREAM NETWORK:", "ENDSTREAMNETWORK:")
+           .replace("BEGIN SPATIAL EXTENT:", "BEGIN SPATIALEXTENT:").replace("END SPATIAL EXTENT:", "END SPATIALEXTENT:")
+           .replace("BEGIN CROSS-SECTIONS:", "BEGINCROSS-SECTIONS:"))
+    ext = "    WATER SURFACE EXTENTS:\n      2025150.0, 13712250.0, 2025050.0, 13712150.0\n      2025160.0, 13712260.0, 2025040.0, 13712140.0\n"
+    var = var.replace("      0.740, 0.00\n  END:", "      0.740, 0.00\n" + ext + "  END:")
+    p = _write(tmp_path, "v.sdf", var)
+    data = _no_warnings(read_sdf, p, strict=True)
+    assert data.sections[0].extents == [(2025150.0, 13712250.0, 2025050.0, 13712150.0), (2025160.0, 13712260.0, 2025040.0, 13712140.0)]
+    assert data.header["XMIN"] == "2024950.00"
+    snap = _no_warnings(open_snapshot, p)
+    np.testing.assert_array_equal(snap.depth.values, ref.depth.values)
+    np.testing.assert_array_equal(snap.u.values, ref.u.values)
+
+
+def test_sdf_unknown_keyword_is_named_with_its_line(formats, tmp_path):
+    from breachflow.hydro.io.sdf import read_sdf
+
+    text = (formats / "RASExport.sdf").read_text()
+    bad = text.replace("      0.740, 0.00\n  END:", "      0.740, 0.00\n    MYSTERY RECORD:\n      1.0, 2.0, 3.0\n  END:")
+    p = _write(tmp_path, "u.sdf", bad)
+    line = bad[:bad.index("MYSTERY")].count("\n") + 1
+    with pytest.raises(ParseError, match="unknown keyword 'MYSTERY RECORD'") as ei:
+        read_sdf(p, strict=True)
+    assert ei.value.line == line
+    with pytest.warns(BreachflowWarning, match=rf"'MYSTERY RECORD' \(line {line}\)"):
+        snap = open_snapshot(p)
+    np.testing.assert_array_equal(snap.depth.values, open_snapshot(formats / "RASExport.sdf").depth.values)

@@ -5,8 +5,11 @@ and HABBY): ``BEGIN HEADER:``/``END HEADER:`` (``UNITS: US CUSTOMARY | METRIC``,
 one name per line...), ``BEGIN STREAM NETWORK:`` (``ENDPOINT:``, ``REACH:`` ... ``CENTERLINE:`` points
 ``END:``), ``BEGIN CROSS-SECTIONS:`` (``CROSS-SECTION:`` ... ``END:`` with ``CUT LINE:``, ``SURFACE LINE:``,
 ``WATER ELEVATION:`` one value per profile, ``PROFILE ID:`` + ``VELOCITIES:`` lines ``fraction, value``),
+``WATER SURFACE EXTENTS:`` lines ``x_left, y_left, x_right, y_right`` (kept, not used),
 ``BEGIN STORAGE AREAS:`` and ``BEGIN BOUNDS:`` (skipped). A keyword is the text before the *first* colon
-and must match a known keyword exactly (no substring matching); ``NULL`` marks an unknown value;
+and must match a known keyword exactly (no substring matching; inner spaces optional, as in
+``BEGINSTREAMNETWORK:`` / ``BEGIN SPATIALEXTENT:`` of some HEC-RAS versions); an unknown keyword is
+warned about with its line (an error with ``strict=True``) and its value lines are skipped; ``NULL`` marks an unknown value;
 stations may carry a ``*`` (interpolated section).
 
 How the 1-D results become a 2-D snapshot (the interpolation method):
@@ -49,7 +52,12 @@ KEYWORDS = {
     "MANNINGS N", "ROUGHNESS", "BRIDGE", "CULVERT", "INLINE STRUCTURE", "LATERAL STRUCTURE",
     "BEGIN STREAM NETWORK", "BEGIN LATERAL STRUCTURES", "END LATERAL STRUCTURES", "BEGIN INLINE STRUCTURES",
     "END INLINE STRUCTURES", "NUMBER OF STORAGE AREAS", "BEGIN BREAKLINES", "END BREAKLINES",
+    "WATER SURFACE EXTENTS",
 }
+#: keywords written without their inner spaces by some HEC-RAS versions (``BEGINSTREAMNETWORK:``,
+#: ``BEGIN SPATIALEXTENT:``) map to the spelled-out keyword
+_NOSPACE = {k.replace(" ", ""): k for k in KEYWORDS}
+_KEYLIKE = re.compile(r"[A-Z][A-Z0-9 _/()\-]*")
 _HEADER_ONLY = {"UNITS", "DTM TYPE", "DTM", "STREAM LAYER", "NUMBER OF REACHES", "CROSS-SECTION LAYER",
                 "NUMBER OF CROSS-SECTIONS", "MAP PROJECTION", "PROJECTION ZONE", "DATUM", "VERTICAL DATUM",
                 "NUMBER OF PROFILES", "XMIN", "YMIN", "XMAX", "YMAX"}
@@ -69,6 +77,7 @@ class CrossSection:
     surface: list = field(default_factory=list)      # [(x, y, z or nan)]
     water: list = field(default_factory=list)        # per profile (nan = NULL)
     water_line: int = 0
+    extents: list = field(default_factory=list)      # WATER SURFACE EXTENTS: (x_left, y_left, x_right, y_right) per profile
     velocities: dict = field(default_factory=dict)   # profile name -> [(fraction, value)]
     surface_lines: list = field(default_factory=list)  # file line of each surface point
     velocity_lines: dict = field(default_factory=dict)  # profile name -> [file line of each velocity point]
@@ -91,12 +100,19 @@ class SdfData:
 
 
 def _split(text: str):
-    """``(KEYWORD, value)`` when the text before the first colon is a known keyword, else None."""
+    """``(KEYWORD, value)`` when the text before the first colon is a known keyword (spaces inside it
+    optional), ``("?" + key, value)`` for an unknown keyword-like key, else None."""
     if ":" not in text:
         return None
     key, value = text.split(":", 1)
     key = re.sub(r"\s+", " ", key.strip().upper())
-    return (key, value.strip()) if key in KEYWORDS else None
+    if key in KEYWORDS:
+        return key, value.strip()
+    if key.replace(" ", "") in _NOSPACE:
+        return _NOSPACE[key.replace(" ", "")], value.strip()
+    if _KEYLIKE.fullmatch(key) and not re.search(r"\d", key):
+        return "?" + key, value.strip()
+    return None
 
 
 def _numbers(text: str, n_min: int, n_max: int, path, line, what: str, allow_null=False):
@@ -132,6 +148,7 @@ def read_sdf(path, *, strict: bool = False) -> SdfData:
     cur_reach: Reach | None = None
     cur_profile = None
     seen_header = False
+    unknown: dict[str, int] = {}
     with LineReader(path) as rd:
         while True:
             raw = rd.readline()
@@ -142,9 +159,17 @@ def read_sdf(path, *, strict: bool = False) -> SdfData:
             if not text or text.startswith("#"):
                 continue
             kv = _split(text)
+            if kv is not None and kv[0].startswith("?") and list_mode == "PROFILE NAMES":
+                kv = None  # a profile name with a colon
             if block in _SKIP_BLOCKS.values():
                 if kv and kv[0] == block:
                     block = None
+                continue
+            if kv is not None and kv[0].startswith("?"):
+                if strict:
+                    raise ParseError(f"unknown keyword {kv[0][1:][:40]!r} (strict mode)", path=path, line=ln)
+                unknown.setdefault(kv[0][1:], ln)
+                list_mode = None  # its value lines (if any) are skipped, not read as the previous list
                 continue
             if kv is None:
                 if list_mode == "PROFILE NAMES":
@@ -157,6 +182,8 @@ def read_sdf(path, *, strict: bool = False) -> SdfData:
                 elif list_mode == "SURFACE LINE":
                     cur_xs.surface.append(tuple(_numbers(text, 3, 3, path, ln, "surface-line point (x, y, z)", allow_null=True)))
                     cur_xs.surface_lines.append(ln)
+                elif list_mode == "WATER SURFACE EXTENTS":
+                    cur_xs.extents.append(tuple(_numbers(text, 4, 4, path, ln, "water surface extent (x, y, x, y)", allow_null=True)))
                 elif list_mode == "VELOCITIES":
                     f, v = _numbers(text, 2, 2, path, ln, "velocity point (fraction, value)")
                     if not -1e-9 <= f <= 1 + 1e-9:
@@ -221,8 +248,10 @@ def read_sdf(path, *, strict: bool = False) -> SdfData:
                     cur_xs.station = float(value.rstrip("*").strip())
                 except ValueError:
                     raise ParseError(f"river station {value[:30]!r} is not a number", path=path, line=ln) from None
-            elif cur_xs is not None and key in ("CUT LINE", "SURFACE LINE"):
+            elif cur_xs is not None and key in ("CUT LINE", "SURFACE LINE", "WATER SURFACE EXTENTS"):
                 list_mode = key
+                if key == "WATER SURFACE EXTENTS" and value:  # the four numbers on the keyword line
+                    cur_xs.extents.append(tuple(_numbers(value, 4, 4, path, ln, "water surface extent (x, y, x, y)", allow_null=True)))
             elif cur_xs is not None and key == "WATER ELEVATION":
                 cur_xs.water = _numbers(value, 1, 10**6, path, ln, "WATER ELEVATION", allow_null=True)
                 cur_xs.water_line = ln
@@ -240,6 +269,9 @@ def read_sdf(path, *, strict: bool = False) -> SdfData:
             raise ParseError("file ends inside a block (missing END:)", path=path, line=rd.line_no)
     if not seen_header:
         raise ParseError("no BEGIN HEADER: block (not a HEC-RAS GIS export?)", path=path, line=1)
+    if unknown:
+        warnings.warn(f"{path}: ignored unknown keyword(s) " + ", ".join(f"{k!r} (line {n})" for k, n in unknown.items()),
+                      BreachflowWarning, stacklevel=2)
     n_prof = header.get("NUMBER OF PROFILES")
     if n_prof is not None:
         try:
