@@ -243,3 +243,30 @@ def test_sdf_unknown_keyword_is_named_with_its_line(formats, tmp_path):
     with pytest.warns(BreachflowWarning, match=rf"'MYSTERY RECORD' \(line {line}\)"):
         snap = open_snapshot(p)
     np.testing.assert_array_equal(snap.depth.values, open_snapshot(formats / "RASExport.sdf").depth.values)
+
+
+# ---------------------------------------------------------------- a mesh / grid without results is a terrain
+
+def test_mesh_without_results_reads_as_a_terrain(formats, mdal):
+    snap = _no_warnings(open_snapshot, [formats / "adh_demo.3dm", formats / "adh_demo.bc"])
+    nodes = [ln.split() for ln in _lines(formats / "adh_demo.3dm") if ln.startswith("ND")]
+    np.testing.assert_array_equal(snap.bed_elevation.values, [float(n[4]) for n in nodes])
+    assert (snap.depth.values == 0).all() and (snap.u.values == 0).all() and "time" not in snap.dims
+    assert snap.attrs["breachflow_content"].startswith("terrain")
+    snap = _no_warnings(open_snapshot, mdal / "quad_and_triangle.2dm", units="ft")
+    np.testing.assert_allclose(snap.bed_elevation.values, np.array([20.0, 30, 40, 50, 10]) * 0.3048)
+    assert snap.sizes["face"] == 2
+
+
+def test_terrain_grid_alone_reads_as_a_terrain(formats, tmp_path):
+    text = (formats / "depth_max.asc").read_text()
+    head, body = text.split("NODATA_value -9999\n")
+    p = _write(tmp_path, "terrain.asc", head + "NODATA_value -9999\n" + body.replace("-9999", "12.5"))
+    snap = _no_warnings(open_snapshot, p, units="m")
+    assert (snap.depth.values == 0).all() and snap.bed_elevation.values.max() == 12.5
+
+
+def test_terrain_nodata_is_named_by_row_and_column_from_the_top(formats, tmp_path):
+    p = _write(tmp_path, "terrain.asc", (formats / "depth_max.asc").read_text())
+    with pytest.raises(InputError, match=r"terrain\.asc:7: terrain has NODATA at row 1, column 1 \(from the top"):
+        open_snapshot(p, units="m")

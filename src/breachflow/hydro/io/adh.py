@@ -926,6 +926,9 @@ def open_adh(paths, *, units=None, crs=None, strict=False, time_units=None, plau
     length_unit = _length_unit(units, bc)
     mesh = read_mesh(meshes[0], strict=strict)
     to_m = float(ureg.Quantity(1.0, length_unit).to("m").magnitude)
+    if not dats:
+        return _terrain_only(mesh, to_m, length_unit, units, bc, crs or (read_prj(prjs[0]) if prjs else None),
+                             [meshes[0], *bcs, *prjs], plausibility)
     datasets = [d for p in dats for d in read_dat(p, strict=strict)]
     roles, ignored = assign_roles(datasets, roles)
     if "depth" not in roles and "water_surface" not in roles:
@@ -1032,6 +1035,24 @@ def open_adh(paths, *, units=None, crs=None, strict=False, time_units=None, plau
     return check_plausibility(ds, mode=plausibility, raw_depth=depth, locate=locate)
 
 
+def _terrain_only(mesh: MeshData, to_m, length_unit, units, bc, crs_wkt, files, plausibility):
+    """A mesh without result datasets read as a terrain: bed z at the nodes, depth and velocity 0."""
+    from ..snapshot import check_plausibility, mesh_snapshot
+
+    n = mesh.node_ids.size
+    zero = np.zeros(n)
+    ds = mesh_snapshot(mesh.x * to_m, mesh.y * to_m, _ccw(mesh), mesh.z * to_m, zero, zero, zero.copy(), crs_wkt=crs_wkt,
+                       source="ADH/SMS mesh read as a terrain by breachflow (reader 'adh')",
+                       source_files=[str(p) for p in files], node_ids=mesh.node_ids, face_ids=mesh.face_ids,
+                       face_material=mesh.material)
+    ds.attrs.update(breachflow_reader="adh", breachflow_content="terrain: a mesh without result datasets (depth 0, velocity 0)",
+                    source_length_unit=length_unit,
+                    source_length_unit_from=("user" if units else f"MP G {bc.gravity:g} in {bc.path.name}"))
+    if mesh.name:
+        ds["mesh2d"].attrs["long_name"] = f"topology of the 2-D unstructured mesh {mesh.name}"
+    return check_plausibility(ds, mode=plausibility, locate=_locator(mesh, None, None, True))
+
+
 def _dataset_row(ds: DatDataset, mesh: MeshData, node: int) -> int:
     """0-based value line within a step of node-centred *ds* holding mesh node index *node*."""
     if ds.nd == int(mesh.node_ids[-1]):  # as in _node_values: line k is node id k
@@ -1060,7 +1081,7 @@ def _locator(mesh: MeshData, scalar: DatDataset, vel: DatDataset | None, scalar_
             return (str(mesh.path), int(mesh.node_lines[node]), "ND card") if mesh.node_lines is not None else None
         if key == "speed":
             return value_line(vel, step, node) if vel is not None and step < len(vel.value_lines) else None
-        if step >= len(scalar.value_lines):
+        if scalar is None or step >= len(scalar.value_lines):
             return None
         path, line, note = value_line(scalar, step, node)
         if not scalar_is_depth and mesh.node_lines is not None:

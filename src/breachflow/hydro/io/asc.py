@@ -272,13 +272,15 @@ def open_asc(paths, *, units=None, crs=None, plausibility="raise", roles=None, b
     depth_g = by_role.get("depth")
     wse_g = by_role.get("water_surface")
     bed_g = by_role.get("bed")
-    if depth_g is None and wse_g is None:
-        raise InputError("asc reader: need a depth or a water-surface grid")
+    terrain_only = depth_g is None and wse_g is None
+    if terrain_only and by_role.get("bed") is None:
+        raise InputError("asc reader: need a depth, water-surface or terrain grid")
     if bed_g is not None:
         if np.isnan(bed_g.values).any():
-            j, i = np.argwhere(np.isnan(bed_g.values))[0]
-            raise InputError(f"{bed_g.path}: terrain has NODATA at row {ref.nrows - 1 - j}, column {i} "
-                             "(crop the grids to the terrain)")
+            top = np.argwhere(np.isnan(bed_g.values[::-1]))[0]  # first in file order
+            row, col = int(top[0]) + 1, int(top[1]) + 1
+            raise InputError(f"{bed_g.path}:{bed_g.value_line(row, col)}: terrain has NODATA at row {row}, column {col} "
+                             "(from the top, 1-based); crop the grids to the terrain")
         bed_v = bed_g.values * to_m
     elif bed is not None:
         bed_v = np.broadcast_to(to_si(bed, name="bed", kind="length"), shape).astype(float)
@@ -287,7 +289,9 @@ def open_asc(paths, *, units=None, crs=None, plausibility="raise", roles=None, b
     else:
         raise InputError("asc reader: the bed elevation is unknown; give a terrain grid, both depth and "
                          "water-surface grids without NODATA, or bed='<elevation with unit>'")
-    if depth_g is not None:
+    if terrain_only:  # a terrain grid alone: depth 0, velocity 0
+        raw_depth = np.zeros(shape)
+    elif depth_g is not None:
         raw_depth = depth_g.values * to_m
     else:
         raw_depth = wse_g.values * to_m - bed_v
@@ -307,7 +311,8 @@ def open_asc(paths, *, units=None, crs=None, plausibility="raise", roles=None, b
         sp = np.nan_to_num(by_role["speed"].values) * to_m
         u, v = sp * np.cos(ang), sp * np.sin(ang)
     else:
-        warnings.warn("no velocity grid: velocity set to zero", BreachflowWarning, stacklevel=2)
+        if not terrain_only:
+            warnings.warn("no velocity grid: velocity set to zero", BreachflowWarning, stacklevel=2)
         u = v = np.zeros(shape)
     x = (ref.x0 + ref.dx * np.arange(ref.ncols)) * to_m
     y = (ref.y0 + ref.dy * np.arange(ref.nrows)) * to_m
@@ -316,6 +321,8 @@ def open_asc(paths, *, units=None, crs=None, plausibility="raise", roles=None, b
                        source_files=[str(p) for p in files])
     ds.attrs.update(breachflow_reader="asc", source_length_unit=str(unit), source_length_unit_from=unit_from,
                     source_grids="; ".join(f"{r}: {g.path.name}" for r, g in by_role.items()))
+    if terrain_only:
+        ds.attrs["breachflow_content"] = "terrain: a grid without results (depth 0, velocity 0)"
     return check_plausibility(ds, mode=plausibility, raw_depth=np.nan_to_num(raw_depth), locate=_locator(by_role))
 
 
