@@ -8,10 +8,9 @@ Built-in readers (a reader is a class with one method ``open(paths, **options) -
 ``adh``     ADH / SMS ``.3dm``/``.2dm`` mesh + ``.dat`` datasets (+ ``.bc`` for units, ``.prj``) → mesh snapshot
 ``sdf``     HEC-RAS GIS export ``.sdf`` (cross sections) → mesh snapshot over the cut lines
 ``asc``     ESRI ASCII grids (``.asc`` + ``.prj``) of depth / velocity / water surface / terrain → grid snapshot
+``hecras_hdf`` HEC-RAS 6 HDF plan (+ geometry) files via the optional ``rashdf`` → mesh over the cell centres
 
-HEC-RAS HDF5 plan files are not read yet (a reader built on the optional ``rashdf`` package would
-register here as ``rashdf``; third-party readers register through the ``breachflow.readers`` entry
-point group).
+Third-party readers register through the ``breachflow.readers`` entry point group.
 
 Writers (the other direction, :mod:`.writers`, :mod:`.sdf_writer`): ``write_adh(snapshot, prefix)``,
 ``write_esri(snapshot, prefix)``, ``write_sdf(snapshot, path)``; :func:`to_unaligned_mesh` puts a grid
@@ -84,6 +83,18 @@ class AscReader:
         from .asc import open_asc
 
         return open_asc(paths, **options)
+
+
+@READERS.register("hecras_hdf")
+class HecRasHdfReader:
+    """HEC-RAS 6 HDF plan / geometry files (via rashdf; optional extra ``breachflow[hecras]``)."""
+
+    extensions = (".hdf", ".h5", ".hdf5")
+
+    def open(self, paths, **options) -> xr.Dataset:
+        from .hecras_hdf import open_hecras_hdf
+
+        return open_hecras_hdf(paths, **options)
 
 
 def guess_format(paths, roles=None) -> str:

@@ -1,0 +1,198 @@
+"""HEC-RAS 6 HDF reader (rashdf): a small plan file the test writes with h5py at the documented HEC-RAS
+layout (square cells, as HEC-RAS meshes mostly are), fields with analytic values; and a real geometry
+file (a subset of the Muncie example that rashdf's repository ships)."""
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+h5py = pytest.importorskip("h5py")  # both are in the test extra; the reader itself names the extra when missing
+pytest.importorskip("rashdf")
+
+from breachflow import InputError  # noqa: E402
+from breachflow.errors import ParseError  # noqa: E402
+from breachflow.hydro import open_snapshot  # noqa: E402
+from breachflow.hydro.io import READERS, guess_format  # noqa: E402
+from breachflow.hydro.snapshot import mesh_face_nodes, node_coordinates  # noqa: E402
+
+AREAS = "Geometry/2D Flow Areas"
+SERIES = "Results/Unsteady/Output/Output Blocks/Base Output/Unsteady Time Series"
+BED = lambda x, y: 100.0 + 0.01 * x - 0.02 * y  # noqa: E731
+WSE = lambda x, y: 104.0 - 0.002 * x  # noqa: E731
+U = lambda x, y: 1.5 + 0.004 * x - 0.001 * y  # noqa: E731  (linear: exact for square cells)
+V = lambda x, y: -0.3 + 0.002 * x + 0.003 * y  # noqa: E731
+
+
+def square_mesh(nx, ny, d):
+    """Cells, faces (cell 0 -> cell 1 normals), ghost cells beyond the perimeter, like HEC-RAS writes."""
+    n = nx * ny
+    cid = lambda i, j: j * nx + i  # noqa: E731
+    centres = np.array([((i + 0.5) * d, (j + 0.5) * d) for j in range(ny) for i in range(nx)])
+    faces, normals, mids, fpts = [], [], [], []
+    ghost = n
+    pt = lambda i, j: j * (nx + 1) + i  # noqa: E731
+    for j in range(ny):
+        for i in range(nx + 1):  # vertical faces, normal +x
+            left = cid(i - 1, j) if i > 0 else None
+            right = cid(i, j) if i < nx else None
+            if left is None:
+                faces.append((right, ghost)); normals.append((-1.0, 0.0)); ghost += 1  # noqa: E702
+            elif right is None:
+                faces.append((left, ghost)); normals.append((1.0, 0.0)); ghost += 1  # noqa: E702
+            else:
+                faces.append((left, right)); normals.append((1.0, 0.0))  # noqa: E702
+            mids.append((i * d, (j + 0.5) * d))
+            fpts.append((pt(i, j), pt(i, j + 1)))
+    for j in range(ny + 1):
+        for i in range(nx):  # horizontal faces, normal +y
+            low = cid(i, j - 1) if j > 0 else None
+            up = cid(i, j) if j < ny else None
+            if low is None:
+                faces.append((up, ghost)); normals.append((0.0, -1.0)); ghost += 1  # noqa: E702
+            elif up is None:
+                faces.append((low, ghost)); normals.append((0.0, 1.0)); ghost += 1  # noqa: E702
+            else:
+                faces.append((low, up)); normals.append((0.0, 1.0))  # noqa: E702
+            mids.append(((i + 0.5) * d, j * d))
+            fpts.append((pt(i, j), pt(i + 1, j)))
+    faces = np.array(faces)
+    per_cell = [[] for _ in range(n)]
+    for f, (a, b) in enumerate(faces):
+        per_cell[a].append((f, 1))
+        if b < n:
+            per_cell[b].append((f, -1))
+    info, vals = [], []
+    for c in range(n):
+        info.append((len(vals), len(per_cell[c])))
+        vals += per_cell[c]
+    corners = np.array([(i * d, j * d) for j in range(ny + 1) for i in range(nx + 1)])
+    return dict(n=n, n_ghost=ghost - n, centres=centres, faces=faces, normals=np.array(normals), mids=np.array(mids),
+                info=np.array(info, dtype=np.int32), vals=np.array(vals, dtype=np.int32), corners=corners,
+                fpts=np.array(fpts, dtype=np.int32), d=d)
+
+
+def write_ras_hdf(path, mesh, *, name="Breach Area", times=3, units="SI Units", results=True, cell_velocity=False,
+                  scale=(0.5, 1.0, 1.5), wkt=None, chunks=True):
+    """HEC-RAS writes its time series chunked (``chunks=True``); contiguous ones occur in other writers' files."""
+    n, d = mesh["n"], mesh["d"]
+    with h5py.File(path, "w") as f:
+        f.attrs["File Type"] = np.bytes_(b"HEC-RAS Results")
+        f.attrs["Units System"] = np.bytes_(units.encode())
+        if wkt:
+            f.attrs["Projection"] = np.bytes_(wkt.encode())
+        attrs = np.array([(name.encode(), 0.03, n)], dtype=[("Name", "S16"), ("Mann", "<f4"), ("Cell Count", "<i4")])
+        f.create_dataset(f"{AREAS}/Attributes", data=attrs)
+        g = f"{AREAS}/{name}"
+        ghost_xy = np.full((mesh["n_ghost"], 2), -1.0)
+        f[f"{g}/Cells Center Coordinate"] = np.vstack([mesh["centres"], ghost_xy])
+        x, y = mesh["centres"].T
+        f[f"{g}/Cells Minimum Elevation"] = np.concatenate([BED(x, y), np.full(mesh["n_ghost"], np.nan)]).astype("f4")
+        f[f"{g}/Faces Cell Indexes"] = mesh["faces"].astype(np.int32)
+        f[f"{g}/Faces NormalUnitVector and Length"] = np.column_stack([mesh["normals"], np.full(len(mesh["faces"]), d)]).astype("f4")
+        f[f"{g}/Cells Face and Orientation Info"] = np.vstack([mesh["info"], np.zeros((mesh["n_ghost"], 2), np.int32)])
+        f[f"{g}/Cells Face and Orientation Values"] = mesh["vals"]
+        f[f"{g}/FacePoints Coordinate"] = mesh["corners"]
+        f[f"{g}/Faces FacePoint Indexes"] = mesh["fpts"]
+        if not results:
+            return path
+        stamps = [f"01JAN2024 0{k}:00:00:000".encode() for k in range(times)]
+        f[f"{SERIES}/Time Date Stamp (ms)"] = np.array(stamps, dtype="S22")
+        s = np.array(scale[:times])[:, None]
+        ws = np.concatenate([np.broadcast_to(WSE(x, y), (times, n)), np.zeros((times, mesh["n_ghost"]))], axis=1)
+        f.create_dataset(f"{SERIES}/2D Flow Areas/{name}/Water Surface", data=ws.astype("f4"), chunks=chunks or None)
+        mx, my = mesh["mids"].T
+        fv = s * (mesh["normals"][:, 0] * U(mx, my) + mesh["normals"][:, 1] * V(mx, my))[None, :]
+        f.create_dataset(f"{SERIES}/2D Flow Areas/{name}/Face Velocity", data=fv.astype("f4"), chunks=chunks or None)
+        if cell_velocity:
+            ghost0 = np.zeros((times, mesh["n_ghost"]))
+            f[f"{SERIES}/2D Flow Areas/{name}/Cell Velocity - Velocity X"] = np.concatenate([s * 2.0 * np.ones((1, n)), ghost0], axis=1)
+            f[f"{SERIES}/2D Flow Areas/{name}/Cell Velocity - Velocity Y"] = np.concatenate([s * -1.0 * np.ones((1, n)), ghost0], axis=1)
+    return path
+
+
+@pytest.fixture()
+def mesh():
+    return square_mesh(12, 8, 25.0)
+
+
+def test_plan_hdf_cells_water_surface_and_face_velocities_reconstructed(tmp_path, mesh):
+    p = write_ras_hdf(tmp_path / "breach.p01.hdf", mesh)
+    assert guess_format([p]) == "hecras_hdf" and "hecras_hdf" in READERS.available()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        ds = open_snapshot(p)
+    x, y = node_coordinates(ds)
+    np.testing.assert_allclose(np.column_stack([x, y]), mesh["centres"])
+    assert ds.sizes["node"] == mesh["n"] and ds.sizes["time"] == 3
+    np.testing.assert_array_equal(ds.time.values, np.array(["2024-01-01T00", "2024-01-01T01", "2024-01-01T02"], dtype="datetime64[ns]"))
+    np.testing.assert_allclose(ds.bed_elevation.values, BED(x, y), rtol=1e-6)           # float32 in the file
+    np.testing.assert_allclose(ds.depth.values[1], WSE(x, y) - BED(x, y), atol=2e-5)
+    for k, s in enumerate((0.5, 1.0, 1.5)):  # least squares over the 4 faces is exact for linear fields on squares
+        np.testing.assert_allclose(ds.u.values[k], s * U(x, y), atol=2e-6)
+        np.testing.assert_allclose(ds.v.values[k], s * V(x, y), atol=2e-6)
+    # triangles join face-sharing cells only: every edge is between horizontal / vertical neighbours or a diagonal
+    f = mesh_face_nodes(ds)
+    assert f.shape[0] == 2 * 11 * 7
+    edge = np.hypot(x[f] - x[np.roll(f, 1, axis=1)], y[f] - y[np.roll(f, 1, axis=1)])
+    assert edge.max() <= 25.0 * np.sqrt(2) + 1e-9
+    assert ds.attrs["source_length_unit"] == "m" and "Breach Area (96 cells)" in ds.attrs["source_mesh_areas"]
+
+
+def test_us_customary_units_cell_velocity_datasets_and_crs(tmp_path, mesh):
+    wkt = ('PROJCS["NAD_1983_StatePlane_Indiana_East_FIPS_1301_Feet",GEOGCS["GCS_North_American_1983",DATUM["D_North_American_1983",'
+           'SPHEROID["GRS_1980",6378137.0,298.257222101]],PRIMEM["Greenwich",0.0],UNIT["Degree",0.0174532925199433]],'
+           'PROJECTION["Transverse_Mercator"],PARAMETER["False_Easting",328083.333],PARAMETER["False_Northing",820208.333],'
+           'PARAMETER["Central_Meridian",-85.6666666666667],PARAMETER["Scale_Factor",0.999966667],'
+           'PARAMETER["Latitude_Of_Origin",37.5],UNIT["US survey foot",0.304800609601219]]')
+    p = write_ras_hdf(tmp_path / "ft.p02.hdf", mesh, units="US Customary", cell_velocity=True, times=2, wkt=wkt,
+                      chunks=False)
+    ds = open_snapshot(p)
+    x, y = node_coordinates(ds)
+    np.testing.assert_allclose(x, mesh["centres"][:, 0] * 0.3048)
+    np.testing.assert_allclose(ds.u.values[1], 2.0 * 0.3048, rtol=1e-12)  # the Cell Velocity datasets win
+    np.testing.assert_allclose(ds.v.values[0], -0.5 * 0.3048, rtol=1e-12)
+    assert ds.attrs["source_length_unit_from"] == "Units System: US Customary" and "crs" in ds.variables
+
+
+def test_geometry_hdf_alone_is_a_terrain_and_missing_data_are_named(tmp_path, mesh):
+    g = write_ras_hdf(tmp_path / "breach.g01.hdf", mesh, results=False)
+    ds = open_snapshot(g)
+    x, y = node_coordinates(ds)
+    assert (ds.depth.values == 0).all() and "time" not in ds.dims
+    np.testing.assert_allclose(ds.bed_elevation.values, BED(x, y), rtol=1e-6)
+    p = write_ras_hdf(tmp_path / "other.p01.hdf", mesh, name="Other")
+    with pytest.raises(InputError, match="mesh_name='Nope': the 2-D flow areas are Other"):
+        open_snapshot(p, mesh_name="Nope")
+    with h5py.File(p, "a") as f:
+        del f[f"{AREAS}/Other/Cells Minimum Elevation"]
+    with pytest.raises(ParseError, match="Cells Minimum Elevation' is missing .*geometry HDF"):
+        open_snapshot(p)
+    # the geometry from a separate g01 file
+    both = open_snapshot([p, write_ras_hdf(tmp_path / "other.g01.hdf", mesh, name="Other", results=False)])
+    assert both.sizes["time"] == 3
+    junk = tmp_path / "junk.hdf"
+    junk.write_text("not hdf")
+    with pytest.raises(ParseError, match="not an HDF5 file"):
+        open_snapshot(junk)
+
+
+MUNCIE = Path(__file__).parent / "data" / "hecras" / "Muncie_Perimeter_NW.g05.hdf"
+
+
+def test_real_geometry_file_muncie_reads_as_a_terrain():
+    """A real HEC-RAS 6.5 geometry (USACE Muncie example, the 'Perimeter_NW' area, subset of rashdf's test file)."""
+    ds = open_snapshot(MUNCIE)
+    with h5py.File(MUNCIE) as f:
+        attrs = f[f"{AREAS}/Attributes"][()]
+        n = int(attrs["Cell Count"][0])
+        g = f[f"{AREAS}/Perimeter_NW"]
+        cc = g["Cells Center Coordinate"][:n]
+        zmin = g["Cells Minimum Elevation"][:n].astype(float)
+    assert ds.sizes["node"] == n and ds.attrs["source_length_unit"] == "ft"
+    x, y = node_coordinates(ds)
+    np.testing.assert_allclose(x, cc[:, 0] * 0.3048)
+    np.testing.assert_allclose(ds.bed_elevation.values, zmin * 0.3048)
+    assert 900 < zmin.min() and zmin.max() < 1000  # ft: the Muncie terrain (White River, Indiana)
+    assert mesh_face_nodes(ds).shape[0] > n  # a connected triangulation of the cell centres
+    assert "crs" in ds.variables
