@@ -196,3 +196,14 @@ def test_real_geometry_file_muncie_reads_as_a_terrain():
     assert 900 < zmin.min() and zmin.max() < 1000  # ft: the Muncie terrain (White River, Indiana)
     assert mesh_face_nodes(ds).shape[0] > n  # a connected triangulation of the cell centres
     assert "crs" in ds.variables
+
+
+def test_cli_ingests_a_hecras_hdf(tmp_path, mesh):
+    from typer.testing import CliRunner
+
+    from breachflow.cli import app
+
+    p = write_ras_hdf(tmp_path / "breach.p01.hdf", mesh)
+    r = CliRunner().invoke(app, ["ingest", str(p), "--mesh-name", "Breach Area", "-o", str(tmp_path / "s.nc")])
+    assert r.exit_code == 0, r.output
+    assert "96 nodes" in r.output and "hecras_hdf" in r.output

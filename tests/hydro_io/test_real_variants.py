@@ -270,3 +270,14 @@ def test_terrain_nodata_is_named_by_row_and_column_from_the_top(formats, tmp_pat
     p = _write(tmp_path, "terrain.asc", (formats / "depth_max.asc").read_text())
     with pytest.raises(InputError, match=r"terrain\.asc:7: terrain has NODATA at row 1, column 1 \(from the top"):
         open_snapshot(p, units="m")
+
+
+def test_unsupported_cards_are_named_with_their_line(formats, tmp_path):
+    lines = _lines(formats / "adh_demo.3dm")
+    p = _write(tmp_path, "u.3dm", "\n".join(lines[:2] + ["BEGBC 1 2", "FOO 1"] + lines[2:] + ["FOO 2"]) + "\n")
+    with pytest.warns(BreachflowWarning, match=r"ignored unsupported card\(s\) 'BEGBC' \(line 3\), 'FOO' \(line 4, 2 times\)"):
+        read_mesh(p)
+    dep = _lines(formats / "adh_demo_dep.dat")
+    q = _write(tmp_path, "u_dep.dat", "\n".join(dep[:6] + ["GRIDINFO 3"] + dep[6:]) + "\n")
+    with pytest.warns(BreachflowWarning, match=r"ignored unsupported card\(s\) 'GRIDINFO' \(line 7\)"):
+        read_dat(q)

@@ -56,7 +56,7 @@ def _print(title: str, ds) -> None:
 def register(app: typer.Typer) -> None:
     @app.command()
     def ingest(
-        files: List[Path] = typer.Argument(..., help="Model export files forming one snapshot (mesh + .dat + .bc; .asc grids; one .sdf)."),
+        files: List[Path] = typer.Argument(..., help="Model export files forming one snapshot (mesh + .dat + .bc; .asc grids; one .sdf; a HEC-RAS .hdf)."),
         output: Path = typer.Option(..., "-o", "--output", help="Snapshot NetCDF file to write (atomically)."),
         format: Optional[str] = typer.Option(None, "--format", "-f", help="Reader name (default: from the extensions)."),
         units: Optional[str] = typer.Option(None, "--units", help="Length unit of files that carry none: m or ft."),
@@ -66,7 +66,8 @@ def register(app: typer.Typer) -> None:
         plausibility: str = typer.Option("raise", "--plausibility", help="raise | warn | off"),
         bed: Optional[str] = typer.Option(None, "--bed", help="Bed elevation with unit when no terrain grid is given (asc)."),
         velocity_direction: Optional[float] = typer.Option(None, "--velocity-direction", help="Degrees anticlockwise from +x for speed-only grids (asc)."),
-        role: List[str] = typer.Option([], "--role", help="FILE=ROLE for .asc grids (depth, water_surface, bed, u, v, speed)."),
+        role: List[str] = typer.Option([], "--role", help="FILE=ROLE for grids (depth, water_surface, bed, u, v, speed); NAME=ROLE for .dat datasets (depth, water_surface, velocity, ignore; NAME = dataset NAME or file name)."),
+        mesh_name: Optional[str] = typer.Option(None, "--mesh-name", help="HEC-RAS HDF: read only this 2-D flow area."),
     ) -> None:
         """Read hydrodynamic model exports, check them and write one SI snapshot NetCDF (CF, UGRID for meshes)."""
         from ..errors import InputError
@@ -82,6 +83,8 @@ def register(app: typer.Typer) -> None:
             options["bed"] = bed
         if velocity_direction is not None:
             options["velocity_direction"] = velocity_direction
+        if mesh_name:
+            options["mesh_name"] = mesh_name
         if role:
             roles = {}
             for r in role:

@@ -99,6 +99,7 @@ class _MeshAccumulator:
         self.elems = []      # (kind, array (n, 1 + k + 1), lines)
         self.name = ""
         self.unknown: dict[str, int] = {}
+        self.unknown_line: dict[str, int] = {}
         self.skip_until: str | None = None
         self.skip_from = 0
         self.ns_open = False
@@ -155,6 +156,7 @@ class _MeshAccumulator:
             if self.strict:
                 raise ParseError(f"unknown card {toks[0][:30]!r} (strict mode)", path=self.path, line=lineno)
             self.unknown[toks[0][:30]] = self.unknown.get(toks[0][:30], 0) + 1
+            self.unknown_line.setdefault(toks[0][:30], lineno)
 
     def _node_string(self, toks, lineno):
         """``NS n1 n2 ... -nN [string id] [name]``; a string may go on over several lines / NS cards."""
@@ -181,6 +183,7 @@ class _MeshAccumulator:
         if self.strict:
             raise ParseError("node string not terminated by a negative node id", path=self.path, line=lineno - 1)
         self.unknown["unterminated NS"] = self.unknown.get("unterminated NS", 0) + 1
+        self.unknown_line.setdefault("unterminated NS", self.ns_line)
 
     def run(self, card: str, block: bytes, n: int, first_line: int):
         """A run of *n* consecutive lines that all start with *card* (fast path)."""
@@ -266,6 +269,10 @@ def read_mesh(path, *, strict: bool = False) -> MeshData:
         raise ParseError("empty file: no MESH2D card", path=path, line=max(last_line, 1))
     if acc.ns_open:
         acc._close_ns(last_line + 1)
+    if acc.unknown:
+        warnings.warn(f"{path}: ignored unsupported card(s) " + ", ".join(
+            f"{k!r} (line {acc.unknown_line[k]}" + (f", {n} times)" if n > 1 else ")") for k, n in acc.unknown.items())
+            + "; strict=True makes them errors", BreachflowWarning, stacklevel=2)
     return _assemble_mesh(acc)
 
 
@@ -570,14 +577,15 @@ def read_dat(path, *, strict: bool = False) -> list[DatDataset]:
             else:
                 if strict:
                     raise ParseError(f"unknown card {toks[0][:30]!r} (strict mode)", path=path, line=lineno)
-                unknown[toks[0][:30]] = unknown.get(toks[0][:30], 0) + 1
+                unknown.setdefault(toks[0][:30], lineno)
         if cur is not None:
             if not legacy:
                 warnings.warn(f"{path}: dataset {cur.name!r} has no ENDDS (crashed or running model?); "
                               f"kept {len(cur.times)} complete time step(s)", BreachflowWarning, stacklevel=2)
             out.append(cur)
     if unknown:
-        warnings.warn(f"{path}: ignored unknown card(s) {', '.join(sorted(unknown))}", BreachflowWarning, stacklevel=2)
+        warnings.warn(f"{path}: ignored unsupported card(s) " + ", ".join(f"{k!r} (line {n})" for k, n in unknown.items())
+                      + "; strict=True makes them errors", BreachflowWarning, stacklevel=2)
     if not out:
         raise ParseError("no dataset (BEGSCL/BEGVEC block) in the file", path=path)
     return out
