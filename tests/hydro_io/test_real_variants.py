@@ -123,14 +123,41 @@ def test_tabs_as_separators(mdal):
     assert d.name == "VertexScalarDataset" and d.values[0].tolist() == [1.0, 2.0, 3.0, 2.0, 1.0]
 
 
-def test_binary_sms_dataset_is_named_as_not_supported(mdal, tmp_path):
-    with pytest.raises(ParseError, match="binary SMS dataset .*not supported") as ei:
-        read_dat(mdal / "quad_and_triangle_binary.dat")
-    assert ei.value.line == 1
-    with pytest.raises(ParseError, match="binary SMS dataset"):
-        open_snapshot([mdal / "quad_and_triangle.2dm", mdal / "quad_and_triangle_binary.dat"], units="m")
+def test_binary_sms_dataset_is_read(mdal, tmp_path):
+    """MDAL's expectations for its binary sample: "Water Depth (m)", one step at t = 0, values 1, 2, ..."""
+    with pytest.warns(BreachflowWarning, match="without ENDDS"):
+        d = read_dat(mdal / "quad_and_triangle_binary.dat")
+    assert len(d) == 1 and d[0].name == "Water Depth (m)" and not d[0].vector
+    assert d[0].times == [0.0] and d[0].values[0].tolist() == [1.0, 2.0, 3.0, 4.0, 5.0]
+    assert d[0].status[0].tolist() == [1, 1]
+    with pytest.warns(BreachflowWarning):
+        snap = open_snapshot([mdal / "quad_and_triangle.2dm", mdal / "quad_and_triangle_binary.dat"], units="m",
+                             plausibility="off")
+    assert snap.depth.values[0].tolist() == [1.0, 2.0, 3.0, 4.0, 5.0]
+    assert "binary SMS dataset without TIMEUNITS card: hours" in snap.attrs["source_time_units"]
+    # a binary vector dataset with TIMEUNITS (seconds), two steps and a TUFLOW maximum step, written here
+    import struct as st
+
+    def card(c, fmt="", *v):
+        return st.pack("<i", c) + (st.pack("<" + fmt, *v) if fmt else b"")
+    body = (card(3000) + card(100, "i", 3) + card(110, "i", 4) + card(120, "i", 1) + card(140) + card(150, "i", 0)
+            + card(170, "i", 5) + card(180, "i", 2) + card(190) + b"Velocity".ljust(40, b"\0") + card(250, "i", 2))
+    for t, k in ((0.0, 1.0), (60.0, 2.0), (99999.0, 9.0)):
+        body += card(200) + b"\0" + st.pack("<f", t) + np.array([[k, -k]] * 5, dtype="<f4").tobytes()
+    body += card(210)
+    vel = _write(tmp_path, "v.dat", body)
+    with pytest.warns(BreachflowWarning, match="99999 .*TUFLOW maxima"):
+        v = read_dat(vel)[0]
+    assert v.vector and v.times == [0.0, 60.0] and v.time_units == "SECONDS" and v.complete
+    np.testing.assert_array_equal(v.values[1], [[2.0, -2.0]] * 5)
+    big = _write(tmp_path, "b.dat", st.pack(">i", 3000) + b"\0" * 8)
+    with pytest.raises(ParseError, match="big-endian binary SMS dataset .*not supported"):
+        read_dat(big)
     with pytest.raises(ParseError, match="binary file"):
         read_dat(_write(tmp_path, "x.dat", b"DATASET\0\0\1\2"))
+    trunc = _write(tmp_path, "t.dat", body[:-30])
+    with pytest.raises(ParseError, match="ends inside the values of the step"):
+        read_dat(trunc)
 
 
 # ---------------------------------------------------------------- roles and time units

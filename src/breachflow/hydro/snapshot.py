@@ -400,7 +400,7 @@ def flag_implausible(ds: xr.Dataset, name: str, values, dims: tuple, limits: tup
         loc = locate(key or name, dict(zip(dims, (int(i) for i in np.unravel_index(int(k), shape)))))
         if loc is not None:
             path, line, note = loc
-            msg = f"{path}:{line}: {msg}" + (f" ({note})" if note else "")
+            msg = (f"{path}:{line}: " if line is not None else f"{path}: ") + msg + (f" ({note})" if note else "")
     if worst > error_at and mode == "raise":
         raise ImplausibleValueError(f"{msg} (above {error_at:g} {unit}; {hint})", path=path, line=line)
     warnings.warn(f"{msg} (above {warn_at:g} {unit}; {hint})", BreachflowWarning, stacklevel=3)

@@ -458,7 +458,10 @@ def read_dat(path, *, strict: bool = False) -> list[DatDataset]:
     and reported with a :class:`BreachflowWarning` naming the line.
     """
     path = Path(path)
-    _refuse_binary(path)
+    if _refuse_binary(path):
+        from .sms_binary import read_binary_dat
+
+        return read_binary_dat(path)
     out: list[DatDataset] = []
     unknown: dict[str, int] = {}
     els = "_els" in path.stem.lower()  # BASEMENT / MDAL convention: values per element (NC), not per node
@@ -680,15 +683,18 @@ def _count_value_lines(rd: LineReader) -> int:
 BINARY_DAT_MAGIC = (struct.pack("<i", 3000), struct.pack(">i", 3000))
 
 
-def _refuse_binary(path: Path) -> None:
+def _refuse_binary(path: Path) -> bool:
+    """True for a binary SMS dataset (read by :mod:`.sms_binary`); other binary files are refused."""
     try:
         with open(path, "rb") as fh:
             head = fh.read(512)
     except OSError as exc:
         raise ParseError(f"cannot open file ({exc.strerror})", path=path) from None
-    if head[:4] in BINARY_DAT_MAGIC:
-        raise ParseError("binary SMS dataset (version card 3000): not supported; export it from SMS as an ASCII "
-                         "dataset (.dat with DATASET / BEGSCL cards)", path=path, line=1)
+    if head[:4] == BINARY_DAT_MAGIC[0]:
+        return True
+    if head[:4] == BINARY_DAT_MAGIC[1]:
+        raise ParseError("big-endian binary SMS dataset (version card 3000): not supported; export it from SMS as "
+                         "an ASCII dataset (.dat with DATASET / BEGSCL cards)", path=path, line=1)
     if b"\0" in head:
         raise ParseError("binary file (NUL bytes): not a text (ASCII) file of this format", path=path, line=1)
 
@@ -956,8 +962,11 @@ def open_adh(paths, *, units=None, crs=None, strict=False, time_units=None, plau
         spu = t_override
         if spu is not None:
             note = f"{time_units} (time_units option)"
+        elif d.time_units is not None and d.time_units_line == 0:
+            note = f"{d.time_units} (binary SMS dataset without TIMEUNITS card: hours, as SMS and MDAL)"
         elif d.time_units is not None:
-            note = f"{d.time_units} (TIMEUNITS card, {d.path.name} line {d.time_units_line})"
+            where = f"line {d.time_units_line}" if d.time_units_line else "binary card 250"
+            note = f"{d.time_units} (TIMEUNITS card, {d.path.name} {where})"
         elif bc is not None and bc.output_time_code is not None:
             spu = ADH_TIME_CODES[bc.output_time_code]
             note = f"{spu:g} s per unit (SERIES AWRITE output code {bc.output_time_code} in {bc.path.name})"
@@ -1078,6 +1087,8 @@ def _locator(mesh: MeshData, scalar: DatDataset, vel: DatDataset | None, scalar_
                     + ", ".join(str(int(mesh.face_lines[f])) for f in touching[:6]) if mesh.face_lines is not None else "")
             first = ds.value_lines[step]
             return (str(ds.path), int(first + touching[0]) if touching.size else ds.ts_lines[step], note)
+        if ds.value_lines[step] is None:  # binary dataset: no lines
+            return (str(ds.path), None, f"binary dataset, time step {step}, value {_dataset_row(ds, mesh, node) + 1}")
         return (str(ds.path), int(ds.value_lines[step] + _dataset_row(ds, mesh, node)), "")
 
     def locate(key, idx):
