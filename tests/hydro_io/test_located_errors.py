@@ -3,7 +3,6 @@ without nodes are errors that name the file and the line (grids: row and column 
 """
 import re
 
-import numpy as np
 import pytest
 
 from breachflow import InputError

@@ -2,7 +2,6 @@
 GDAL, old HEC-RAS exports), each allowed by the format as those tools write it. Each test builds the
 construct into a copy of a sample and checks the values read against the sample read without it.
 """
-import struct
 import warnings
 
 import numpy as np

@@ -49,7 +49,7 @@ class _Bytes:
 
 def read_binary_dat(path) -> list:
     """Parse a binary SMS dataset file (see the module doc) into :class:`~.adh.DatDataset` objects."""
-    from .adh import DatDataset
+    from .sms_dat import DatDataset
 
     path = Path(path)
     rd = _Bytes(path)
