@@ -288,6 +288,11 @@ def _scan_chunk(acc: _MeshAccumulator, block: bytes, first_line: int) -> None:
             acc.run(codes[k], block[starts[a]:ends[b - 1] + 1], int(b - a), first_line + int(a))
 
 
+def _small_int(a: np.ndarray) -> np.ndarray:
+    """Line numbers in the narrowest integer type that holds them (memory of million-node meshes)."""
+    return a.astype(np.int32 if a.size == 0 or a.max() < 2**31 - 1 else np.int64)
+
+
 def _ids(col: np.ndarray, lines: np.ndarray, path, what: str) -> np.ndarray:
     """Integer ids of a 1-D or 2-D float column block; *lines* holds one line number per row."""
     bad = (col != np.floor(col)) | (np.abs(col) > 2**62)
@@ -375,5 +380,5 @@ def _assemble_mesh(acc: _MeshAccumulator) -> MeshData:
         mat = mat[eorder]
         elines = elines[eorder]
     return MeshData(path, sid, x, y, z, se, np.ascontiguousarray(idx), mat, acc.name, dict(acc.unknown),
-                    node_lines=nlines[order].astype(np.int64), face_lines=elines.astype(np.int64),
+                    node_lines=_small_int(nlines[order]), face_lines=_small_int(elines),
                     node_strings=acc.node_strings)
