@@ -207,3 +207,23 @@ def test_cli_ingests_a_hecras_hdf(tmp_path, mesh):
     r = CliRunner().invoke(app, ["ingest", str(p), "--mesh-name", "Breach Area", "-o", str(tmp_path / "s.nc")])
     assert r.exit_code == 0, r.output
     assert "96 nodes" in r.output and "hecras_hdf" in r.output
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_face_velocity_reconstruction_is_exact_for_uniform_flow_on_any_polygon(seed):
+    from breachflow.hydro.io.hecras_hdf import cell_velocity_lsq
+
+    rng = np.random.default_rng(seed)
+    counts = rng.integers(3, 9, size=50)                       # polygon cells with 3..8 faces
+    n_face = int(counts.sum())
+    ang = rng.uniform(0, 2 * np.pi, n_face)
+    normals = np.column_stack([np.cos(ang), np.sin(ang)])
+    lengths = rng.uniform(0.5, 20.0, n_face)
+    order = rng.permutation(n_face)                            # faces listed in any order
+    info = np.column_stack([np.cumsum(counts) - counts, counts])
+    values = np.column_stack([order, np.ones(n_face, int)])
+    uv = rng.normal(size=(4, 50, 2))                           # 4 steps, one uniform velocity per cell
+    cell_of_row = np.repeat(np.arange(50), counts)
+    fv = np.zeros((4, n_face))
+    fv[:, order] = np.einsum("tcj,cj->tc", uv[:, cell_of_row], normals[order])
+    np.testing.assert_allclose(cell_velocity_lsq(normals, lengths, fv, info, values), uv, atol=1e-10)

@@ -56,19 +56,23 @@ def cell_velocity_lsq(normals: np.ndarray, lengths: np.ndarray, face_v: np.ndarr
 
     Per cell the faces listed in ``Cells Face and Orientation`` (*info* rows ``start, count``; *values*
     column 0 the face index) give ``u = (Σ L n nᵀ)⁻¹ Σ L V n`` (pseudo-inverse when the normals are not
-    independent).
+    independent). Vectorised: the sums are one sparse product per component, the 2 × 2 solves batched.
     """
+    from scipy.sparse import csr_matrix
+
     n_cell = info.shape[0]
-    nt = face_v.shape[0]
-    out = np.zeros((nt, n_cell, 2))
-    for c in range(n_cell):
-        s, k = int(info[c, 0]), int(info[c, 1])
-        f = values[s:s + k, 0].astype(np.int64)
-        nrm, w = normals[f], lengths[f]
-        a = (nrm * w[:, None]).T @ nrm
-        rhs = (face_v[:, f] * w[None, :]) @ nrm  # (nt, 2)
-        out[:, c, :] = rhs @ np.linalg.pinv(a).T
-    return out
+    counts = info[:, 1].astype(np.int64)
+    cell = np.repeat(np.arange(n_cell), counts)
+    first = np.cumsum(counts) - counts                      # position of each cell's first pair in `cell`
+    rows = np.arange(cell.size) - np.repeat(first, counts) + np.repeat(info[:, 0].astype(np.int64), counts)
+    face = values[rows, 0].astype(np.int64)
+    nrm, w = normals[face], lengths[face]
+    a = np.zeros((n_cell, 2, 2))
+    np.add.at(a, cell, w[:, None, None] * nrm[:, :, None] * nrm[:, None, :])
+    pick = csr_matrix((np.ones(face.size), (cell, np.arange(face.size))), shape=(n_cell, face.size))
+    lv = face_v[:, face] * w[None, :]                      # (nt, m)
+    rhs = np.stack([(pick @ (lv * nrm[None, :, k]).T).T for k in (0, 1)], axis=-1)  # (nt, n_cell, 2)
+    return np.einsum("cij,tcj->tci", np.linalg.pinv(a), rhs)
 
 
 def _triangles(cx, cy, faces_cells, faces_points, n_cell) -> np.ndarray:
