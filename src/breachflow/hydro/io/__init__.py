@@ -128,7 +128,10 @@ def open_snapshot(paths, format: str | None = None, units=None, crs: str | None 
     *units*: the length unit of files that carry none (``"m"``, ``"ft"``; velocities are then in
     unit/s). *crs*: ``EPSG:nnnn``, WKT or a PROJ string overriding a ``.prj`` or header; it (or the
     files' CRS) must be in the files' length unit and is stored as WKT (re-expressed in metres). Reader-specific *options* are documented in
-    each reader module (e.g. ``strict=True`` rejects unknown cards; ``time_units=`` for .dat files).
+    each reader module (e.g. ``strict=True`` rejects unknown cards; ``time_units=`` for .dat files;
+    ``roles={"NAME or file": "depth" | "water_surface" | "velocity" | "ignore"}`` for .dat datasets and
+    ``roles={"file": "depth" | "water_surface" | "bed" | "u" | "v" | "speed"}`` for grids;
+    ``mesh_name=`` for HEC-RAS HDF). A mesh, geometry HDF or terrain grid alone reads as a terrain.
     """
     if isinstance(paths, (str, Path)):
         paths = [paths]
