@@ -307,3 +307,9 @@ def test_unsupported_cards_are_named_with_their_line(formats, tmp_path):
     q = _write(tmp_path, "u_dep.dat", "\n".join(dep[:6] + ["GRIDINFO 3"] + dep[6:]) + "\n")
     with pytest.warns(BreachflowWarning, match=r"ignored unsupported card\(s\) 'GRIDINFO' \(line 7\)"):
         read_dat(q)
+
+
+def test_old_vector_file(mdal):
+    d = _no_warnings(read_dat, mdal / "quad_and_triangle_vertex_vector_old.dat")[0]
+    assert d.vector and d.times == [0.0]
+    np.testing.assert_array_equal(d.values[0], [[1, 1], [2, 1], [3, 2], [2, 2], [1, -2]])
