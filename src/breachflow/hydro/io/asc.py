@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from ...errors import BreachflowWarning, InputError, ParseError
-from ._text import LineReader, as_text, block_values, parse_floats, to_float, to_int
+from ._text import LineReader, as_text, parse_floats, to_float, to_int
 
 
 @dataclass
