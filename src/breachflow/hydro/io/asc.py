@@ -334,8 +334,8 @@ def _locator(by_role: dict):
         j, i = idx["y"], idx["x"]
         if key in ("depth", "negative_depth"):
             g = by_role.get("depth") or by_role.get("water_surface")
-        elif key == "bed_elevation":
-            g = by_role.get("bed") or by_role.get("water_surface")
+        elif key == "bed_elevation":  # a terrain grid, or bed = wse - depth; None when bed= was given
+            g = by_role.get("bed") or (by_role.get("water_surface") if by_role.get("depth") is not None else None)
         else:
             g = by_role.get("speed")
             if "u" in by_role and "v" in by_role:
