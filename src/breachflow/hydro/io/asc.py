@@ -323,10 +323,10 @@ def open_asc(paths, *, units=None, crs=None, plausibility="raise", roles=None, b
                     source_grids="; ".join(f"{r}: {g.path.name}" for r, g in by_role.items()))
     if terrain_only:
         ds.attrs["breachflow_content"] = "terrain: a grid without results (depth 0, velocity 0)"
-    return check_plausibility(ds, mode=plausibility, raw_depth=np.nan_to_num(raw_depth), locate=_locator(by_role))
+    return check_plausibility(ds, mode=plausibility, raw_depth=np.nan_to_num(raw_depth), locate=_locator(by_role, bed_g is None and bed is not None))
 
 
-def _locator(by_role: dict):
+def _locator(by_role: dict, bed_from_user: bool):
     """``locate(key, index)`` for :func:`check_plausibility`: file, line, row and column from the top."""
     def locate(key, idx):
         if "y" not in idx or "x" not in idx:
@@ -334,8 +334,8 @@ def _locator(by_role: dict):
         j, i = idx["y"], idx["x"]
         if key in ("depth", "negative_depth"):
             g = by_role.get("depth") or by_role.get("water_surface")
-        elif key == "bed_elevation":  # a terrain grid, or bed = wse - depth; None when bed= was given
-            g = by_role.get("bed") or (by_role.get("water_surface") if by_role.get("depth") is not None else None)
+        elif key == "bed_elevation":  # a terrain grid, or bed = wse - depth; no file when bed= was given
+            g = None if bed_from_user else by_role.get("bed") or by_role.get("water_surface")
         else:
             g = by_role.get("speed")
             if "u" in by_role and "v" in by_role:
