@@ -227,3 +227,15 @@ def test_face_velocity_reconstruction_is_exact_for_uniform_flow_on_any_polygon(s
     fv = np.zeros((4, n_face))
     fv[:, order] = np.einsum("tcj,cj->tc", uv[:, cell_of_row], normals[order])
     np.testing.assert_allclose(cell_velocity_lsq(normals, lengths, fv, info, values), uv, atol=1e-10)
+
+
+def test_implausible_hdf_value_names_file_area_cell_and_step(tmp_path, mesh):
+    p = write_ras_hdf(tmp_path / "big.p01.hdf", mesh)
+    with h5py.File(p, "a") as f:
+        ws = f[f"{SERIES}/2D Flow Areas/Breach Area/Water Surface"]
+        a = ws[()]
+        a[2, 17] = 1e6
+        ws[...] = a
+    with pytest.raises(InputError, match=r"big\.p01\.hdf: depth: implausible water depth .*Water Surface of 2-D flow area "
+                                         r"'Breach Area', cell index 17, time step 2"):
+        open_snapshot(p)

@@ -204,7 +204,21 @@ def open_hecras_hdf(paths, *, units=None, crs=None, plausibility="raise", mesh_n
                                   "triangles = Delaunay triangles of cells meeting at a face point")
     if terrain:
         ds.attrs["breachflow_content"] = "terrain: a geometry HDF without results (depth 0, velocity 0)"
-    return check_plausibility(ds, mode=plausibility, raw_depth=None if terrain else depth)
+    starts = np.cumsum([0] + [counts[a] for a in chosen])
+    plan_file = source_files[0] if times is not None and len(hdfs) == 1 else None
+
+    def locate(key, idx):  # HDF has no lines: name the file, dataset, area, cell and step
+        node = idx.get("node")
+        if node is None:
+            return None
+        k = int(np.searchsorted(starts, node, side="right")) - 1
+        area, cell = names[chosen[k]], int(node - starts[k])
+        step = idx.get("time")
+        what = {"bed_elevation": "Cells Minimum Elevation", "speed": "Face Velocity / Cell Velocity"}.get(key, "Water Surface")
+        where = f"{what} of 2-D flow area {area!r}, cell index {cell}" + (f", time step {step}" if step is not None else "")
+        return (plan_file or source_files[-1], None, where)
+
+    return check_plausibility(ds, mode=plausibility, raw_depth=None if terrain else depth, locate=locate)
 
 
 def _series(plan, name: str, var: str, n: int | None) -> np.ndarray:
