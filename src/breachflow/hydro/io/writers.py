@@ -37,15 +37,20 @@ def _unit_factor(units) -> float:
 
 
 def _write_all(files: dict) -> list[Path]:
-    """Write ``{path: text}`` atomically as a set (temporary files renamed only when all succeeded)."""
+    """Write ``{path: text or iterable of text chunks}`` atomically as a set (temporary files renamed only
+    when all succeeded); chunks keep the memory of large meshes near one time step's text."""
     from ...output.atomic import atomic_path
 
     with contextlib.ExitStack() as stack:
         for path, text in files.items():
             tmp = stack.enter_context(atomic_path(path))
             with open(tmp, "w", encoding="utf-8", newline="\n") as fh:
-                fh.write(text)
+                for chunk in ([text] if isinstance(text, str) else text):
+                    fh.write(chunk)
     return list(files)
+
+
+CHUNK_ROWS = 100_000
 
 
 def _times(ds: xr.Dataset):
@@ -66,15 +71,17 @@ def _step_values(da: xr.DataArray) -> np.ndarray:
     return a[None] if "time" not in da.dims else a
 
 
-def _fmt_block(values: np.ndarray) -> str:
-    """One ``%16.8e`` row per node (ADH's format); *values* is ``(n,)`` or ``(n, k)``."""
+def _fmt_block(values: np.ndarray):
+    """One ``%16.8e`` row per node (ADH's format), in chunks of text; *values* is ``(n,)`` or ``(n, k)``."""
     v = np.atleast_2d(values.T).T if values.ndim == 1 else values
-    fmt = " ".join(["%16.8e"] * v.shape[1])
-    return "\n".join(fmt % tuple(r) for r in v) + "\n"
+    fmt = " ".join(["%16.8e"] * v.shape[1]) + "\n"
+    for a in range(0, v.shape[0], CHUNK_ROWS):
+        part = v[a:a + CHUNK_ROWS]
+        yield (fmt * part.shape[0]) % tuple(part.ravel().tolist())  # one C-level format per chunk
 
 
 def adh_texts(snapshot: xr.Dataset, prefix, *, units: str = "m", name: str | None = None) -> dict:
-    """The ``{path: text}`` of :func:`write_adh` (without writing)."""
+    """The ``{path: text or generator of text chunks}`` of :func:`write_adh` (without writing)."""
     ds = snapshot
     if not is_mesh(ds):
         from .meshing import grid_to_mesh
@@ -88,31 +95,38 @@ def adh_texts(snapshot: xr.Dataset, prefix, *, units: str = "m", name: str | Non
     n_node, n_face = x.size, faces.shape[0]
     mat = np.asarray(ds["material"].values, dtype=int) if "material" in ds.variables else np.ones(n_face, int)
     mat = np.where(mat >= 1, mat, 1)
-    # mesh: elements before nodes, as ADH writes them; ids 1..n in the snapshot's node order
-    lines = ["MESH2D", f'MESHNAME "{name or prefix.name}"']
-    for e in range(n_face):
-        f = faces[e][faces[e] >= 0] + 1
-        card = "E3T" if f.size == 3 else "E4Q"
-        lines.append(f"{card} {e + 1} {' '.join(map(str, f))} {mat[e]}")
-    lines += [f"ND {i + 1} {x[i] * k:.12g} {y[i] * k:.12g} {bed[i] * k:.12g}" for i in range(n_node)]
-    mesh = "\n".join(lines) + "\n"
+    def mesh():  # elements before nodes, as ADH writes them; ids 1..n in the snapshot's node order
+        yield f'MESH2D\nMESHNAME "{name or prefix.name}"\n'
+        for a in range(0, n_face, CHUNK_ROWS):
+            lines = []
+            for e, row, m in zip(range(a, a + CHUNK_ROWS), faces[a:a + CHUNK_ROWS].tolist(), mat[a:a + CHUNK_ROWS].tolist()):
+                f = [i + 1 for i in row if i >= 0]
+                lines.append(f"{'E3T' if len(f) == 3 else 'E4Q'} {e + 1} {' '.join(map(str, f))} {m}")
+            yield "\n".join(lines) + "\n"
+        for a in range(0, n_node, CHUNK_ROWS):
+            rows = zip(range(a + 1, a + CHUNK_ROWS + 1), (x[a:a + CHUNK_ROWS] * k).tolist(), (y[a:a + CHUNK_ROWS] * k).tolist(),
+                       (bed[a:a + CHUNK_ROWS] * k).tolist())
+            flat = [v for r in rows for v in r]
+            yield ("ND %d %.12g %.12g %.12g\n" * (len(flat) // 4)) % tuple(flat)
+
     secs, jd = _times(ds)
     head = ["DATASET", 'OBJTYPE "mesh2d"']
 
-    def dataset(kind, title, steps):
+    def dataset(kind, title, step):
         out = head + [kind] + (["VECTYPE 0"] if kind == "BEGVEC" else []) + [f"ND {n_node}", f"NC {n_face}", f'NAME "{title}"']
         if jd is not None:
             out.append(f"RT_JULIAN {jd:.8f}")
         out.append("TIMEUNITS SECONDS")
-        text = "\n".join(out) + "\n"
-        for t, vals in zip(secs, steps):
-            text += f"TS 0 {t:16.8e}\n" + _fmt_block(vals)
-        return text + "ENDDS\n"
+        yield "\n".join(out) + "\n"
+        for i, t in enumerate(secs):
+            yield f"TS 0 {t:16.8e}\n"
+            yield from _fmt_block(step(i))
+        yield "ENDDS\n"
 
-    depth = _step_values(ds["depth"]) * k
-    u, v = _step_values(ds["u"]) * k, _step_values(ds["v"]) * k
-    dep = dataset("BEGSCL", "Depth", depth)
-    vel = dataset("BEGVEC", "Depth-Averaged Velocity", [np.column_stack([a, b, np.zeros_like(a)]) for a, b in zip(u, v)])
+    depth = _step_values(ds["depth"])
+    u, v = _step_values(ds["u"]), _step_values(ds["v"])
+    dep = dataset("BEGSCL", "Depth", lambda i: depth[i] * k)
+    vel = dataset("BEGVEC", "Depth-Averaged Velocity", lambda i: np.column_stack([u[i] * k, v[i] * k, np.zeros(n_node)]))
     g = 9.81 if abs(k - 1.0) < 1e-12 else 9.80665 * k
     bc = "\n".join([
         "! ADH boundary-condition file written by breachflow: units and output times only (not a model setup)",
@@ -126,7 +140,7 @@ def adh_texts(snapshot: xr.Dataset, prefix, *, units: str = "m", name: str | Non
     ]) + "\n"
     stem = prefix.name
     d = prefix.parent
-    return {d / f"{stem}.3dm": mesh, d / f"{stem}_dep.dat": dep, d / f"{stem}_vel.dat": vel, d / f"{stem}.bc": bc}
+    return {d / f"{stem}.3dm": mesh(), d / f"{stem}_dep.dat": dep, d / f"{stem}_vel.dat": vel, d / f"{stem}.bc": bc}
 
 
 def write_adh(snapshot: xr.Dataset, prefix, *, units: str = "m", name: str | None = None) -> list[Path]:
