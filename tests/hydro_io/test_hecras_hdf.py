@@ -239,3 +239,33 @@ def test_implausible_hdf_value_names_file_area_cell_and_step(tmp_path, mesh):
     with pytest.raises(InputError, match=r"big\.p01\.hdf: depth: implausible water depth .*Water Surface of 2-D flow area "
                                          r"'Breach Area', cell index 17, time step 2"):
         open_snapshot(p)
+
+
+MUNCIE_SI = Path(__file__).parent / "data" / "hecras" / "Muncie2DOnly_SI.p01.steps_0_25_48.hdf"
+
+
+def test_real_plan_file_muncie_matches_mdal_s_expectations():
+    """A real HEC-RAS 6.1 plan with results (MDAL's test file, steps 0, 25, 48); expected values from MDAL's tests."""
+    ds = open_snapshot(MUNCIE_SI)
+    assert ds.sizes["node"] == 2972 and ds.sizes["time"] == 3 and ds.attrs["source_length_unit"] == "m"
+    assert ds.bed_elevation.values[0] == pytest.approx(289.453125, abs=1e-3)
+    assert ds.water_surface.values[1, 435] == pytest.approx(283.2630, abs=1e-3)
+    hours = (ds.time.values - np.datetime64("1900-01-02T00:00:00")) / np.timedelta64(1, "h")
+    np.testing.assert_allclose(hours, [0.0, 2.0833333333333335, 4.0])
+    # velocities reconstructed from the face velocities: plausible for this river flood, zero where dry
+    speed = np.hypot(ds.u.values, ds.v.values)
+    assert 0.5 < speed[1].max() < 5.0 and (speed[ds.wet.values == 0] == 0).all()
+    # the reconstruction reproduces the file's face velocities between two wet cells to within their spread
+    with h5py.File(MUNCIE_SI) as f:
+        g = f[f"{AREAS}/Muncie2D"]
+        cells = g["Faces Cell Indexes"][()]
+        nrm = g["Faces NormalUnitVector and Length"][()][:, :2]
+        fv = f[f"{SERIES}/2D Flow Areas/Muncie2D/Face Velocity"][1]
+    inner = (cells < 2972).all(axis=1)
+    a, b = cells[inner, 0], cells[inner, 1]
+    both = (ds.wet.values[1, a] == 1) & (ds.wet.values[1, b] == 1) & (np.abs(fv[inner]) > 0.05)
+    mean_u = 0.5 * (ds.u.values[1, a] + ds.u.values[1, b])
+    mean_v = 0.5 * (ds.v.values[1, a] + ds.v.values[1, b])
+    recon = mean_u * nrm[inner, 0] + mean_v * nrm[inner, 1]
+    err = np.abs(recon - fv[inner])[both]
+    assert both.sum() > 500 and np.median(err) < 0.25 * np.median(np.abs(fv[inner][both]))
