@@ -42,6 +42,17 @@ def test_node_strings_with_string_id_and_continued_ns_cards(formats, tmp_path):
     assert m.ignored_cards == {}
 
 
+def test_tuflow_mesh_header_card_and_extra_node_columns(formats, tmp_path):
+    """TUFLOW / SMS meshes (MDAL's M01_5m_002.2dm): numbers after MESH2D, NO_MOVE_EQ9_CENTER_NODE, ND with 4 more columns."""
+    ref = read_mesh(formats / "adh_demo.3dm")
+    lines = _lines(formats / "adh_demo.3dm")
+    out = ["MESH2D      292725.000     6177615.000  -13.165794     200     170     5.000     5.000  10.000",
+           "NO_MOVE_EQ9_CENTER_NODE"] + [ln + "  2  0. 0. 0." if ln.startswith("ND") else ln for ln in lines[1:]]
+    m = _no_warnings(read_mesh, _write(tmp_path, "t.2dm", "\n".join(out) + "\n"), strict=True)
+    np.testing.assert_array_equal(m.faces, ref.faces)
+    np.testing.assert_array_equal(m.z, ref.z)
+
+
 def test_begcurve_blocks_are_skipped(formats, tmp_path):
     lines = _lines(formats / "adh_demo.3dm")
     curve = ["BEGCURVE Version: 1", "ID 1", "Units: m", "XY 2", "0.0 10.9", "7200.0 11.35", "ENDCURVE"]

@@ -34,7 +34,9 @@ ELEMENT_CARDS = {
 LINE_ELEMENT_CARDS = {"E2L", "E3L"}
 #: SMS parameter blocks skipped whole (opening card -> closing card)
 SKIP_BLOCKS = {"BEGPARAMDEF": "ENDPARAMDEF", "BEG2DMBC": "END2DMBC", "BEGCURVE": "ENDCURVE"}
-KNOWN_MESH_CARDS = {"MESH2D", "MESHNAME", "NUM_MATERIALS_PER_ELEM", "NS", "GP", "GM", "MAT", "ND", *SKIP_BLOCKS,
+#: cards without bearing on the geometry, skipped silently (SMS / TUFLOW write NO_MOVE_EQ9_CENTER_NODE)
+IGNORED_CARDS = {"GP", "GM", "MAT", "NUM_MATERIALS_PER_ELEM", "MESH2D", "NO_MOVE_EQ9_CENTER_NODE"}
+KNOWN_MESH_CARDS = {"MESH2D", "MESHNAME", "NS", "ND", *IGNORED_CARDS, *SKIP_BLOCKS,
                     *SKIP_BLOCKS.values(), *ELEMENT_CARDS, *LINE_ELEMENT_CARDS}
 
 
@@ -122,7 +124,7 @@ class _MeshAccumulator:
             k = ELEMENT_CARDS[card][0]
             vals = _record(toks, 1 + k, 2 + k, self.path, lineno, f"{card} card ({card} id n1..n{k} mat)", default_last=1.0)
             self.elems.append((card, vals[None, :], np.array([lineno])))
-        elif card in LINE_ELEMENT_CARDS or card in ("GP", "GM", "MAT", "NUM_MATERIALS_PER_ELEM", "MESH2D"):
+        elif card in LINE_ELEMENT_CARDS or card in IGNORED_CARDS:
             return
         elif card == "MESHNAME":
             self.name = text[len(toks[0]):].strip().strip("'\"").strip()
@@ -203,7 +205,8 @@ def _run_records(block, card, n, min_cols, want_cols, path, first_line, what, de
     stripped = block.replace(card, b" ", n)
     vals = parse_floats(stripped)
     if vals is not None and np.isfinite(vals).all():
-        for c in (want_cols, want_cols + 1, min_cols):
+        first_cols = len(stripped.split(b"\n", 1)[0].split())  # extra trailing columns (TUFLOW: ND id x y z 2 0. 0. 0.)
+        for c in dict.fromkeys((want_cols, want_cols + 1, min_cols, first_cols)):
             if vals.size == n * c and c >= min_cols:
                 if _columns_consistent(stripped, n, c):
                     arr = vals.reshape(n, c)
