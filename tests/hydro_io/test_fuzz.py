@@ -75,11 +75,15 @@ def _check(reader, path):
     ("adh_demo.3dm", read_mesh), ("adh_demo_dep.dat", read_dat), ("adh_demo_vel.dat", read_dat),
     ("sms_demo_multi.dat", read_dat), ("depth_max.asc", read_asc), ("velocity_max.asc", read_asc),
     ("RASExport.sdf", read_sdf),
+    # real-world variants (MDAL's test files): legacy, element-centred, tabs, binary
+    ("mdal/quad_and_triangle_vertex_scalar_old1.dat", read_dat), ("mdal/quad_and_triangle_vertex_scalar_old2.dat", read_dat),
+    ("mdal/quad_and_triangle_els_vector.dat", read_dat), ("mdal/quad_and_triangle_vertex_scalar_tabs.dat", read_dat),
+    ("mdal/quad_and_triangle_binary.dat", read_dat), ("mdal/quad_and_triangle.2dm", read_mesh),
 ])
 @FUZZ
 @given(ops=st.lists(op, min_size=1, max_size=3))
 def test_mutated_samples_parse_or_raise_parse_error(formats, tmp_path, name, reader, ops):
-    p = tmp_path / name
+    p = tmp_path / name.replace("/", "_")
     p.write_bytes(mutate((formats / name).read_bytes(), ops))
     _check(reader, p)
 

@@ -269,3 +269,23 @@ def test_real_plan_file_muncie_matches_mdal_s_expectations():
     recon = mean_u * nrm[inner, 0] + mean_v * nrm[inner, 1]
     err = np.abs(recon - fv[inner])[both]
     assert both.sum() > 500 and np.median(err) < 0.25 * np.median(np.abs(fv[inner][both]))
+
+
+@pytest.mark.parametrize("damage", ["no cell count", "short faces", "bad time stamps"])
+def test_other_hdf_layouts_are_named_as_not_supported(tmp_path, mesh, damage):
+    p = write_ras_hdf(tmp_path / "odd.p01.hdf", mesh)
+    with h5py.File(p, "a") as f:
+        if damage == "no cell count":
+            del f[f"{AREAS}/Attributes"]
+            f[f"{AREAS}/Attributes"] = np.array([(b"Breach Area", 0.03)], dtype=[("Name", "S16"), ("Mann", "<f4")])
+        elif damage == "short faces":
+            g = f[f"{AREAS}/Breach Area"]
+            fp = g["Faces FacePoint Indexes"][()]
+            del g["Faces FacePoint Indexes"]
+            g["Faces FacePoint Indexes"] = fp[:, :1]
+        else:
+            del f[f"{SERIES}/Time Date Stamp (ms)"]
+            f[f"{SERIES}/Time Date Stamp (ms)"] = np.array([b"yesterday"] * 3)
+    with pytest.raises(ParseError, match="HEC-RAS HDF layout not supported") as ei:
+        open_snapshot(p)
+    assert ei.value.path.endswith("odd.p01.hdf")

@@ -184,6 +184,11 @@ def open_hecras_hdf(paths, *, units=None, crs=None, plausibility="raise", mesh_n
             offset += n
         crs_wkt = crs or root.get("Projection") or None
         source_files = [str(p) for p in hdfs]
+    except (KeyError, IndexError, ValueError, TypeError, OSError) as exc:  # a layout other than HEC-RAS 6's
+        if isinstance(exc, (InputError, ParseError)):
+            raise
+        raise ParseError(f"HEC-RAS HDF layout not supported ({type(exc).__name__}: {exc})",
+                         path=files[-1].filename if files else hdfs[0]) from None
     finally:
         for f in files:
             f.close()

@@ -34,6 +34,8 @@ class _Bytes:
 
     def take(self, n: int, what: str) -> bytes:
         pos = self.fh.tell()
+        if n < 0:
+            raise ParseError(f"binary SMS dataset: negative size of {what} (byte {pos}; NUMDATA / NUMCELLS < 0?)", path=self.path)
         b = self.fh.read(n)
         if len(b) != n:
             raise ParseError(f"binary SMS dataset ends inside {what} (byte {pos})", path=self.path)
