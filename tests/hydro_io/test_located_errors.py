@@ -176,3 +176,13 @@ def test_mesh_without_node_cards_names_a_line(tmp_path):
     with pytest.raises(ParseError, match="no ND") as ei:
         read_mesh(p)
     assert ei.value.path == str(p) and ei.value.line == 3
+
+
+def test_implausible_sdf_bed_names_the_surface_line_point(formats, tmp_path):
+    text = (formats / "RASExport.sdf").read_text()
+    old = "      2025300.00, 13712000.00, 848.20"
+    bad = text.replace(old, "      2025300.00, 13712000.00, 1e30")
+    p = _write(tmp_path, "bed.sdf", bad)
+    with pytest.raises(InputError, match=r"implausible \|bed elevation\|") as ei:
+        open_snapshot(p)
+    assert _loc(ei.value) == (str(p), bad[:bad.index("13712000.00, 1e30")].count("\n") + 1)
