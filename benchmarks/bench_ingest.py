@@ -1,6 +1,6 @@
 """Ingest benchmark: an ADH-format mesh with ~10^6 nodes and 10 time steps of depth and velocity.
 
-    python benchmarks/run.py ingest [--side 1000] [--steps 10] [--dir DIR]
+    python benchmarks/run.py ingest [--side 1000] [--steps 10] [--repeat 3] [--dir DIR]
 
 Generates (once, cached in DIR) ``bench.3dm``, ``bench_dep.dat``, ``bench_vel.dat`` and ``bench.bc`` the
 way ADH writes them (elements before nodes, ``%16.8e`` values, ``vx vy 0`` vectors), then reads them
@@ -8,6 +8,9 @@ with ``open_snapshot`` in a fresh process, reporting wall time, peak memory abov
 and the size of the resulting Dataset. The baseline measured in the same run is the floor of any text
 reader: reading each file whole and converting every number with one ``np.fromstring`` call (no
 structure, no checks; it holds a whole file in memory, which the chunked reader avoids).
+
+The writer is measured the same way: ``write_adh`` of the snapshot just read, against ``np.savetxt`` of
+the same arrays in the same formats (what a user would write by hand), in the same process.
 """
 from __future__ import annotations
 
@@ -36,6 +39,35 @@ peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
 print(json.dumps({"seconds": t1 - t0, "base_kib": base, "peak_kib": peak, "nbytes": int(ds.nbytes),
                   "nodes": ds.sizes["node"], "faces": ds.sizes["face"], "steps": ds.sizes["time"],
                   "depth_max": float(ds.depth.max())}))
+"""
+
+WRITE = r"""
+import json, sys, tempfile, time, warnings
+import numpy as np
+from pathlib import Path
+from breachflow.hydro.io import open_snapshot, write_adh
+from breachflow.hydro.snapshot import mesh_face_nodes, node_coordinates
+d = Path(sys.argv[1])
+ds = open_snapshot([d / "bench.3dm", d / "bench_dep.dat", d / "bench_vel.dat", d / "bench.bc"])
+out = Path(tempfile.mkdtemp())
+x, y = node_coordinates(ds)
+f = mesh_face_nodes(ds) + 1
+ours, base = [], []
+for rep in range(int(sys.argv[2])):  # alternate the two, so load changes hit both
+    t0 = time.perf_counter()
+    write_adh(ds, out / "w")
+    t1 = time.perf_counter()
+    with open(out / "s.3dm", "w") as fh:
+        np.savetxt(fh, np.column_stack([np.arange(1, len(f) + 1), f, np.ones(len(f), int)]), fmt="E3T %d %d %d %d %d")
+        np.savetxt(fh, np.column_stack([np.arange(1, x.size + 1), x, y, ds.bed_elevation.values]), fmt="ND %d %.12g %.12g %.12g")
+    with open(out / "s_dep.dat", "w") as a, open(out / "s_vel.dat", "w") as b:
+        for k in range(ds.sizes["time"]):
+            np.savetxt(a, ds.depth.values[k], fmt="%16.8e")
+            np.savetxt(b, np.column_stack([ds.u.values[k], ds.v.values[k], np.zeros(x.size)]), fmt="%16.8e %16.8e %16.8e")
+    t2 = time.perf_counter()
+    ours.append(t1 - t0)
+    base.append(t2 - t1)
+print(json.dumps({"ours": ours, "savetxt": base}))
 """
 
 FLOOR = r"""
@@ -105,9 +137,9 @@ def generate(d: Path, side: int, steps: int) -> None:
     stamp.write_text("ok")
 
 
-def _child(code: str, d: Path) -> dict:
+def _child(code: str, d: Path, *extra) -> dict:
     env = dict(os.environ)
-    out = subprocess.run([sys.executable, "-c", code, str(d)], check=True, capture_output=True, text=True, env=env)
+    out = subprocess.run([sys.executable, "-c", code, str(d), *map(str, extra)], check=True, capture_output=True, text=True, env=env)
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
@@ -115,6 +147,7 @@ def main(argv) -> int:
     ap = argparse.ArgumentParser(prog="bench ingest", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--side", type=int, default=1000, help="nodes per side (side^2 nodes; 1000 -> 10^6)")
     ap.add_argument("--steps", type=int, default=10)
+    ap.add_argument("--repeat", type=int, default=3, help="repeats of the write measurement (median and range)")
     ap.add_argument("--dir", type=Path, default=Path(tempfile.gettempdir()) / "breachflow-bench-ingest")
     args = ap.parse_args(argv)
     t = time.perf_counter()
@@ -123,6 +156,9 @@ def main(argv) -> int:
     size_mb = sum((args.dir / n).stat().st_size for n in ("bench.3dm", "bench_dep.dat", "bench_vel.dat")) / 1e6
     floor = _child(FLOOR, args.dir)
     ours = _child(CHILD, args.dir)
+    wr = _child(WRITE, args.dir, args.repeat)
+    ratio = np.array(wr["ours"]) / np.array(wr["savetxt"])
+    w_ours, w_base = float(np.median(wr["ours"])), float(np.median(wr["savetxt"]))
     values = ours["nodes"] * ours["steps"] * 3 + ours["nodes"] * 3 + ours["faces"] * 3  # depth + u + v, x y z, faces
     peak_mb = (ours["peak_kib"] - ours["base_kib"]) / 1024
     floor_peak = (floor["peak_kib"] - floor["base_kib"]) / 1024
@@ -138,6 +174,10 @@ def main(argv) -> int:
                 f"{floor['seconds'] / (floor['numbers'] / 1e6):.3f}", f"{floor_peak:.0f}", "1.00")
     tab.add_row("breachflow open_snapshot (adh)", f"{ours['seconds']:.2f}", f"{ours['seconds'] / (values / 1e6):.3f}",
                 f"{peak_mb:.0f}", f"{ours['seconds'] / floor['seconds']:.2f}")
+    tab.add_row(f"baseline: np.savetxt of the same arrays (write; median of {args.repeat})", f"{w_base:.2f}",
+                f"{w_base / (values / 1e6):.3f}", "", "1.00")
+    tab.add_row(f"breachflow write_adh (median of {args.repeat}; ratio range)", f"{w_ours:.2f}",
+                f"{w_ours / (values / 1e6):.3f}", "", f"{np.median(ratio):.2f} ({ratio.min():.2f}-{ratio.max():.2f})")
     Console(width=200).print(tab)
     print(f"snapshot Dataset: {data_mb:.0f} MB in memory; peak / data = {peak_mb / data_mb:.2f}; "
           f"{values / 1e6:.1f} million values parsed")
