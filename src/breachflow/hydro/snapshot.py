@@ -372,7 +372,7 @@ def flag_implausible(ds: xr.Dataset, name: str, values, dims: tuple, limits: tup
     *values* is an array or a tuple of same-shaped arrays combined by *transform* (e.g. ``np.hypot``);
     the work is done one leading-axis slice at a time so no full-size temporaries are made.
     *locate* (from a reader) maps ``(key, {dim: index})`` of the worst value to ``(path, line, note)`` in
-    the source file, or None; the message then starts with ``path:line:`` like a :class:`ParseError`.
+    the source file, or None; the message then starts with ``path:line:`` like a :class:`~breachflow.errors.ParseError`.
     """
     if mode == "off":
         return
@@ -413,7 +413,7 @@ def check_plausibility(ds: xr.Dataset, *, mode: str = "raise", raw_depth=None, l
     warnings) or ``"off"``. ``raw_depth`` (same dims as ``depth``) are the depths as read, before the
     dry convention clipped negative values: dry nodes deeper than the tolerance below the bed are flagged.
     ``locate(key, index)`` (key ``depth | speed | bed_elevation | negative_depth``) lets a reader name
-    the file and line of the offending value (see :func:`flag_implausible`).
+    the file and line of the offending value (see :func:`~breachflow.hydro.snapshot.flag_implausible`).
     """
     if mode not in ("raise", "warn", "off"):
         raise InputError(f"plausibility mode must be 'raise', 'warn' or 'off', not {mode!r}")

@@ -12,9 +12,10 @@ Built-in readers (a reader is a class with one method ``open(paths, **options) -
 
 Third-party readers register through the ``breachflow.readers`` entry point group.
 
-Writers (the other direction, :mod:`.writers`, :mod:`.sdf_writer`): ``write_adh(snapshot, prefix)``,
-``write_esri(snapshot, prefix)``, ``write_sdf(snapshot, path)``; :func:`to_unaligned_mesh` puts a grid
-snapshot on an unaligned triangle mesh (:mod:`.meshing`).
+Writers (the other direction, :mod:`breachflow.hydro.io.writers`, :mod:`breachflow.hydro.io.sdf_writer`):
+``write_adh(snapshot, prefix)``, ``write_esri(snapshot, prefix)``, ``write_sdf(snapshot, path)``;
+:func:`~breachflow.hydro.io.meshing.to_unaligned_mesh` puts a grid snapshot on an unaligned triangle mesh
+(:mod:`breachflow.hydro.io.meshing`).
 
 Every reader converts to SI once (pint), validates against the snapshot schema and runs the
 plausibility checks (``plausibility="raise" | "warn" | "off"``).

@@ -1,7 +1,7 @@
 """HEC-RAS 6 HDF5 plan / geometry files → mesh snapshot over the 2-D flow-area cell centres (reader
 ``hecras_hdf``; needs the optional packages ``rashdf`` and ``h5py``: ``pip install breachflow[hecras]``).
 
-Read through :class:`rashdf.RasPlanHdf` (an ``h5py.File``) at the documented HEC-RAS layout:
+Read through ``rashdf.RasPlanHdf`` (an ``h5py.File``) at the documented HEC-RAS layout:
 
 * ``Geometry/2D Flow Areas/Attributes`` (``Name``, ..., ``Cell Count``: the real cells; rows beyond are
   the perimeter's ghost cells) and per area ``Cells Center Coordinate``, ``Cells Minimum Elevation``,

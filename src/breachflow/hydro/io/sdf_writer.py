@@ -4,7 +4,7 @@ A 2-D field has no cross sections of its own, so the writer cuts them: *sections
 caller (polylines drawn from the left to the right bank looking downstream, listed upstream → downstream),
 or by default *n_sections* straight lines across the whole domain, normal to the dominant direction of
 the depth-weighted mean velocity, evenly spaced along it. On each cut line *points* equally spaced
-points carry (bilinear / barycentric samples of the snapshot, :class:`FieldSampler`):
+points carry (bilinear / barycentric samples of the snapshot, :class:`~breachflow.hydro.sampling.FieldSampler`):
 
 * ``SURFACE LINE``: x, y, bed elevation;
 * ``WATER ELEVATION`` per profile: the median water surface of the wet points (a 1-D section has one
@@ -15,7 +15,7 @@ points carry (bilinear / barycentric samples of the snapshot, :class:`FieldSampl
 Profiles are the time steps: ``01JAN2020 0100``-style names when the time axis holds dates, else
 ``PF 1``, ``PF 2``... (the seconds are listed in a comment line). Stations are distances (file unit) along
 the centerline (through the cut-line midpoints) from the most downstream section, increasing upstream as
-in HEC-RAS. The reader (:mod:`breachflow.hydro.io.sdf`) turns the file back into a mesh over the cut
+in HEC-RAS. The reader (``breachflow.hydro.io.sdf``) turns the file back into a mesh over the cut
 lines; values between sections are then linear interpolations, so the round trip reproduces the field
 only on the cut lines.
 """

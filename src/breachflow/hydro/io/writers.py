@@ -148,7 +148,7 @@ def write_adh(snapshot: xr.Dataset, prefix, *, units: str = "m", name: str | Non
     ``PREFIX.bc`` and return their paths (read back with ``open_snapshot(paths)``).
 
     A mesh snapshot is written on its own mesh; a grid snapshot on the mesh of its cell centres
-    (:func:`~breachflow.hydro.io.meshing.grid_to_mesh`; use :func:`to_unaligned_mesh` first for a mesh
+    (:func:`~breachflow.hydro.io.meshing.grid_to_mesh`; use :func:`~breachflow.hydro.io.meshing.to_unaligned_mesh` first for a mesh
     not aligned with the grid). Dry nodes get depth 0 and velocity 0. Times are seconds (``TIMEUNITS
     SECONDS``) from the snapshot's time axis, with ``RT_JULIAN`` when it holds dates.
     """
