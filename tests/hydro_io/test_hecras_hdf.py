@@ -148,11 +148,16 @@ def test_us_customary_units_cell_velocity_datasets_and_crs(tmp_path, mesh):
     p = write_ras_hdf(tmp_path / "ft.p02.hdf", mesh, units="US Customary", cell_velocity=True, times=2, wkt=wkt,
                       chunks=False)
     ds = open_snapshot(p)
+    usft = 1200.0 / 3937.0  # US Customary on a state plane in US survey feet: the projection's foot
     x, y = node_coordinates(ds)
-    np.testing.assert_allclose(x, mesh["centres"][:, 0] * 0.3048)
-    np.testing.assert_allclose(ds.u.values[1], 2.0 * 0.3048, rtol=1e-12)  # the Cell Velocity datasets win
-    np.testing.assert_allclose(ds.v.values[0], -0.5 * 0.3048, rtol=1e-12)
-    assert ds.attrs["source_length_unit_from"] == "Units System: US Customary" and "crs" in ds.variables
+    np.testing.assert_allclose(x, mesh["centres"][:, 0] * usft, rtol=1e-12)
+    np.testing.assert_allclose(ds.u.values[1], 2.0 * usft, rtol=1e-12)  # the Cell Velocity datasets win
+    np.testing.assert_allclose(ds.v.values[0], -0.5 * usft, rtol=1e-12)
+    assert ds.attrs["source_length_unit"] == "survey_foot" and "crs" in ds.variables
+    assert ds.attrs["source_length_unit_from"] == "Units System: US Customary"
+    # without a projection, US Customary is the international foot
+    q = write_ras_hdf(tmp_path / "ft.p03.hdf", mesh, units="US Customary", times=2)
+    np.testing.assert_allclose(node_coordinates(open_snapshot(q))[0], mesh["centres"][:, 0] * 0.3048, rtol=1e-12)
 
 
 def test_geometry_hdf_alone_is_a_terrain_and_missing_data_are_named(tmp_path, mesh):
@@ -189,10 +194,10 @@ def test_real_geometry_file_muncie_reads_as_a_terrain():
         g = f[f"{AREAS}/Perimeter_NW"]
         cc = g["Cells Center Coordinate"][:n]
         zmin = g["Cells Minimum Elevation"][:n].astype(float)
-    assert ds.sizes["node"] == n and ds.attrs["source_length_unit"] == "ft"
+    assert ds.sizes["node"] == n and ds.attrs["source_length_unit"] == "survey_foot"  # Indiana East (ftUS)
     x, y = node_coordinates(ds)
-    np.testing.assert_allclose(x, cc[:, 0] * 0.3048)
-    np.testing.assert_allclose(ds.bed_elevation.values, zmin * 0.3048)
+    np.testing.assert_allclose(x, cc[:, 0] * 1200.0 / 3937.0, rtol=1e-12)
+    np.testing.assert_allclose(ds.bed_elevation.values, zmin * 1200.0 / 3937.0, rtol=1e-12)
     assert 900 < zmin.min() and zmin.max() < 1000  # ft: the Muncie terrain (White River, Indiana)
     assert mesh_face_nodes(ds).shape[0] > n  # a connected triangulation of the cell centres
     assert "crs" in ds.variables

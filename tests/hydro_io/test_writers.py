@@ -305,3 +305,15 @@ def test_typical_breach_steady_state_through_esri_and_sdf(tmp_path, breach_stead
     np.testing.assert_allclose(r.v.values, g.v.values, rtol=1e-8, atol=1e-12)
     s = open_snapshot(write_sdf(g, tmp_path / "breach.sdf", n_sections=6))
     assert s.sizes["node"] == 6 * 41 and s.depth.values.max() > 1.0
+
+
+@pytest.mark.parametrize("units", ["m", "ft", "survey_foot"])
+def test_crs_goes_along_in_the_files_units(tmp_path, units):
+    g = _analytic_grid(nx=9, ny=7, crs="EPSG:32633")  # WGS 84 / UTM 33N, metres
+    paths = write_adh(to_unaligned_mesh(g, 60, 1), tmp_path / "c", units=units)
+    assert paths[-1].name == "c.prj"
+    r = open_snapshot(paths)
+    assert "crs" in r.variables and r.attrs["source_length_unit"] == units
+    e = open_snapshot(write_esri(g, tmp_path / "e", units=units), units=units)
+    np.testing.assert_allclose(e.x.values, g.x.values, atol=1e-9)
+    assert "UTM zone 33N" in e["crs"].attrs["crs_wkt"]

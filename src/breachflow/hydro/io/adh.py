@@ -219,6 +219,12 @@ def open_adh(paths, *, units=None, crs=None, strict=False, time_units=None, plau
         raise InputError(f"at most one .bc file, got {len(bcs)}")
     bc = read_bc(bcs[0]) if bcs else None
     length_unit = _length_unit(units, bc)
+    if units is None and length_unit == "ft" and (crs or prjs):
+        # MP G tells feet but not which: a state plane in US survey feet (.prj / crs) says those
+        from .asc import prj_length_unit
+
+        if prj_length_unit(crs or read_prj(prjs[0])) == "survey_foot":
+            length_unit = "survey_foot"
     mesh = read_mesh(meshes[0], strict=strict)
     to_m = float(ureg.Quantity(1.0, length_unit).to("m").magnitude)
     if not dats:
@@ -313,7 +319,8 @@ def open_adh(paths, *, units=None, crs=None, strict=False, time_units=None, plau
     ds.attrs.update(
         breachflow_reader="adh",
         source_length_unit=length_unit,
-        source_length_unit_from=("user" if units else f"MP G {bc.gravity:g} in {bc.path.name}"),
+        source_length_unit_from=("user" if units else f"MP G {bc.gravity:g} in {bc.path.name}"
+                                 + (" (US survey feet: the CRS's unit)" if length_unit == "survey_foot" else "")),
         source_datasets="; ".join(f"{role}: {d.name} ({d.path.name}, {len(d.times)} steps)" for role, d in roles.items()),
         source_time_units="; ".join(time_notes),
     )
@@ -345,7 +352,8 @@ def _terrain_only(mesh: MeshData, to_m, length_unit, units, bc, crs_wkt, files, 
                        face_material=mesh.material)
     ds.attrs.update(breachflow_reader="adh", breachflow_content="terrain: a mesh without result datasets (depth 0, velocity 0)",
                     source_length_unit=length_unit,
-                    source_length_unit_from=("user" if units else f"MP G {bc.gravity:g} in {bc.path.name}"))
+                    source_length_unit_from=("user" if units else f"MP G {bc.gravity:g} in {bc.path.name}"
+                                             + (" (US survey feet: the CRS's unit)" if length_unit == "survey_foot" else "")))
     if mesh.name:
         ds["mesh2d"].attrs["long_name"] = f"topology of the 2-D unstructured mesh {mesh.name}"
     return check_plausibility(ds, mode=plausibility, locate=_locator(mesh, None, None, True))

@@ -11,7 +11,8 @@ Read through ``rashdf.RasPlanHdf`` (an ``h5py.File``) at the documented HEC-RAS 
   and per area ``Water Surface`` (time × cell), ``Face Velocity`` (time × face, along the face's normal
   unit vector) and, when written, ``Cell Velocity - Velocity X`` / ``Y`` (rashdf
   ``mesh_timeseries_output``);
-* root attributes ``Units System`` (``US Customary`` → ft, ``SI Units`` → m) and ``Projection`` (WKT).
+* root attributes ``Units System`` (``US Customary`` → ft, or US survey feet when ``Projection`` is in
+  them; ``SI Units`` → m) and ``Projection`` (WKT).
 
 The snapshot's nodes are the real cell centres; its triangles are the Delaunay triangles of the centres
 whose three cells meet at one face point (so nothing spans a concave boundary or a hole). Values:
@@ -137,6 +138,10 @@ def open_hecras_hdf(paths, *, units=None, crs=None, plausibility="raise", mesh_n
             root.update({k: _text(v) for k, v in plan.attrs.items() if k in ("Units System", "Projection")})
         system = root.get("Units System", "").strip().lower()
         file_unit = {"us customary": "ft", "si units": "m", "si": "m", "metric": "m"}.get(system)
+        if file_unit == "ft" and root.get("Projection"):  # US Customary on a US-survey-foot state plane
+            from .asc import prj_length_unit
+
+            file_unit = {"survey_foot": "survey_foot"}.get(prj_length_unit(root["Projection"]), "ft")
         unit = str(units) if units is not None else file_unit
         if unit is None:
             raise InputError(f"{hdfs[0]}: no 'Units System' attribute; pass units='m' or 'ft'")

@@ -3,6 +3,7 @@ ADH / SMS / HEC-RAS / GIS workflow; tests build "ingested" inputs from our own S
 
 ``write_adh(snapshot, prefix)``   ``PREFIX.3dm`` (bed z at nodes), ``PREFIX_dep.dat``, ``PREFIX_vel.dat``
                                   and ``PREFIX.bc`` (``MP G`` telling the length unit); as ADH writes them
+                                  (+ ``PREFIX.prj`` with a CRS)
 ``write_esri(snapshot, prefix)``  ``PREFIX_depth.asc``, ``_wse.asc``, ``_terrain.asc``, ``_vx.asc``,
                                   ``_vy.asc`` (+ ``.prj`` when the snapshot has a CRS); one time step
 ``write_sdf(snapshot, path)``     a HEC-RAS GIS export (``RASExport.sdf``): cross sections cut through the
@@ -34,6 +35,29 @@ def _unit_factor(units) -> float:
     except Exception:
         raise InputError(f"units={units!r}: not a length unit (use 'm' or 'ft')") from None
     return 1.0 / f
+
+
+def prj_text(crs_wkt: str, units: str) -> str:
+    """``.prj`` text of the snapshot CRS (metre axes) with the axes in the files' length unit *units*, so
+    a reader checks and reads the coordinates in the unit they are written in."""
+    from pyproj import CRS
+    from pyproj.crs import ProjectedCRS
+    from pyproj.crs.coordinate_system import Cartesian2DCS
+    from pyproj.crs.enums import Cartesian2DCSAxis
+
+    k = _unit_factor(units)
+    c = CRS.from_user_input(crs_wkt)
+    if abs(k - 1.0) < 1e-12:
+        return c.to_wkt()
+    if not c.is_projected:
+        raise InputError(f"units={units!r}: the snapshot's CRS {c.name!r} is not projected; write in metres")
+    axis = {3.2808398950131235: Cartesian2DCSAxis.EASTING_NORTHING_FT,
+            3.280833333333333: Cartesian2DCSAxis.EASTING_NORTHING_US_FT}
+    hit = [a for f, a in axis.items() if abs(f - k) < 1e-9 * k]
+    if not hit:
+        raise InputError(f"units={units!r}: a CRS can be written only in m, ft or survey_foot")
+    return ProjectedCRS(conversion=c.coordinate_operation, geodetic_crs=c.geodetic_crs,
+                        cartesian_cs=Cartesian2DCS(hit[0]), name=c.name).to_wkt()
 
 
 def _write_all(files: dict) -> list[Path]:
@@ -140,12 +164,17 @@ def adh_texts(snapshot: xr.Dataset, prefix, *, units: str = "m", name: str | Non
     ]) + "\n"
     stem = prefix.name
     d = prefix.parent
-    return {d / f"{stem}.3dm": mesh(), d / f"{stem}_dep.dat": dep, d / f"{stem}_vel.dat": vel, d / f"{stem}.bc": bc}
+    out = {d / f"{stem}.3dm": mesh(), d / f"{stem}_dep.dat": dep, d / f"{stem}_vel.dat": vel, d / f"{stem}.bc": bc}
+    crs = ds["crs"].attrs.get("crs_wkt") if "crs" in ds.variables else None
+    if crs:
+        out[d / f"{stem}.prj"] = prj_text(crs, units) + "\n"
+    return out
 
 
 def write_adh(snapshot: xr.Dataset, prefix, *, units: str = "m", name: str | None = None) -> list[Path]:
     """Write *snapshot* as ADH/SMS text files ``PREFIX.3dm``, ``PREFIX_dep.dat``, ``PREFIX_vel.dat``,
-    ``PREFIX.bc`` and return their paths (read back with ``open_snapshot(paths)``).
+    ``PREFIX.bc`` (and ``PREFIX.prj`` when the snapshot has a CRS, its axes in *units*) and return their
+    paths (read back with ``open_snapshot(paths)``).
 
     A mesh snapshot is written on its own mesh; a grid snapshot on the mesh of its cell centres
     (:func:`~breachflow.hydro.io.meshing.grid_to_mesh`; use :func:`~breachflow.hydro.io.meshing.to_unaligned_mesh` first for a mesh
@@ -195,7 +224,7 @@ def esri_texts(snapshot: xr.Dataset, prefix, *, units: str = "m", time_index: in
         p = prefix.parent / f"{prefix.name}_{suffix}.asc"
         out[p] = header + rows + "\n"
         if crs:
-            out[p.with_suffix(".prj")] = crs + "\n"
+            out[p.with_suffix(".prj")] = prj_text(crs, units) + "\n"
     return out
 
 
