@@ -146,8 +146,43 @@ def pick_out(out: Path | None, output: Path | None, flag: str = "--out") -> Path
     return out if out is not None else output
 
 
+def flags_of(names) -> dict:
+    """``{"surge_height": "--surge-height", ...}`` for parameter *names*."""
+    return {n: "--" + n.replace("_", "-") for n in names}
+
+
 def fmt(value: float, unit: str = "", digits: int = 4) -> str:
     """A float for people: *digits* significant digits, no binary noise (``3.048 m``, not
     ``3.0479999999999996 m``)."""
     s = f"{value:.{digits}g}"
     return f"{s} {unit}" if unit else s
+
+
+#: Python keyword spellings in library messages -> the CLI flag that sets the same thing
+_FLAG_PATTERNS = [
+    (r"\bunits='(\w+)' or units='(\w+)'", r"--units \1 or --units \2"),
+    (r"\bunits='(\w+)' or '(\w+)'", r"--units \1 or --units \2"),
+    (r"\bvelocity_direction=<", "--velocity-direction <"),
+    (r"\bvelocity_direction\b", "--velocity-direction"),
+    (r"\broles=\{'([^']+)': ([^}]*)\}", r"--role \1=ROLE (ROLE: \2)"),
+    (r"\bbed='<", "--bed '<"),
+    (r"\bformat= one of", "--format, one of"),
+    (r"\btime_units\b", "--time-units"),
+    (r"\bunits=", "--units "),
+]
+
+
+def cli_flags(exc: BaseException, names: dict | None = None) -> BaseException:
+    """Rewrite the message of breachflow error *exc* in place so that it names CLI flags
+    (``--units m``) instead of the Python keyword arguments the library speaks of; *names* maps further
+    parameter names to their flags (``{"breach_discharge": "--discharge"}``). Returns *exc*."""
+    import re
+
+    if exc.args and isinstance(exc.args[0], str):
+        msg = exc.args[0]
+        for pat, rep in _FLAG_PATTERNS:
+            msg = re.sub(pat, rep, msg)
+        for name, flag in (names or {}).items():
+            msg = re.sub(rf"(?<![-\w]){re.escape(name)}\b", flag, msg)
+        exc.args = (msg, *exc.args[1:])
+    return exc
