@@ -82,7 +82,7 @@ def main(argv: list[str] | None = None) -> None:
             con.print(escape("".join(traceback.format_exception(exc))), level=_common.QUIET, highlight=False)
         msg = f"[bold red]error:[/] {escape(str(exc))}"
         if isinstance(exc, DiskFullError):
-            msg += "\nfree some space, then run the same command with --resume to continue a closure run"
+            msg += "\nfree some space and run the command again (a closure run continues where it stopped with --resume)"
         con.print(msg, level=_common.QUIET, highlight=False)
         out = _common.console()
         if out._log_file is not None:
