@@ -113,6 +113,8 @@ def check_run_target(scenario: Path | None, out: Path, resume: bool, overwrite: 
     from ..output.rundir import scenario_hash
 
     rd = RunDirectory(out)
+    if resume and overwrite:
+        raise InputError("--resume continues a run and --overwrite replaces it: give one of them")
     if resume:
         if not rd.exists():
             raise InputError(f"{out}: nothing to resume (no run there); start it without --resume")
