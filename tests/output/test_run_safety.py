@@ -163,7 +163,7 @@ def test_resume_sweeps_temp_files_and_uncommitted_cycles(tmp_path):
     run.write_cycle(1, _field(1), _traj(1, 4), {"k": np.arange(3)}, {})
     # what `kill -9` during cycle 2's writes leaves: mkstemp temp files and a field file never committed
     left = [".cycle_0002_trajectories.nc.k3_x9a2b.nc", ".cycle_0002.nc.abcdefgh.nc", ".restart_0002.npz.a1b2c3d4.npz",
-            ".manifest.json.zz99yy88.json", "cycle_0002.nc", "restart_0002.npz"]
+            ".manifest.json.zz99yy88.json", "cycle_0002.nc", "restart_0002.npz", "trajectories_0002.nc"]
     for name in left:
         (run.path / name).write_bytes(b"partial")
     keep = ["notes.txt", ".hidden_by_user"]

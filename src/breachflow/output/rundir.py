@@ -48,7 +48,7 @@ SCENARIO = "scenario.toml"
 LOG = "run.log"
 #: temp files of :func:`~.atomic.atomic_path`: ``.NAME.XXXXXXXX.SUFFIX`` (mkstemp's 8 random characters)
 _TEMP = re.compile(r"^\.(?P<target>.+)\.[A-Za-z0-9_]{8}\.[A-Za-z0-9]+$")
-_CYCLE_FILE = re.compile(r"^(cycle|restart)_(?P<g>\d{4})(_trajectories)?\.(nc|npz)$")
+_CYCLE_FILE = re.compile(r"^(cycle|restart|trajectories)_(?P<g>\d{4})(_trajectories)?\.(nc|npz)$")
 
 
 def session(action: str) -> dict:
