@@ -156,9 +156,13 @@ def run_closure_cli(scenario: Path | None, out: Path, resume: bool, overwrite: b
         console.print(f"           tonnage {fmt(rep.tonnage, 't')}, operation time {fmt(rep.operation_time / 3600, 'h')}, "
                       f"stability: {rep.stability}, {rep.left_domain} left the domain", level=VERBOSE, highlight=False)
 
-    def on_start(run):
+    name = "embedded default scenario" if scenario is None and not resume else (
+        f"scenario stored in {out}" if scenario is None else str(scenario))
+
+    def on_start(run):  # the scenario is parsed and checked, the run directory started
         rd = run.rundir
         console.attach_log(rd.path / "run.log")
+        console.print(f"closure run: {name} → {out}", highlight=False)
         for p in rd.swept:
             console.print(f"removed {p.name} (left by an interrupted run)", highlight=False)
         if resume:
@@ -172,9 +176,6 @@ def run_closure_cli(scenario: Path | None, out: Path, resume: bool, overwrite: b
             else:
                 console.print("resuming: no cycle was complete, starting at cycle 1", highlight=False)
 
-    name = "embedded default scenario" if scenario is None and not resume else (
-        f"scenario stored in {out}" if scenario is None else str(scenario))
-    console.print(f"closure run: {name} → {out}", highlight=False)
     try:
         res = run_closure(scenario, out, resume=resume, overwrite=overwrite, progress=progress, plots=plots,
                           on_start=on_start)
