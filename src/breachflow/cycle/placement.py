@@ -108,7 +108,7 @@ class PlacementPlan:
         return cls(**cfg)
 
     def check_inside(self, x_range, y_range) -> None:
-        """Raise :class:`InputError` naming the key when the release line, zone or points leave the
+        """Raise :class:`~breachflow.errors.InputError` naming the key when the release line, zone or points leave the
         horizontal extent ``x_range`` x ``y_range`` (m) of the field, before any run starts."""
         keys = {"line": ("start", "stop"), "zone": ("zone",), "list": ("points",)}[self.positions]
         for key in keys:

@@ -52,7 +52,7 @@ _CYCLE_FILE = re.compile(r"^(cycle|restart|trajectories)_(?P<g>\d{4})(_trajector
 
 
 def session(action: str) -> dict:
-    """A manifest record of one command acting on a run: time, action and :func:`provenance.attrs`."""
+    """A manifest record of one command acting on a run: time, action and :func:`breachflow.output.provenance.attrs`."""
     return {"time": datetime.now(timezone.utc).isoformat(timespec="seconds"), "action": action,
             **provenance.attrs()}
 
