@@ -7,7 +7,7 @@ embedded shallow-water solver (:mod:`breachflow.hydro`), the discrete element me
 """
 from __future__ import annotations
 
-from .errors import BreachflowError, InputError, ParseError, SchemaError, UnitError, PhysicsError
+from .errors import BreachflowError, DiskFullError, InputError, ParseError, SchemaError, UnitError, PhysicsError
 from .units import ureg, Q_, to_si
 
 __version__ = "0.1.0"
@@ -24,6 +24,6 @@ def __getattr__(name):
 
 
 __all__ = ["open_snapshot", 
-    "BreachflowError", "InputError", "ParseError", "SchemaError", "UnitError", "PhysicsError",
+    "BreachflowError", "DiskFullError", "InputError", "ParseError", "SchemaError", "UnitError", "PhysicsError",
     "ureg", "Q_", "to_si", "__version__",
 ]

@@ -54,6 +54,15 @@ class SchemaError(BreachflowError, ValueError):
     """A Dataset does not satisfy its schema in ``data_schemas/``."""
 
 
+class DiskFullError(BreachflowError, OSError):
+    """The disk (or quota) filled while writing *path*; nothing half-written is left behind."""
+
+    def __init__(self, path, detail: str = ""):
+        self.path = str(path)
+        msg = f"no space left on device writing {self.path}"
+        super().__init__(msg + (f" ({detail})" if detail else ""))
+
+
 class PhysicsError(BreachflowError, RuntimeError):
     """A simulation reached a non-physical state (NaN, negative depth, unstable time step...)."""
 

@@ -51,3 +51,93 @@ def test_progress_lines_show_the_criteria(tmp_path):
     res = runner.invoke(app, ["run", "--out", str(tmp_path / "r")], terminal_width=400)
     assert res.exit_code == 0, res.output
     assert "[max_speed " in res.output and "blocked_fraction " in res.output
+
+
+# --------------------------------------------------------------------------- issue 15: never lose a user's run
+import pytest  # noqa: E402
+
+from breachflow.cli.run import check_run_target  # noqa: E402
+from breachflow.cycle.main import default_scenario_text, run_closure  # noqa: E402
+from breachflow.errors import InputError, ParseError  # noqa: E402
+from breachflow.scenario.config import parse_scenario  # noqa: E402
+
+from .test_closure_run import SCENARIO  # noqa: E402
+
+
+def test_a_users_run_is_never_replaced_without_overwrite(tmp_path):
+    """`run my.toml --out D`, then `run --out D` (scenario forgotten) used to replace the user's run with the
+    default scenario (rc 0). Now it is refused, names the flags, and leaves the run as it was."""
+    out = tmp_path / "mine"
+    text = SCENARIO % (2, "no_flow")
+    (tmp_path / "mine.toml").write_text(text)
+    RunDirectory(out).start(text, seed=5, metadata={"scenario_path": str(tmp_path / "mine.toml")})
+    before = (out / "manifest.json").read_bytes()
+    for args in (["run", "--out", str(out)], ["run", str(tmp_path / "mine.toml"), "--out", str(out)]):
+        res = runner.invoke(app, args)
+        assert res.exit_code != 0, res.output
+        assert isinstance(res.exception, InputError)
+        msg = str(res.exception)
+        assert "--resume" in msg and "--overwrite" in msg and "mine.toml" in msg
+        assert (out / "manifest.json").read_bytes() == before
+        assert (out / "scenario.toml").read_text() == text
+
+
+def test_only_the_default_run_of_the_default_scenario_is_replaced_silently(tmp_path):
+    out = tmp_path / "default"
+    RunDirectory(out).start(default_scenario_text(), seed=0)
+    assert check_run_target(None, out, resume=False, overwrite=False) is True  # the README command re-runs
+    with pytest.raises(InputError, match="--overwrite"):
+        check_run_target(tmp_path / "other.toml", out, resume=False, overwrite=False)
+    assert check_run_target(tmp_path / "other.toml", out, resume=False, overwrite=True) is True
+    with pytest.raises(InputError, match="nothing to resume"):
+        check_run_target(None, tmp_path / "nothing", resume=True, overwrite=False)
+
+
+def test_resume_without_a_scenario_uses_the_stored_one_sweeps_and_logs(tmp_path):
+    """A run stopped after cycle 1 (with the temp file a kill during cycle 2's writes leaves) resumes with
+    `run --out D --resume` alone, from the scenario.toml stored in D, says where it resumes, sweeps the
+    temp file, and logs the console output to D/run.log."""
+    scen = tmp_path / "mine.toml"
+    scen.write_text(SCENARIO % (2, "no_flow"))
+    out = tmp_path / "mine"
+
+    class Stop(Exception):
+        pass
+
+    def stop(rep):
+        raise Stop()
+
+    with pytest.raises(Stop):
+        run_closure(scen, out, progress=stop, plots=False)
+    stray = ".cycle_0002_trajectories.nc.ab12cd34.nc"
+    (out / stray).write_bytes(b"partial")
+    scen.unlink()  # even the user's file is gone: the stored copy is what resumes
+    res = runner.invoke(app, ["run", "--out", str(out), "--resume", "--no-plots"])
+    assert res.exit_code == 0, res.output
+    assert "resuming after cycle 1" in res.output and stray in res.output
+    assert RunDirectory(out).completed_cycles() == [1, 2]
+    assert not (out / stray).exists()
+    log = (out / "run.log").read_text()
+    assert "resuming after cycle 1" in log and "cycle   2" in log and "closure summary" in log
+    man = RunDirectory(out).manifest()
+    assert [s["action"] for s in man["sessions"]] == ["start", "resume"]
+
+
+def test_a_bad_placement_leaves_no_run_directory(tmp_path):
+    scen = tmp_path / "far.toml"
+    scen.write_text((SCENARIO % (2, "no_flow")).replace('start = ["-4 m", "0 m"]', 'start = ["-400 m", "0 m"]'))
+    out = tmp_path / "far"
+    res = runner.invoke(app, ["run", str(scen), "--out", str(out)])
+    assert res.exit_code != 0
+    assert isinstance(res.exception, InputError) and "placement.start" in str(res.exception)
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("key, bad", [("batch", '"five"'), ("batch", "2.5"), ("max_cycles", '"ten"')])
+def test_type_errors_name_the_key_and_line(tmp_path, key, bad):
+    text = SCENARIO % (2, "no_flow")
+    line = next(i for i, l in enumerate(text.splitlines(), 1) if l.startswith(f"{key} ="))
+    text = "\n".join(f"{key} = {bad}" if i == line else l for i, l in enumerate(text.splitlines(), 1))
+    with pytest.raises(ParseError) as info:
+        parse_scenario(text, path=tmp_path / "s.toml")
+    assert info.value.line == line and f"] {key}" in str(info.value) and bad.strip('"') in str(info.value)

@@ -15,7 +15,7 @@ def register(app: typer.Typer) -> None:
                                                 "(dask-jobqueue / dask-kubernetes clusters). Default: a local cluster."),
         workers: Optional[int] = typer.Option(None, help="Worker processes of the local cluster (default: one per core); "
                                               "with --scheduler: use only this many of its workers."),
-        out: Optional[Path] = typer.Option(None, help="Output directory (default: the spec's output, else SPEC.ensemble/)."),
+        out: Optional[Path] = typer.Option(None, "--out", "-o", help="Output directory (default: the spec's output, else SPEC.ensemble/)."),
         resume: bool = typer.Option(True, help="Skip members completed by an earlier run of the same spec."),
         retry_failed: bool = typer.Option(True, help="On resume, rerun members that failed before."),
         progress: bool = typer.Option(True, help="Show a progress bar over members."),
@@ -24,12 +24,14 @@ def register(app: typer.Typer) -> None:
         """Run every member of an ensemble on dask (full factorial over ensemble.vary, or the listed
         ensemble.members) and write one NetCDF Dataset with a dimension per varied parameter; member outputs
         stay in their own run directories, failed members are recorded, reruns resume."""
-        from rich.console import Console
-
         from ..ensemble import member_runners, run
+        from ..ensemble.runners import RUNNER_PROVIDERS, runner_available
+        from ._common import console as _console
 
-        console = Console()
+        console = _console()
         if list_runners:
+            for name in RUNNER_PROVIDERS:  # built-in runners living in other subpackages register on import
+                runner_available(name)
             for name in member_runners.available():
                 doc = (member_runners.get(name).__doc__ or "").strip().splitlines()
                 console.print(f"[bold]{name}[/]: {doc[0] if doc else ''}", highlight=False)

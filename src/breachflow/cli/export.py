@@ -12,7 +12,8 @@ def register(app: typer.Typer) -> None:
     def export(
         snapshot: Path = typer.Argument(..., help="Snapshot NetCDF (from `breachflow solve`, `ingest` or a run)."),
         format: str = typer.Option(..., "--format", "-f", help="adh | esri | sdf"),
-        output: Path = typer.Option(..., "-o", "--output", help="Output prefix (adh, esri: PREFIX.3dm, PREFIX_dep.dat, ...; sdf: PREFIX.sdf)."),
+        out: Optional[Path] = typer.Option(None, "--out", "-o", help="Output prefix (adh, esri: PREFIX.3dm, PREFIX_dep.dat, ...; sdf: PREFIX.sdf)."),
+        output: Optional[Path] = typer.Option(None, "--output", hidden=True),
         units: str = typer.Option("m", "--units", help="Length unit of the files: m or ft (velocities in unit/s)."),
         nodes: Optional[int] = typer.Option(None, "--nodes", help="adh from a grid: triangulate onto an unaligned mesh of about N nodes (default: nodes at the cell centres)."),
         seed: int = typer.Option(0, "--seed", help="adh --nodes: seed of the mesh's rotation and jitter."),
@@ -28,6 +29,11 @@ def register(app: typer.Typer) -> None:
         from ..hydro.io.sdf_writer import write_sdf
         from ..hydro.io.writers import write_adh, write_esri
         from ..hydro.snapshot import is_mesh, read_snapshot
+        from ._common import pick_out
+
+        output = pick_out(out, output)
+        if output is None:
+            raise typer.BadParameter("give the output prefix with --out/-o", param_hint="--out")
 
         fmt = format.lower()
         if fmt not in ("adh", "esri", "sdf"):
@@ -42,8 +48,8 @@ def register(app: typer.Typer) -> None:
         elif fmt == "esri":
             paths = write_esri(ds, output, units=units, time_index=time_index)
         else:
-            out = output if output.suffix.lower() == ".sdf" else output.with_name(output.name + ".sdf")
-            paths = [write_sdf(ds, out, n_sections=sections, points=points, units=units)]
+            sdf = output if output.suffix.lower() == ".sdf" else output.with_name(output.name + ".sdf")
+            paths = [write_sdf(ds, sdf, n_sections=sections, points=points, units=units)]
         con = Console()
         for p in paths:
             con.print(f"wrote {p}")

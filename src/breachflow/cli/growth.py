@@ -23,26 +23,33 @@ def register(app: typer.Typer) -> None:
         """Breach length B vs development time t_D (report Table 2.8) and maximum breach length (Table 2.9)."""
         import warnings
 
-        from rich.console import Console
-
-        from ..errors import BreachflowWarning
+        from ..errors import BreachflowError, BreachflowWarning
+        from ._common import cli_flags, console as _console
         from ..scenario import LeveeGeometry, breach_length, max_breach_length, typical_breach
         from ..scenario.report import growth_table, max_length_table
 
-        console = Console()
+        console = _console()
         if levee_height is None:
             levee = typical_breach().levee
             note = "typical breach levee (7.6 m, crown 3.0 m, 1V:4H)"
         else:
-            levee = LeveeGeometry.from_input(height=levee_height, crown_width=crown_width, flood_slope=side_slope,
-                                             protected_slope=side_slope)
+            try:
+                levee = LeveeGeometry.from_input(height=levee_height, crown_width=crown_width, flood_slope=side_slope,
+                                                 protected_slope=side_slope)
+            except BreachflowError as exc:
+                raise cli_flags(exc, {"height": "--levee-height", "crown_width": "--crown-width",
+                                      "flood_slope": "--side-slope", "protected_slope": "--side-slope"})
             note = f"levee h_L = {levee.height:.2f} m, crown {levee.crown_width:.2f} m, 1V:{side_slope:g}H"
         eq = equation[0] if len(equation) == 1 and equation[0] != "all" else ("all" if equation == ["all"] else equation)
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", BreachflowWarning)
-            da = breach_length(eq if eq != "all" else "all", list(hours), surge_height=surge_height, levee=levee,
-                               max_length=max_length)
-        h_w = surge_height or f"{levee.height} m"
+            try:
+                da = breach_length(eq if eq != "all" else "all", list(hours), surge_height=surge_height, levee=levee,
+                                   max_length=max_length)
+            except BreachflowError as exc:
+                raise cli_flags(exc, {"surge_height": "--surge-height", "max_length": "--max-length",
+                                      "development_time": "--time", "equation": "--equation"})
+        h_w = surge_height or f"{levee.height:.6g} m"
         console.print(growth_table(da, title=f"Breach length B (m) vs development time t_D — {note}, h_W = {h_w}"))
         for w in caught:
             console.print(f"[yellow]note:[/] {w.message}")

@@ -42,7 +42,6 @@ def summary_rows(ds) -> list[tuple[str, str]]:
 
 
 def _print(title: str, ds) -> None:
-    from rich.console import Console
     from rich.table import Table
 
     table = Table(title=title, show_header=False)
@@ -50,14 +49,17 @@ def _print(title: str, ds) -> None:
     table.add_column()
     for k, v in summary_rows(ds):
         table.add_row(k, v)
-    Console().print(table)
+    from ._common import console
+
+    console().print(table)
 
 
 def register(app: typer.Typer) -> None:
     @app.command()
     def ingest(
         files: List[Path] = typer.Argument(..., help="Model export files forming one snapshot (mesh + .dat + .bc; .asc grids; one .sdf; a HEC-RAS .hdf)."),
-        output: Path = typer.Option(..., "-o", "--output", help="Snapshot NetCDF file to write (atomically)."),
+        out: Optional[Path] = typer.Option(None, "--out", "-o", help="Snapshot NetCDF file to write (atomically)."),
+        output: Optional[Path] = typer.Option(None, "--output", hidden=True),
         format: Optional[str] = typer.Option(None, "--format", "-f", help="Reader name (default: from the extensions)."),
         units: Optional[str] = typer.Option(None, "--units", help="Length unit of files that carry none: m or ft."),
         crs: Optional[str] = typer.Option(None, "--crs", help="CRS as EPSG:nnnn, WKT text or a .prj file (overrides the files); in the files' length unit; stored as WKT."),
@@ -97,7 +99,16 @@ def register(app: typer.Typer) -> None:
             from ..hydro.io import read_prj
 
             crs = read_prj(crs)
-        ds = open_snapshot(files, format=format, units=units, crs=crs, plausibility=plausibility, **options)
+        from ..errors import BreachflowError
+        from ._common import cli_flags, pick_out
+
+        output = pick_out(out, output)
+        if output is None:
+            raise typer.BadParameter("give the snapshot file to write with --out/-o", param_hint="--out")
+        try:
+            ds = open_snapshot(files, format=format, units=units, crs=crs, plausibility=plausibility, **options)
+        except BreachflowError as exc:
+            raise cli_flags(exc)
         write_snapshot(ds, output)
         _print(f"wrote {output}", ds)
 

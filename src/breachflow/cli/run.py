@@ -16,19 +16,21 @@ import typer
 
 def run_model_problem(console=None, plot: Path | None = None, output: Path | None = None):
     """Print the model problem's closure windows and the typical breach's growth; return the results."""
-    from rich.console import Console
 
     from ..scenario import model_problem, typical_breach, typical_breach_growth
     from ..scenario.report import growth_table, max_length_table, window_table
 
-    console = console or Console()
+    if console is None:
+        from ._common import console as _console
+
+        console = _console()
     results = model_problem()
     console.print(window_table([r.window for r in results], [r.name.replace("model problem, ", "") for r in results],
                                title="Model problem (report Table 2.5; SPEC §2: t_I = d_I / r_P = 10.0 h)"))
     scene = typical_breach()
     growth, max_len, time_to = typical_breach_growth(scene)
     console.print(growth_table(growth, time_to=time_to, title=(
-        f"Typical breach (SPEC §3): levee {scene.levee.height} m, crown {scene.levee.crown_width} m, "
+        f"Typical breach (SPEC §3): levee {scene.levee.height:.4g} m, crown {scene.levee.crown_width:.4g} m, "
         f"1V:{scene.levee.flood_slope:g}H (A_L = {scene.levee.area:.0f} m²), water at the crest: "
         "breach length B (m) vs development time t_D")))
     console.print(max_length_table(max_len, title=f"Maximum breach length for h_W = {scene.surge_height:g} m (Table 2.9)"))
@@ -96,11 +98,52 @@ def _is_closure(scenario: Path) -> bool:
     return bool(CLOSURE_SECTIONS & set(data))
 
 
+DEFAULT_OUT = Path("runs/default")
+
+
+def check_run_target(scenario: Path | None, out: Path, resume: bool, overwrite: bool) -> bool:
+    """Decide, before anything is written, whether ``breachflow run`` may use *out*; returns *overwrite*.
+
+    A run directory is only ever replaced without ``--overwrite`` when it holds the default run of the
+    embedded default scenario and no scenario is given (the README's command stays re-runnable); any
+    other run is refused with the flags that would continue or replace it. ``--resume`` needs a run."""
+    from ..cycle.main import default_scenario_text
+    from ..errors import InputError
+    from ..output import RunDirectory
+    from ..output.rundir import scenario_hash
+
+    rd = RunDirectory(out)
+    if resume and overwrite:
+        raise InputError("--resume continues a run and --overwrite replaces it: give one of them")
+    if resume:
+        if not rd.exists():
+            raise InputError(f"{out}: nothing to resume (no run there); start it without --resume")
+        return False
+    if not rd.exists() or overwrite:
+        return overwrite
+    man = rd.manifest()
+    is_default = man.get("scenario_sha256") == scenario_hash(default_scenario_text())
+    if scenario is None and is_default:
+        return True
+    meta = man.get("metadata", {})
+    what = ("the embedded default scenario" if is_default else
+            f"scenario {meta.get('scenario_path') or str(out / 'scenario.toml')!r}")
+    done = len(man.get("cycles", []))
+    state = "finished" if man.get("finished") else "unfinished"
+    given = "" if scenario is None else f" with {scenario}"
+    raise InputError(
+        f"{out} holds a run of {what} ({state}, {done} cycle(s) complete, started {man.get('created', '?')}); "
+        f"refusing to replace it{given}. Use --resume to continue it, --overwrite to replace it, "
+        f"or another --out directory")
+
+
 def run_closure_cli(scenario: Path | None, out: Path, resume: bool, overwrite: bool, plots: bool, console) -> None:
-    """The closure run with a live progress line per cycle and a summary table."""
+    """The closure run with a live progress line per cycle and a summary table; the console output (and
+    warnings) also go to ``OUT/run.log``."""
     from rich.table import Table
 
     from ..cycle.main import run_closure
+    from ._common import VERBOSE, fmt
 
     def progress(rep):
         from rich.markup import escape
@@ -110,59 +153,99 @@ def run_closure_cli(scenario: Path | None, out: Path, resume: bool, overwrite: b
                       f"breach Q {rep.breach_discharge:7.2f} m³/s  DEM {rep.dem_steps} steps"
                       f"{'' if rep.dem_converged else ' (cycle time limit)'}  {rep.hydro}  {crit}  "
                       f"{rep.wall_time:.1f} s", highlight=False)
+        console.print(f"           tonnage {fmt(rep.tonnage, 't')}, operation time {fmt(rep.operation_time / 3600, 'h')}, "
+                      f"stability: {rep.stability}, {rep.left_domain} left the domain", level=VERBOSE, highlight=False)
 
-    console.print(f"closure run: {'embedded default scenario' if scenario is None else scenario} → {out}")
-    res = run_closure(scenario, out, resume=resume, overwrite=overwrite, progress=progress, plots=plots)
-    summary = Table(title="closure summary", show_header=False)
-    summary.add_column("quantity")
-    summary.add_column("value")
-    for k, v in res.table_rows():
-        summary.add_row(k, v)
-    console.print(summary)
-    for p in res.plots:
-        console.print(f"wrote {p}")
+    name = "embedded default scenario" if scenario is None and not resume else (
+        f"scenario stored in {out}" if scenario is None else str(scenario))
+
+    def on_start(run):  # the scenario is parsed and checked, the run directory started
+        rd = run.rundir
+        console.attach_log(rd.path / "run.log")
+        console.print(f"closure run: {name} → {out}", highlight=False)
+        for p in rd.swept:
+            console.print(f"removed {p.name} (left by an interrupted run)", highlight=False)
+        if resume:
+            man = rd.manifest()
+            last = rd.last_cycle()
+            if man.get("finished") or (man["cycles"] and man["cycles"][-1]["summary"].get("closed")):
+                console.print(f"the run in {out} is already finished after cycle {last}; nothing to do "
+                              "(--overwrite runs it again)", highlight=False)
+            elif last:
+                console.print(f"resuming after cycle {last}", highlight=False)
+            else:
+                console.print("resuming: no cycle was complete, starting at cycle 1", highlight=False)
+
+    try:
+        res = run_closure(scenario, out, resume=resume, overwrite=overwrite, progress=progress, plots=plots,
+                          on_start=on_start)
+        summary = Table(title="closure summary", show_header=False)
+        summary.add_column("quantity")
+        summary.add_column("value")
+        for k, v in res.table_rows():
+            summary.add_row(k, v)
+        console.print(summary)
+        for p in res.plots:
+            console.print(f"wrote {p}", highlight=False)
+    except BaseException as exc:
+        if console._log_file is not None:
+            console._log.print(f"error: {type(exc).__name__}: {exc}")
+        raise
+    finally:
+        console.detach_log()
 
 
 def register(app: typer.Typer) -> None:
     @app.command()
     def run(
-        scenario: Optional[Path] = typer.Argument(None, help="Scenario TOML file (default: the embedded closure scenario)."),
-        out: Path = typer.Option(Path("runs/default"), "--out", help="Run directory of a closure run."),
+        scenario: Optional[Path] = typer.Argument(None, help="Scenario TOML file (default: the embedded closure scenario; "
+                                                  "with --resume: the scenario stored in the run directory)."),
+        out: Optional[Path] = typer.Option(None, "--out", "-o", help="Closure runs: the run directory (default "
+                                           "runs/default). Calculator scenarios: the NetCDF file to write."),
+        output: Optional[Path] = typer.Option(None, "--output", hidden=True),
         resume: bool = typer.Option(False, "--resume", help="Continue a closure run from its last complete cycle."),
-        overwrite: bool = typer.Option(False, "--overwrite", help="Replace a previous run in --out."),
+        overwrite: bool = typer.Option(False, "--overwrite", help="Replace the run already in --out."),
         no_plots: bool = typer.Option(False, "--no-plots", help="Do not draw the plan-view and progress PNGs."),
         plot: Optional[Path] = typer.Option(None, help="Calculator scenarios: write the Fig 2.6-style chart to this PNG."),
-        output: Optional[Path] = typer.Option(None, "--output", "-o", help="Calculator scenarios: write the window to NetCDF."),
     ) -> None:
         """Run the closure simulation (default: the embedded scenario), or a calculator-only scenario file."""
-        from rich.console import Console
+        from ._common import console, pick_out
 
-        console = Console()
+        con = console()
+        out = pick_out(out, output)
         if scenario is not None and not _is_closure(scenario):
-            _run_calculator(scenario, plot, output, console)
+            _run_calculator(scenario, plot, out, con)
             return
-        if scenario is None and not resume and not overwrite and (out / "manifest.json").exists():
-            overwrite = True  # the default command is meant to be re-runnable as is
-        run_closure_cli(scenario, out, resume, overwrite, not no_plots, console)
+        out = DEFAULT_OUT if out is None else out
+        overwrite = check_run_target(scenario, out, resume, overwrite)
+        run_closure_cli(scenario, out, resume, overwrite, not no_plots, con)
 
     @app.command("model-problem")
     def model_problem_cmd(
         plot: Optional[Path] = typer.Option(None, help="Write the Fig 2.6-style closure-window chart to this PNG."),
-        output: Optional[Path] = typer.Option(None, "--output", "-o", help="Write the closure-window Dataset to NetCDF."),
+        out: Optional[Path] = typer.Option(None, "--out", "-o", help="Write the closure-window Dataset to NetCDF."),
+        output: Optional[Path] = typer.Option(None, "--output", hidden=True),
     ) -> None:
         """The report's model problem (Table 2.5, hurricane and riverine) and the typical breach's growth."""
-        run_model_problem(plot=plot, output=output)
+        from ._common import console, pick_out
+
+        run_model_problem(console(), plot=plot, output=pick_out(out, output))
 
     @app.command()
     def combine(
         run_dir: Path = typer.Argument(..., help="A closure run directory."),
-        output: Path = typer.Option(..., "--output", "-o", help="Archive NetCDF to write."),
+        out: Optional[Path] = typer.Option(None, "--out", "-o", help="Archive NetCDF to write."),
+        output: Optional[Path] = typer.Option(None, "--output", hidden=True),
     ) -> None:
         """Combine a closure run's cycles into one NetCDF archive (trajectories in group 'trajectories')."""
         from ..output import RunDirectory
+        from ._common import console, pick_out
 
+        out = pick_out(out, output)
+        if out is None:
+            raise typer.BadParameter("give the archive to write with --out/-o", param_hint="--out")
         rd = RunDirectory(run_dir)
         problems = rd.verify()
         if problems:
             raise typer.BadParameter("; ".join(problems))
-        typer.echo(f"wrote {rd.combine(output)} ({len(rd.completed_cycles())} cycles)")
+        console().print(f"wrote {rd.combine(out)} ({len(rd.completed_cycles())} cycles)", highlight=False)

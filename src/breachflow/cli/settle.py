@@ -16,20 +16,32 @@ def register(app: typer.Typer) -> None:
         dt: str = typer.Option("1e-5 s", help="time step of the DEM integrator"),
         duration: str = typer.Option("1 s", help="simulated time"),
         integrator: str = typer.Option("report", help="DEM integrator or free-flight method (dopri5, rk4)"),
-        out: Path = typer.Option(Path("settling"), help="output directory (NetCDF, CSV, PNG)"),
+        out: Path = typer.Option(Path("settling"), "--out", "-o", help="output directory (NetCDF, CSV, PNG)"),
     ) -> None:
         """Spheres settling from rest in still water: velocity–time curves, plot, terminal velocities."""
-        from rich.console import Console
+        from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
         from rich.table import Table
+
+        from ._common import QUIET, console, level
 
         from ..fluid.validation import drag_crisis_time, save_settling, settling_curves
         from ..units import to_si
 
-        ds_ = [to_si(d, name="diameter", kind="length", default_unit="m", positive=True) for d in diameter]
-        ds = settling_curves(ds_, to_si(density, name="density", kind="density", positive=True), tuple(drag_law),
-                             dt=to_si(dt, name="dt", kind="time", default_unit="s", positive=True),
-                             duration=to_si(duration, name="duration", kind="time", default_unit="s", positive=True),
-                             integrator=integrator)
+        ds_ = [to_si(d, name="--diameter", kind="length", default_unit="m", positive=True) for d in diameter]
+        con = console()
+        bar = Progress(TextColumn("settling"), BarColumn(), TextColumn("{task.fields[law]}: {task.completed:.0f} of "
+                       "{task.total:.0f} records"), TimeElapsedColumn(), console=con, transient=True,
+                       disable=level() <= QUIET)
+        with bar:
+            task = bar.add_task("settle", total=1, law="")
+
+            def progress(j, r, n):
+                bar.update(task, total=len(drag_law) * n, completed=j * n + r, law=drag_law[j])
+
+            ds = settling_curves(ds_, to_si(density, name="--density", kind="density", positive=True), tuple(drag_law),
+                             dt=to_si(dt, name="--dt", kind="time", default_unit="s", positive=True),
+                             duration=to_si(duration, name="--duration", kind="time", default_unit="s", positive=True),
+                             integrator=integrator, progress=progress)
         paths = save_settling(ds, out)
         table = Table(title="settling spheres")
         for col in ("drag law", "D (mm)", "v(end) m/s", "v_t root m/s", "C_D < 0.3 at (s)"):
@@ -41,6 +53,6 @@ def register(app: typer.Typer) -> None:
                               f"{float(ds['velocity'].sel(drag_law=law, diameter=d)[-1]):.4f}",
                               f"{float(ds['terminal_velocity'].sel(drag_law=law, diameter=d)):.4f}",
                               "-" if t_c is None else f"{t_c:.3f}")
-        Console().print(table)
+        con.print(table)
         for kind, p in paths.items():
-            typer.echo(f"{kind}: {p}")
+            con.print(f"{kind}: {p}", highlight=False)

@@ -10,6 +10,8 @@ import math
 import time
 from pathlib import Path
 
+from typing import Optional
+
 import typer
 
 from ..output.atomic import atomic_write as _atomic_write
@@ -65,13 +67,14 @@ def register(app: typer.Typer) -> None:
         breach_length: str = typer.Option("", help="override the breach length B (e.g. '61 m')"),
         levee_as_bed: bool = typer.Option(False, help="intact levee as bed instead of a no-flow boundary"),
         threads: int = typer.Option(1, help="numba threads"),
-        output: Path = typer.Option(Path("snapshot_swe.nc"), help="snapshot NetCDF to write"),
-        png: Path = typer.Option(Path("speed_swe.png"), help="plan-view speed map to write ('' for none)"),
+        out: Optional[Path] = typer.Option(None, "--out", "-o", help="snapshot NetCDF to write [default: snapshot_swe.nc]"),
+        output: Optional[Path] = typer.Option(None, "--output", hidden=True),
+        png: str = typer.Option("speed_swe.png", help="plan-view speed map to write ('' for none)"),
     ) -> None:
         """Solve the shallow-water flow through a levee breach to steady state."""
         import dataclasses
 
-        from rich.console import Console
+        from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
         from rich.table import Table
 
         from ..errors import InputError
@@ -80,19 +83,21 @@ def register(app: typer.Typer) -> None:
         from ..hydro.terrain import breach_domain, breach_vicinity
         from ..scenario import geometry
         from ..units import to_si
+        from ._common import QUIET, console, level, pick_out
 
+        output = pick_out(out, output) or Path("snapshot_swe.nc")
         if scene not in SCENES:
             raise InputError(f"scene {scene!r} unknown; available: {', '.join(SCENES)}")
         sc = getattr(geometry, scene)()
         if manning:
-            sc = dataclasses.replace(sc, manning_n=to_si(manning, name="manning", kind="manning", default_unit="s/m**(1/3)", positive=True))
+            sc = dataclasses.replace(sc, manning_n=to_si(manning, name="--manning", kind="manning", default_unit="s/m**(1/3)", positive=True))
         if breach_length:
-            sc = dataclasses.replace(sc, breach=dataclasses.replace(sc.breach, length=to_si(breach_length, name="breach_length", kind="length", positive=True)))
-        dx = to_si(resolution, name="resolution", kind="length", positive=True)
-        tol = to_si(tolerance, name="tolerance", kind="1/s", default_unit="1/s", positive=True)
-        tmax = to_si(t_max, name="t_max", kind="time", positive=True)
+            sc = dataclasses.replace(sc, breach=dataclasses.replace(sc.breach, length=to_si(breach_length, name="--breach-length", kind="length", positive=True)))
+        dx = to_si(resolution, name="--resolution", kind="length", positive=True)
+        tol = to_si(tolerance, name="--tolerance", kind="1/s", default_unit="1/s", positive=True)
+        tmax = to_si(t_max, name="--t-max", kind="time", positive=True)
         dom = breach_domain(sc, dx, levee_no_flow=not levee_as_bed)
-        con = Console()
+        con = console()
         con.print(f"[bold]{scene}[/]: {dom.shape[1]} × {dom.shape[0]} cells of {dom.dx:.2f} × {dom.dy:.2f} m, order {order}")
         sim = SWESimulation(dom, SWEOptions(order=order, courant=courant, threads=threads))
         wall0 = time.perf_counter()
@@ -100,11 +105,22 @@ def register(app: typer.Typer) -> None:
         if monitor_radius == "auto":
             region = breach_vicinity(dom, sc)
         elif monitor_radius:
-            region = breach_vicinity(dom, sc, to_si(monitor_radius, name="monitor_radius", kind="length", positive=True))
-        hist = sim.run_to_steady(tol, tmax, region=region)
+            region = breach_vicinity(dom, sc, to_si(monitor_radius, name="--monitor-radius", kind="length", positive=True))
+        bar = Progress(TextColumn("solving"), BarColumn(bar_width=20), TextColumn("{task.fields[t]:.0f}/{task.total:.0f} s, "
+                       "rates {task.fields[rh]:.1e} {task.fields[rq]:.1e} 1/s (steady < {task.fields[tol]:.0e})"),
+                       TimeElapsedColumn(), console=con, transient=True, disable=level() <= QUIET)
+        with bar:
+            task = bar.add_task("solve", total=tmax, t=0.0, rh=float("nan"), rq=float("nan"), tol=tol)
+
+            def progress(s_, h_):
+                bar.update(task, completed=s_.t, t=s_.t, rh=h_.depth_rate[-1], rq=h_.discharge_rate[-1])
+
+            hist = sim.run_to_steady(tol, tmax, region=region, progress=progress)
         wall = time.perf_counter() - wall0
         ds = sim.snapshot()
-        _atomic_write(output, lambda tmp: ds.to_netcdf(tmp))
+        from ..output.atomic import atomic_write_netcdf
+
+        atomic_write_netcdf(ds, output)
         near = peak_speed(ds, x_range=(-sc.breach.length, sc.breach.length), y_range=(-50.0, 50.0))
         pk = peak_speed(ds)
         g = sim.options.gravity
@@ -117,11 +133,11 @@ def register(app: typer.Typer) -> None:
         t.add_row("wall time", f"{wall:.1f} s")
         t.add_row("peak speed (whole domain)", f"{pk['speed']:.2f} m/s at x = {pk['x']:.0f} m, y = {pk['y']:.0f} m (h {pk['depth']:.2f} m)")
         t.add_row("peak speed within 50 m of the levee centreline", f"{near['speed']:.2f} m/s at x = {near['x']:.0f} m, y = {near['y']:.0f} m")
-        t.add_row("report (ADH), near the former levee centreline", f"{sc.notes.get('adh_peak_velocity_m_s', float('nan'))} m/s")
+        t.add_row("report (ADH), near the former levee centreline", f"{sc.notes.get('adh_peak_velocity_m_s', float('nan')):.3g} m/s")
         t.add_row("Ritter 2/3 sqrt(g h_L)", f"{ritter:.2f} m/s")
         con.print(t)
-        if str(png):
-            plot_speed(ds, png, title=f"{scene}: depth-averaged speed, {dom.dx:.1f} m cells, t = {sim.t:.0f} s")
+        if png:
+            plot_speed(ds, Path(png), title=f"{scene}: depth-averaged speed, {dom.dx:.1f} m cells, t = {sim.t:.0f} s")
             con.print(f"wrote {output} and {png}")
         else:
             con.print(f"wrote {output}")

@@ -27,16 +27,17 @@ def register(app: typer.Typer) -> None:
         wind_limit: str = typer.Option("land", help="Crane wind limit: 'land' (13 m/s), 'ship' (25 m/s) or a speed."),
         scenario: Optional[Path] = typer.Option(None, help="Take the inputs from a scenario TOML file (options override)."),
         plot: Optional[Path] = typer.Option(None, help="Write a Fig 2.6-style chart to this PNG file."),
-        output: Optional[Path] = typer.Option(None, "--output", "-o", help="Write the result Dataset to NetCDF."),
+        out: Optional[Path] = typer.Option(None, "--out", "-o", help="Write the result Dataset to NetCDF."),
+        output: Optional[Path] = typer.Option(None, "--output", hidden=True),
         list_presets: bool = typer.Option(False, "--list-presets", help="List the flood presets and exit."),
     ) -> None:
         """Closure window: breach balance time t_Q, polder inundation time t_I, window t_B = min(t_Q, t_I)."""
-        from rich.console import Console
-
         from ..scenario import closure_window, load_scenario
         from ..scenario.report import window_grid_table, window_table
+        from ._common import console as _console, pick_out
 
-        console = Console()
+        console = _console()
+        output = pick_out(out, output)
         if list_presets:
             _print_presets(console)
             return
@@ -67,7 +68,16 @@ def register(app: typer.Typer) -> None:
         missing = [k for k in ("polder_area", "inundation_depth") if k not in kwargs]
         if missing:
             raise typer.BadParameter(f"missing {', '.join('--' + m.replace('_', '-') for m in missing)}")
-        ds = closure_window(**kwargs)
+        from ..errors import BreachflowError
+        from ._common import cli_flags, flags_of
+
+        try:
+            ds = closure_window(**kwargs)
+        except BreachflowError as exc:
+            names = flags_of(k for k, v in given.items() if v is not None)
+            names.update({"breach_discharge": "--discharge", "pump_capacity": "--pump-capacity",
+                          "breach_time": "--breach-time", "wind_limit": "--wind-limit"})
+            raise cli_flags(exc, names)
         if ds["closure_window"].ndim == 0:
             console.print(window_table([ds], ["value"], title="Breach closure window (SPEC §2)"))
         else:

@@ -230,7 +230,7 @@ class PlacementSection:
     def from_table(cls, table, ctx):
         try:
             return cls(PlacementPlan.from_config(table))
-        except BreachflowError as exc:
+        except (BreachflowError, TypeError, ValueError) as exc:
             key = next((k for k in table if k in str(exc)), None)
             raise ctx.error(str(exc), key) from None
 
@@ -263,7 +263,7 @@ class CriteriaSection:
     def from_table(cls, table, ctx):
         try:
             return cls(EndCriteria.from_config(table))
-        except BreachflowError as exc:
+        except (BreachflowError, TypeError, ValueError) as exc:
             key = next((k for k in table if k in str(exc)), None)
             raise ctx.error(str(exc), key) from None
 

@@ -264,8 +264,10 @@ class EndCriteria:
     """
 
     def __init__(self, items, mode: str = "any", max_cycles: int = 50):
-        if mode not in ("any", "all"):
+        if not isinstance(mode, str) or mode not in ("any", "all"):
             raise InputError(f"criteria.mode must be 'any' or 'all', got {mode!r}")
+        if isinstance(max_cycles, bool) or not isinstance(max_cycles, (int, np.integer)):
+            raise InputError(f"criteria.max_cycles must be a whole number, got {max_cycles!r}")
         if int(max_cycles) < 1:
             raise InputError(f"criteria.max_cycles must be >= 1, got {max_cycles}")
         self.items = list(items)

@@ -151,11 +151,15 @@ class ClosureRun:
     """Drive a closure run in a run directory: ``ClosureRun(setup, run_dir, scenario_text).run()``."""
 
     def __init__(self, setup: ClosureSetup, run_dir, scenario_text: str, *, resume: bool = False,
-                 overwrite: bool = False, progress=None):
+                 overwrite: bool = False, progress=None, metadata: dict | None = None):
         self.setup = setup
+        dom = setup.domain
+        # everything is checked before the run directory is touched: a bad scenario leaves nothing behind
+        setup.placement.check_inside((dom.x[0] - 0.5 * dom.dx, dom.x[-1] + 0.5 * dom.dx),
+                                     (dom.y[0] - 0.5 * dom.dy, dom.y[-1] + 0.5 * dom.dy))
         self.rundir = RunDirectory(run_dir)
         self.rundir.start(scenario_text, seed=setup.seed, resume=resume, overwrite=overwrite,
-                          metadata={"name": setup.name})
+                          metadata={"name": setup.name, **(metadata or {})})
         self.progress = progress  # callable(CycleReport) or None
         self.reports: list[CycleReport] = []
         self._live = None  # (cycle, DemSimulation) of the last cycle, continued by the next one

@@ -56,19 +56,39 @@ class ClosureResult:
 
 
 def run_closure(scenario=None, out="runs/default", *, resume: bool = False, overwrite: bool = False,
-                progress=None, plots: bool = True) -> ClosureResult:
-    """Run the closure simulation of *scenario* (a TOML path, TOML text via ``parse_scenario``, or None
-    for the embedded default) in the run directory *out*; returns the :class:`ClosureResult`."""
+                progress=None, plots: bool = True, on_start=None) -> ClosureResult:
+    """Run the closure simulation of *scenario* (a TOML path, or None for the embedded default; with
+    *resume* and no scenario, the ``scenario.toml`` stored in the run directory) in the run directory
+    *out*; returns the :class:`ClosureResult`.
+
+    The scenario is parsed and checked in full before the run directory is touched. *on_start(run)* is
+    called with the :class:`~breachflow.cycle.driver.ClosureRun` once its directory is started or resumed, before any work."""
+    from ..output import RunDirectory
+
     t0 = _time.perf_counter()
-    if scenario is None:
+    source = None
+    if scenario is None and resume and RunDirectory(out).exists():
+        rd = RunDirectory(out)
+        text = rd.scenario_text()
+        meta = rd.manifest().get("metadata", {})
+        orig = Path(meta["scenario_path"]) if meta.get("scenario_path") else None
+        # relative paths in the scenario resolve against where the scenario file was (if still there)
+        anchor = orig if orig is not None and orig.is_file() else rd.path / "scenario.toml"
+        sc = parse_scenario(text, path=anchor)
+        source = meta.get("scenario_path")
+    elif scenario is None:
         text = default_scenario_text()
         sc = parse_scenario(text)
     else:
         path = Path(scenario)
+        sc = load_scenario(path)  # errors name the file and line
         text = path.read_text(encoding="utf-8")
-        sc = load_scenario(path)
+        source = str(path.resolve())
     setup = closure_setup(sc)
-    run = ClosureRun(setup, out, text, resume=resume, overwrite=overwrite, progress=progress)
+    run = ClosureRun(setup, out, text, resume=resume, overwrite=overwrite, progress=progress,
+                     metadata={"scenario_path": source})
+    if on_start is not None:
+        on_start(run)
     run.run()
     man = run.rundir.manifest()
     cycles = man["cycles"]

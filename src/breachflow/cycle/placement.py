@@ -61,10 +61,12 @@ class PlacementPlan:
             raise InputError(f"placement.diameter must be > 0 (low <= high), got {self.diameter}")
         if not (0 < self.density[0] <= self.density[1]):
             raise InputError(f"placement.density must be > 0 (low <= high), got {self.density}")
+        if isinstance(self.batch, bool) or not isinstance(self.batch, (int, np.integer)):
+            raise InputError(f"placement.batch must be a whole number of masses, got {self.batch!r}")
         if int(self.batch) < 1:
             raise InputError(f"placement.batch must be >= 1, got {self.batch}")
         self.batch = int(self.batch)
-        if self.positions not in POSITION_MODES:
+        if not isinstance(self.positions, str) or self.positions not in POSITION_MODES:
             raise InputError(f"placement.positions {self.positions!r} unknown; use one of {POSITION_MODES}")
         if self.positions == "list" and not self.points:
             raise InputError("placement.positions = 'list' needs placement.points")
@@ -104,6 +106,20 @@ class PlacementPlan:
         if "rate" in cfg:
             cfg["rate"] = to_si(cfg["rate"], name="placement.rate", kind=kinds["rate"], positive=True)
         return cls(**cfg)
+
+    def check_inside(self, x_range, y_range) -> None:
+        """Raise :class:`~breachflow.errors.InputError` naming the key when the release line, zone or points leave the
+        horizontal extent ``x_range`` x ``y_range`` (m) of the field, before any run starts."""
+        keys = {"line": ("start", "stop"), "zone": ("zone",), "list": ("points",)}[self.positions]
+        for key in keys:
+            v = getattr(self, key)
+            pts = ([(v[0], v[2]), (v[0], v[3]), (v[1], v[2]), (v[1], v[3])] if key == "zone" else
+                   list(v) if key == "points" else [v])
+            for px, py in pts:
+                if not (x_range[0] <= px <= x_range[1] and y_range[0] <= py <= y_range[1]):
+                    raise InputError(
+                        f"placement.{key}: release point ({px:.6g} m, {py:.6g} m) lies outside the field "
+                        f"(x {x_range[0]:.6g} .. {x_range[1]:.6g} m, y {y_range[0]:.6g} .. {y_range[1]:.6g} m)")
 
     def operation_time(self, masses_placed: int) -> float:
         """Wall-clock time of the closure operation after *masses_placed* masses (s)."""

@@ -14,7 +14,6 @@ variable, location and value; :func:`write_snapshot` writes atomically to NetCDF
 from __future__ import annotations
 
 import os
-import tempfile
 import warnings
 from datetime import datetime, timezone
 from pathlib import Path
@@ -451,17 +450,10 @@ def write_snapshot(ds: xr.Dataset, path, *, compress: bool = True) -> Path:
             enc["_FillValue"] = None
         if enc:
             encoding[name] = enc
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    os.close(fd)
-    try:
-        ds.attrs["history"] = ds.attrs.get("history", "")
-        ds.to_netcdf(tmp, format="NETCDF4", engine="netcdf4", encoding=encoding)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    from ..output.atomic import atomic_write_netcdf
+
+    # atomic, with the user's umask permissions, provenance attributes, and a full disk named as such
+    atomic_write_netcdf(ds, path, format="NETCDF4", encoding=encoding)
     return path
 
 

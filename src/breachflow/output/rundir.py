@@ -7,9 +7,13 @@ Layout::
     RUN/trajectories_0001.nc           trajectories of the cycle's moving particles (CF DSG trajectory)
     RUN/restart_0001.npz               everything needed to continue bit-identically from this cycle
 
+    RUN/scenario.toml                  the scenario text the run was started with (``--resume`` reads it)
+    RUN/run.log                        what the console showed, plus warnings (appended by every session)
+
 Every file is written atomically, and the manifest — rewritten atomically *after* a cycle's files —
 is the commit point: a crash leaves at worst stray temp files or files of a cycle the manifest does not
-list, which a resumed run overwrites.
+list, which resuming sweeps away (:meth:`RunDirectory.sweep`). The manifest records the provenance
+(:func:`breachflow.output.provenance.attrs`) of the command that started the run and of every resume.
 
 Each cycle file carries a length-1 ``cycle`` dimension coordinate on its per-cycle variables, its
 particles padded to the run's capacity (``max_cycles × batch``: the same ``particle`` index in every
@@ -23,6 +27,7 @@ from __future__ import annotations
 import hashlib
 import io
 import json
+import re
 from datetime import datetime, timezone
 from pathlib import Path
 
@@ -30,7 +35,8 @@ import numpy as np
 import xarray as xr
 
 from ..errors import InputError
-from .atomic import atomic_write, atomic_write_json, atomic_write_netcdf
+from . import provenance
+from .atomic import atomic_write, atomic_write_json, atomic_write_netcdf, atomic_write_text
 from .cf import netcdf_encoding
 
 MANIFEST = "manifest.json"
@@ -38,6 +44,17 @@ MANIFEST = "manifest.json"
 #: so it lives in its own NetCDF group of the cycle file
 HISTORY_DIM, HISTORY_GROUP = "convergence_check", "convergence_history"
 FORMAT_VERSION = 2
+SCENARIO = "scenario.toml"
+LOG = "run.log"
+#: temp files of :func:`~.atomic.atomic_path`: ``.NAME.XXXXXXXX.SUFFIX`` (mkstemp's 8 random characters)
+_TEMP = re.compile(r"^\.(?P<target>.+)\.[A-Za-z0-9_]{8}\.[A-Za-z0-9]+$")
+_CYCLE_FILE = re.compile(r"^(cycle|restart|trajectories)_(?P<g>\d{4})(_trajectories)?\.(nc|npz)$")
+
+
+def session(action: str) -> dict:
+    """A manifest record of one command acting on a run: time, action and :func:`breachflow.output.provenance.attrs`."""
+    return {"time": datetime.now(timezone.utc).isoformat(timespec="seconds"), "action": action,
+            **provenance.attrs()}
 
 
 def scenario_hash(text: str) -> str:
@@ -57,6 +74,7 @@ class RunDirectory:
 
     def __init__(self, path):
         self.path = Path(path)
+        self.swept: list[Path] = []  #: files :meth:`sweep` removed when the run was resumed
 
     # ----------------------------------------------------------------- manifest
     @property
@@ -81,6 +99,8 @@ class RunDirectory:
         A new run in a directory holding another run is refused unless *overwrite*.
         """
         digest = scenario_hash(scenario_text)
+        self.swept: list[Path] = []
+        action = "start"
         if self.exists():
             man = self.manifest()
             if resume:
@@ -88,6 +108,9 @@ class RunDirectory:
                     raise InputError(
                         f"{self.path}: cannot resume: the run was started with another scenario or seed "
                         f"(scenario sha256 {man['scenario_sha256'][:12]}…, seed {man['seed']})")
+                self.swept = self.sweep()
+                man.setdefault("sessions", []).append(session("resume"))
+                atomic_write_json(man, self.manifest_path)
                 return man
             if not overwrite:
                 raise InputError(f"{self.path}: holds a run already; use resume or overwrite")
@@ -95,21 +118,44 @@ class RunDirectory:
                 p.unlink()
             for p in self.path.glob("restart_*.npz"):
                 p.unlink()
+            self.swept = self.sweep()
+            action = "overwrite"
         elif resume:
             raise InputError(f"{self.path}: nothing to resume (no {MANIFEST})")
         self.path.mkdir(parents=True, exist_ok=True)
-        (self.path / "scenario.toml").write_text(scenario_text)
+        atomic_write_text(scenario_text, self.path / SCENARIO)
         man = {
             "format_version": FORMAT_VERSION,
             "created": datetime.now(timezone.utc).isoformat(timespec="seconds"),
             "scenario_sha256": digest,
             "seed": int(seed),
             "metadata": metadata or {},
+            "provenance": provenance.attrs(),
+            "sessions": [session(action)],
             "cycles": [],
             "finished": False,
         }
         atomic_write_json(man, self.manifest_path)
         return man
+
+    def sweep(self) -> list[Path]:
+        """Remove what a killed run can leave behind: temp files of interrupted atomic writes and cycle or
+        restart files of cycles the manifest does not list. Returns the removed paths."""
+        last = self.last_cycle() if self.exists() else 0
+        gone = []
+        for p in sorted(self.path.iterdir()) if self.path.is_dir() else []:
+            m = _CYCLE_FILE.match(p.name)
+            if (_TEMP.match(p.name) and p.is_file()) or (m and int(m.group("g")) > last):
+                p.unlink(missing_ok=True)
+                gone.append(p)
+        return gone
+
+    def scenario_text(self) -> str:
+        """The scenario text the run was started with (``RUN/scenario.toml``)."""
+        try:
+            return (self.path / SCENARIO).read_text(encoding="utf-8")
+        except FileNotFoundError:
+            raise InputError(f"{self.path}: no {SCENARIO} in the run directory") from None
 
     def completed_cycles(self) -> list[int]:
         return [c["cycle"] for c in self.manifest()["cycles"]]
@@ -146,7 +192,7 @@ class RunDirectory:
             raise InputError(f"{self.path}: cycle {g} does not follow the last complete cycle {man['cycles'][-1]['cycle']}")
         files = {}
         hist_vars = [v for v in field.data_vars if HISTORY_DIM in field[v].dims]
-        root, hist = field.drop_vars(hist_vars), field[hist_vars]
+        root, hist = provenance.stamp(field.drop_vars(hist_vars)), field[hist_vars]
 
         def write_field(tmp):
             root.to_netcdf(tmp, engine="netcdf4", encoding=netcdf_encoding(root))
@@ -248,8 +294,9 @@ class RunDirectory:
         archive.attrs = dict(last.attrs)
         archive.attrs["title"] = "breachflow closure run archive"
         archive.attrs["cycles"] = f"{cycles[0]}..{cycles[-1]}"
+        archive = provenance.stamp(archive)
         out = Path(out)
-        atomic_write_netcdf(archive, out, encoding=netcdf_encoding(archive))
+        atomic_write_netcdf(archive, out, provenance=False, encoding=netcdf_encoding(archive))
         trajs = []
         for g in cycles:
             p = self.committed_file(g, "trajectories")
@@ -264,6 +311,7 @@ class RunDirectory:
             tr = xr.concat(trajs, dim="trajectory", combine_attrs="override")
             tr.attrs["title"] = "breachflow trajectories of all cycles"
             tr.attrs.pop("cycle", None)
+            tr = provenance.stamp(tr)
             # append the group to the archive just written (still atomic: rewrite via temp copy)
             def write_both(tmp):
                 archive.to_netcdf(tmp, engine="netcdf4", encoding=netcdf_encoding(archive))

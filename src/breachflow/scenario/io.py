@@ -29,6 +29,8 @@ def write_netcdf(ds: xr.Dataset, path) -> Path:
         from ..schemas import validate
 
         validate(ds, "closure_window")
+    from ..output.provenance import stamp
+
     with atomic_path(path) as tmp:
-        netcdf_ready(ds).to_netcdf(tmp)
+        stamp(netcdf_ready(ds)).to_netcdf(tmp)
     return path

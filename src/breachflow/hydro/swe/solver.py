@@ -213,13 +213,13 @@ class SWESimulation:
         return self
 
     def run_to_steady(self, tolerance: float = 1e-4, t_max: float = 3600.0, check_interval: float | None = None,
-                      min_time: float = 0.0, region=None) -> ConvergenceHistory:
+                      min_time: float = 0.0, region=None, progress=None) -> ConvergenceHistory:
         """March until the relative rates of change of depth and discharge fall below *tolerance* (1/s).
 
         Rates over each check window Δt: ``sum|h - h_prev| / (sum h Δt)`` and the same with the
         discharge magnitude, summed over the cells of *region* (a boolean mask; default all cells —
         e.g. the breach vicinity when only the flow there matters). Stops at *t_max* (s) of simulated
-        time otherwise (``converged`` False).
+        time otherwise (``converged`` False). *progress(sim, history)* is called after each check window.
         """
         sel = np.ones(self.domain.shape, bool) if region is None else _mask(region, self.domain)
         if not sel.any():
@@ -254,6 +254,8 @@ class SWESimulation:
             hist.wall_time.append(_time.perf_counter() - wall0)
             h_prev = h
             q_prev = q
+            if progress is not None:
+                progress(self, hist)
             if rate_h < tolerance and rate_q < tolerance and self.t - t_start >= min_time:
                 hist.converged = True
                 break
