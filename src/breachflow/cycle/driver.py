@@ -87,6 +87,10 @@ class ClosureSetup:
     flood_level: float = 0.0
     bottom: float = 0.0
     name: str = "closure"
+    #: global attributes added to every cycle file (e.g. the site, or that the flow is frozen)
+    attrs: dict = field(default_factory=dict)
+    #: extra run metadata for the manifest (JSON-serialisable)
+    metadata: dict = field(default_factory=dict)
 
 
 @dataclass
@@ -155,7 +159,7 @@ class ClosureRun:
         self.setup = setup
         self.rundir = RunDirectory(run_dir)
         self.rundir.start(scenario_text, seed=setup.seed, resume=resume, overwrite=overwrite,
-                          metadata={"name": setup.name})
+                          metadata={"name": setup.name, **setup.metadata})
         self.progress = progress  # callable(CycleReport) or None
         self.reports: list[CycleReport] = []
         self._live = None  # (cycle, DemSimulation) of the last cycle, continued by the next one
@@ -386,6 +390,7 @@ class ClosureRun:
         part = pad_particles(part, max(self.setup.criteria.max_cycles * self.setup.placement.batch, st.n))
         ds = xr.merge([grid, part], combine_attrs="override")
         ds.attrs.update(grid.attrs)
+        ds.attrs.update(self.setup.attrs)
         ds.attrs.update(title=f"breachflow closure run {self.setup.name!r}, cycle {rep.cycle}", cycle=np.int32(rep.cycle),
                         masses_placed=np.int32(rep.masses), closure_achieved=np.int32(rep.closed),
                         governing_criterion=rep.governing, hydro_work=rep.hydro, stability_check=rep.stability,
