@@ -86,10 +86,15 @@ class SiteSection:
         return sc
 
 
+#: solvers that take ingested snapshot files
+SNAPSHOT_SOLVERS = ("snapshot", "snapshot_frozen")
+
+
 @register_section("hydro")
 @dataclass
 class HydroSection:
-    """``[hydro]``: ``solver`` (``swe`` | ``snapshot`` | a plug-in), ``resolution``, ``order``, ``courant``,
+    """``[hydro]``: ``solver`` (``swe`` | ``snapshot_frozen`` | a plug-in; ``snapshot`` is the deprecated
+    name of ``snapshot_frozen``), ``resolution``, ``order``, ``courant``,
     ``tolerance`` (relative rate, 1/s), ``t_max_initial`` / ``t_max`` (simulated time of the first and
     of each warm-started solve), ``monitor_radius`` (steady state is judged within this distance of the
     breach), ``snapshots`` (files for the ``snapshot`` solver)."""
@@ -119,8 +124,14 @@ class HydroSection:
             monitor_radius=ctx.quantity(table, "monitor_radius", "length", default="20 m", positive=True),
             snapshots=[ctx.base_dir / p for p in ctx.raw(table, "snapshots", types=(list,), default=[])],
         )
-        if out.solver == "snapshot" and not out.snapshots:
-            raise ctx.error("solver 'snapshot' needs snapshots = [files]", "solver")
+        if out.solver in SNAPSHOT_SOLVERS and not out.snapshots:
+            raise ctx.error(f"solver {out.solver!r} needs snapshots = [files]", "solver")
+        if out.solver == "snapshot":
+            import warnings
+
+            warnings.warn(f"{ctx.path or '<scenario>'}: [hydro] solver = 'snapshot' is deprecated; it is 'snapshot_frozen' "
+                          "(the ingested flow served unchanged, it does not respond to the pile)", DeprecationWarning,
+                          stacklevel=2)
         return out
 
 
@@ -334,7 +345,22 @@ def closure_setup(scenario, *, overrides: dict | None = None):
         if built is not None and built.stage is not None:
             solver = _StageSolver(solver, built)
     else:
-        solver = get_solver(hydro.solver, snapshots=hydro.snapshots) if hydro.solver == "snapshot" else get_solver(hydro.solver)
+        import warnings
+
+        with warnings.catch_warnings():  # the deprecation was reported where the scenario was parsed
+            warnings.simplefilter("ignore", DeprecationWarning)
+            solver = (get_solver(hydro.solver, snapshots=hydro.snapshots) if hydro.solver in SNAPSHOT_SOLVERS
+                      else get_solver(hydro.solver))
+    if getattr(solver, "responds_to_pile", True) is False:
+        from ..errors import BreachflowWarning
+        from ..hydro.solvers import FROZEN_NOTE
+
+        attrs.update(hydro_mode=getattr(solver, "mode", hydro.solver), flow_responds_to_pile=np.int32(0),
+                     hydro_note=FROZEN_NOTE)
+        metadata.update(hydro_mode=getattr(solver, "mode", hydro.solver), flow_responds_to_pile=False)
+        import warnings
+
+        warnings.warn(f"[hydro] solver = {hydro.solver!r}: {FROZEN_NOTE}", BreachflowWarning, stacklevel=2)
     dem_vals = dict((scenario.get("dem") or DemSection()).values)
     mat_keys = {k: dem_vals.pop(k) for k in ("kn", "ks", "friction", "rolling_friction", "adhesion") if k in dem_vals}
     dem_kw = {}

@@ -326,12 +326,16 @@ class ClosureRun:
         obstacle, bed = remap_top(top, dom.bed, snapshot["water_surface"].values, s.remap_mode)
         solve_domain = dom if s.remap_mode == "no_flow" else dom.with_raised_bed(bed > dom.bed, bed)
         new_obstacle = dom.obstacle | obstacle
-        changed = int(np.count_nonzero(new_obstacle != snapshot["obstacle"].values.astype(bool)))
+        before = snapshot["obstacle"].values.astype(bool) if "obstacle" in snapshot else np.zeros(dom.shape, bool)
+        changed = int(np.count_nonzero(new_obstacle != before))
         if s.remap_mode == "raised_bed":
             changed += int(np.count_nonzero(np.abs(solve_domain.bed - snapshot["bed_elevation"].values) > 1e-9))
         if changed == 0:
             new_snapshot = snapshot
             hydro = "skipped (remap changed no cell)"
+        elif getattr(s.solver, "responds_to_pile", True) is False:
+            new_snapshot = s.solver.solve(solve_domain, obstacles=obstacle, initial=snapshot)
+            hydro = f"frozen flow, does not respond to the pile ({changed} cells changed)"
         else:
             new_snapshot = s.solver.solve(solve_domain, obstacles=obstacle, initial=snapshot)
             hydro = f"solved (warm start, {changed} cells changed)"
