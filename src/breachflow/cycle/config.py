@@ -87,17 +87,19 @@ class SiteSection:
 
 
 #: solvers that take ingested snapshot files
-SNAPSHOT_SOLVERS = ("snapshot", "snapshot_frozen")
+SNAPSHOT_SOLVERS = ("snapshot", "snapshot_frozen", "nested")
 
 
 @register_section("hydro")
 @dataclass
 class HydroSection:
-    """``[hydro]``: ``solver`` (``swe`` | ``snapshot_frozen`` | a plug-in; ``snapshot`` is the deprecated
-    name of ``snapshot_frozen``), ``resolution``, ``order``, ``courant``,
+    """``[hydro]``: ``solver`` (``swe`` | ``nested`` | ``snapshot_frozen`` | a plug-in; ``snapshot`` is the
+    deprecated name of ``snapshot_frozen``), ``resolution``, ``order``, ``courant``,
     ``tolerance`` (relative rate, 1/s), ``t_max_initial`` / ``t_max`` (simulated time of the first and
     of each warm-started solve), ``monitor_radius`` (steady state is judged within this distance of the
-    breach), ``snapshots`` (files for the ``snapshot`` solver)."""
+    breach), ``snapshots`` (files for the ``snapshot_frozen`` / ``nested`` solvers), ``window``
+    (``[x0, x1, y0, y1]`` of the ``nested`` local model; default the breach ± (B/2 + 3 B) along the levee,
+    ± 3 B across)."""
 
     solver: str = "swe"
     resolution: float = 1.0
@@ -108,11 +110,12 @@ class HydroSection:
     t_max: float = 60.0
     monitor_radius: float = 20.0
     snapshots: list = field(default_factory=list)
+    window: tuple | None = None
 
     @classmethod
     def from_table(cls, table, ctx):
         ctx.check_keys(table, {"solver", "resolution", "order", "courant", "tolerance", "t_max_initial", "t_max",
-                               "monitor_radius", "snapshots"})
+                               "monitor_radius", "snapshots", "window"})
         out = cls(
             solver=ctx.raw(table, "solver", default="swe"),
             resolution=ctx.quantity(table, "resolution", "length", default="1 m", positive=True),
@@ -124,6 +127,14 @@ class HydroSection:
             monitor_radius=ctx.quantity(table, "monitor_radius", "length", default="20 m", positive=True),
             snapshots=[ctx.base_dir / p for p in ctx.raw(table, "snapshots", types=(list,), default=[])],
         )
+        if "window" in table:
+            w = ctx.raw(table, "window", types=(list,))
+            if len(w) != 4:
+                raise ctx.error("window = [x0, x1, y0, y1] (lengths) of the nested local model", "window")
+            vals = [ctx.quantity({"window": v}, "window", "length") for v in w]
+            if not (vals[1] > vals[0] and vals[3] > vals[2]):
+                raise ctx.error(f"window {w}: needs x0 < x1 and y0 < y1", "window")
+            out.window = tuple(vals)
         if out.solver in SNAPSHOT_SOLVERS and not out.snapshots:
             raise ctx.error(f"solver {out.solver!r} needs snapshots = [files]", "solver")
         if out.solver == "snapshot":
@@ -338,9 +349,25 @@ def closure_setup(scenario, *, overrides: dict | None = None):
         (xc, yc), half = (0.0, 0.0), 0.5 * scene.breach.length
         flood_level = scene.flood_water_elevation
         bottom = scene.ground_elevation + scene.levee.height - scene.breach.depth - scene.breach.scour_depth
+    nested = None
+    if hydro.solver == "nested":
+        from ..hydro.nested import NestedSolver, breach_window
+
+        window, spacing = breach_window(xc, yc, 2.0 * half, hydro.resolution)
+        if hydro.window is not None:
+            window, spacing = hydro.window, hydro.resolution
+        nested = NestedSolver(hydro.snapshots, window, spacing, manning=float(np.mean(dom.manning)),
+                              order=hydro.order, courant=hydro.courant, tolerance=hydro.tolerance,
+                              t_max_initial=hydro.t_max_initial, t_max=hydro.t_max)
+        dom = nested.domain
+        metadata.update(hydro_mode="nested", nested_window=list(window), nested_regional=nested.source,
+                        nested_cells=list(dom.shape))
     X, Y = np.meshgrid(dom.x, dom.y)
     region = (np.abs(X - xc) <= half + hydro.monitor_radius) & (np.abs(Y - yc) <= hydro.monitor_radius + half)
-    if hydro.solver == "swe":
+    if nested is not None:
+        nested.region = region
+        solver = nested
+    elif hydro.solver == "swe":
         solver = _WarmStartSWE(hydro, region)
         if built is not None and built.stage is not None:
             solver = _StageSolver(solver, built)
@@ -349,7 +376,7 @@ def closure_setup(scenario, *, overrides: dict | None = None):
 
         with warnings.catch_warnings():  # the deprecation was reported where the scenario was parsed
             warnings.simplefilter("ignore", DeprecationWarning)
-            solver = (get_solver(hydro.solver, snapshots=hydro.snapshots) if hydro.solver in SNAPSHOT_SOLVERS
+            solver = (get_solver(hydro.solver, snapshots=hydro.snapshots) if hydro.solver in ("snapshot", "snapshot_frozen")
                       else get_solver(hydro.solver))
     if getattr(solver, "responds_to_pile", True) is False:
         from ..errors import BreachflowWarning

@@ -111,3 +111,10 @@ def _deprecated_snapshot(**options):
                   "use solver = 'snapshot_frozen', or 'nested' for a local model that re-solves with the pile",
                   DeprecationWarning, stacklevel=3)
     return SnapshotSolver(**options)
+
+
+@solvers.register("nested")
+def _nested(**options):
+    from .nested import NestedSolver
+
+    return NestedSolver(**options)
