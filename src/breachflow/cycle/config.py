@@ -59,7 +59,7 @@ class SiteSection:
             from ..site.config import SiteTerrainSection
 
             return SiteTerrainSection.from_table(table, ctx)
-        ctx.check_keys(table, {"preset", "crs", "terrain", *_SITE_KEYS})
+        ctx.check_keys(table, {"preset", "crs", *_SITE_KEYS})
         preset = ctx.raw(table, "preset", default="demo_breach")
         if preset not in SITE_PRESETS:
             raise ctx.error(f"unknown site preset {preset!r}; available: {sorted(SITE_PRESETS)}", "preset")
@@ -360,7 +360,7 @@ def closure_setup(scenario, *, overrides: dict | None = None):
                               order=hydro.order, courant=hydro.courant, tolerance=hydro.tolerance,
                               t_max_initial=hydro.t_max_initial, t_max=hydro.t_max)
         dom = nested.domain
-        metadata.update(hydro_mode="nested", nested_window=list(window), nested_regional=nested.source,
+        metadata.update(hydro_mode="nested", nested_window=list(nested.window), nested_regional=nested.source,
                         nested_cells=list(dom.shape))
     X, Y = np.meshgrid(dom.x, dom.y)
     region = (np.abs(X - xc) <= half + hydro.monitor_radius) & (np.abs(Y - yc) <= hydro.monitor_radius + half)
