@@ -59,6 +59,29 @@ class SiteSection:
             from ..site.config import SiteTerrainSection
 
             return SiteTerrainSection.from_table(table, ctx)
+        return cls._preset_from_table(table, ctx)
+
+    @classmethod
+    def schema_keys(cls) -> dict:
+        """The keys of both forms of ``[site]`` (preset scene, terrain site) for the scenario reference."""
+        from ..scenario.reference import _Probe
+        from ..site.config import SiteTerrainSection
+
+        keys = {}
+        for parse in (cls._preset_from_table, SiteTerrainSection.from_table):
+            probe = _Probe("site")
+            for table in ({}, None):
+                if table is None:
+                    table = {k: None for k in probe.allowed}
+                try:
+                    parse(table, probe)
+                except Exception:  # the probe's placeholder values: what was asked is recorded
+                    pass
+            keys.update({k: probe.keys.get(k, {"description": "see the section description"}) for k in probe.allowed})
+        return keys
+
+    @classmethod
+    def _preset_from_table(cls, table, ctx):
         ctx.check_keys(table, {"preset", "crs", *_SITE_KEYS})
         preset = ctx.raw(table, "preset", default="demo_breach")
         if preset not in SITE_PRESETS:

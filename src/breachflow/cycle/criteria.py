@@ -203,7 +203,7 @@ class DischargeProxy(Criterion):
 
 @criteria.register("breach_discharge")
 class BreachDischarge(Criterion):
-    """SPEC §7 criterion 3, direct form: |Q| through the breach section at the levee centreline,
+    """SPEC §7 criterion 3, direct form: ``|Q|`` through the breach section at the levee centreline,
     Σ h v Δx over the open wet cells of the row at ``levee_y`` between ``breach_x`` (m³/s). Unlike the
     maximum speed or the proxy it is not fooled by water still draining off the polder or moving in
     the deep flood-side basin once the pile has shut the breach."""

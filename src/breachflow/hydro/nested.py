@@ -101,7 +101,7 @@ def _regional_obstacle(regional: xr.Dataset, X, Y) -> np.ndarray:
 
 def nested_domain(regional: xr.Dataset, window, resolution: float, manning=0.025, *, name: str = "nested",
                   leaving: str = "free"):
-    """The local :class:`Domain` in *window* ``(x0, x1, y0, y1)`` at *resolution* and its initial state
+    """The local :class:`~breachflow.hydro.terrain.Domain` in *window* ``(x0, x1, y0, y1)`` at *resolution* and its initial state
     ``(h, hu, hv)`` from *regional*; boundary conditions from the regional field (module docstring)."""
     x0, x1, y0, y1 = map(float, window)
     dom = uniform_grid(x0, x1, y0, y1, resolution)
@@ -180,7 +180,7 @@ def breach_window(xc: float, yc: float, length: float, resolution: float, along:
 class NestedSolver:
     """``solver = "nested"``: the local model of :func:`nested_domain`, re-solved with the pile.
 
-    ``NestedSolver(snapshots, window, resolution, manning=...)``; :attr:`domain` is the local domain
+    ``NestedSolver(snapshots, window, resolution, manning=...)``; ``domain`` is the local domain
     the closure runs on. ``solve(domain, obstacles=None, initial=None)``: a cold solve starts from the
     regional state; every later one from the previous local state (warm start)."""
 
@@ -232,7 +232,7 @@ class NestedSolver:
 
 def consistency(local: xr.Dataset, regional: xr.Dataset, centre, radius: float) -> dict:
     """Differences between a local solution and the regional field within *radius* (m) of *centre*, over
-    local cells wet in both: max / mean |Δ speed| and |Δ depth| (m/s, m), the peak speeds of both, the
+    local cells wet in both: max / mean ``|Δ speed|`` and ``|Δ depth|`` (m/s, m), the peak speeds of both, the
     mean regional speed and depth there, and the cell count."""
     X, Y = np.meshgrid(local.x.values, local.y.values)
     smp = FieldSampler(fill_obstacles(regional), "bilinear").sample(X.ravel(), Y.ravel())
