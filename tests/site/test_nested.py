@@ -84,7 +84,7 @@ release_height = "1 m"
 rate = "30 1/hr"
 [criteria]
 mode = "any"
-max_cycles = 16
+max_cycles = 24
 max_speed = "0.5 m/s"
 breach_discharge = "0.5 m^3/s"
 [closure]
