@@ -78,3 +78,14 @@ def test_stability_speed_change_and_combination():
         EndCriteria.from_config({"max_sped": "1 m/s"})
     with pytest.raises(InputError, match="mode"):
         EndCriteria([], mode="most")
+
+
+def test_breach_discharge_is_depth_times_crossing_velocity_over_the_open_breach():
+    # h = 2 m, v = -0.8 m/s (toward the flood side: |Q| counts), 21 cells of 0.5 m between x = -5 and 5
+    c = criteria.get("breach_discharge")("1 m^3/s")
+    r = c.evaluate(ctx(field(depth=2.0, u=3.0, v=-0.8)))
+    assert r.value == pytest.approx(2.0 * 0.8 * 21 * DX) and not r.satisfied
+    # the flow along the levee (u) does not cross the section; blocking it shuts the discharge
+    ds = field(depth=2.0, u=3.0, v=0.8)
+    ds["obstacle"] = (("y", "x"), np.ones(ds.depth.shape, "i1"), {"units": "1"})
+    assert c.evaluate(ctx(ds)).value == 0.0 and c.evaluate(ctx(ds)).satisfied

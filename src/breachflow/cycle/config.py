@@ -46,7 +46,8 @@ _SITE_KEYS = {
 class SiteSection:
     """``[site]``: ``preset`` (``typical_breach`` | ``demo_breach``), ``crs`` (``EPSG:nnnn``, WKT or PROJ, in
     metres; default the local transverse Mercator :data:`breachflow.hydro.crs.LOCAL_CRS`) and
-    overrides of the scene: ground/flood elevations, extents, channel, ``polder_slope``, ``manning_n``."""
+    overrides of the scene: ground/flood elevations, extents, channel, ``polder_slope``, ``manning_n``.
+    With ``terrain`` the table is a real site instead (:class:`breachflow.site.config.SiteTerrainSection`)."""
 
     preset: str = "demo_breach"
     crs: str | None = None
@@ -54,6 +55,33 @@ class SiteSection:
 
     @classmethod
     def from_table(cls, table, ctx):
+        if "terrain" in table:  # a real site: terrain, levee and breach from the user's files
+            from ..site.config import SiteTerrainSection
+
+            return SiteTerrainSection.from_table(table, ctx)
+        return cls._preset_from_table(table, ctx)
+
+    @classmethod
+    def schema_keys(cls) -> dict:
+        """The keys of both forms of ``[site]`` (preset scene, terrain site) for the scenario reference."""
+        from ..scenario.reference import _Probe
+        from ..site.config import SiteTerrainSection
+
+        keys = {}
+        for parse in (cls._preset_from_table, SiteTerrainSection.from_table):
+            probe = _Probe("site")
+            for table in ({}, None):
+                if table is None:
+                    table = {k: None for k in probe.allowed}
+                try:
+                    parse(table, probe)
+                except Exception:  # the probe's placeholder values: what was asked is recorded
+                    pass
+            keys.update({k: probe.keys.get(k, {"description": "see the section description"}) for k in probe.allowed})
+        return keys
+
+    @classmethod
+    def _preset_from_table(cls, table, ctx):
         ctx.check_keys(table, {"preset", "crs", *_SITE_KEYS})
         preset = ctx.raw(table, "preset", default="demo_breach")
         if preset not in SITE_PRESETS:
@@ -81,13 +109,20 @@ class SiteSection:
         return sc
 
 
+#: solvers that take ingested snapshot files
+SNAPSHOT_SOLVERS = ("snapshot", "snapshot_frozen", "nested")
+
+
 @register_section("hydro")
 @dataclass
 class HydroSection:
-    """``[hydro]``: ``solver`` (``swe`` | ``snapshot`` | a plug-in), ``resolution``, ``order``, ``courant``,
+    """``[hydro]``: ``solver`` (``swe`` | ``nested`` | ``snapshot_frozen`` | a plug-in; ``snapshot`` is the
+    deprecated name of ``snapshot_frozen``), ``resolution``, ``order``, ``courant``,
     ``tolerance`` (relative rate, 1/s), ``t_max_initial`` / ``t_max`` (simulated time of the first and
     of each warm-started solve), ``monitor_radius`` (steady state is judged within this distance of the
-    breach), ``snapshots`` (files for the ``snapshot`` solver)."""
+    breach), ``snapshots`` (files for the ``snapshot_frozen`` / ``nested`` solvers), ``window``
+    (``[x0, x1, y0, y1]`` of the ``nested`` local model; default the breach ± (B/2 + 3 B) along the levee,
+    ± 3 B across)."""
 
     solver: str = "swe"
     resolution: float = 1.0
@@ -98,11 +133,12 @@ class HydroSection:
     t_max: float = 60.0
     monitor_radius: float = 20.0
     snapshots: list = field(default_factory=list)
+    window: tuple | None = None
 
     @classmethod
     def from_table(cls, table, ctx):
         ctx.check_keys(table, {"solver", "resolution", "order", "courant", "tolerance", "t_max_initial", "t_max",
-                               "monitor_radius", "snapshots"})
+                               "monitor_radius", "snapshots", "window"})
         out = cls(
             solver=ctx.raw(table, "solver", default="swe"),
             resolution=ctx.quantity(table, "resolution", "length", default="1 m", positive=True),
@@ -114,8 +150,22 @@ class HydroSection:
             monitor_radius=ctx.quantity(table, "monitor_radius", "length", default="20 m", positive=True),
             snapshots=[ctx.base_dir / p for p in ctx.raw(table, "snapshots", types=(list,), default=[])],
         )
-        if out.solver == "snapshot" and not out.snapshots:
-            raise ctx.error("solver 'snapshot' needs snapshots = [files]", "solver")
+        if "window" in table:
+            w = ctx.raw(table, "window", types=(list,))
+            if len(w) != 4:
+                raise ctx.error("window = [x0, x1, y0, y1] (lengths) of the nested local model", "window")
+            vals = [ctx.quantity({"window": v}, "window", "length") for v in w]
+            if not (vals[1] > vals[0] and vals[3] > vals[2]):
+                raise ctx.error(f"window {w}: needs x0 < x1 and y0 < y1", "window")
+            out.window = tuple(vals)
+        if out.solver in SNAPSHOT_SOLVERS and not out.snapshots:
+            raise ctx.error(f"solver {out.solver!r} needs snapshots = [files]", "solver")
+        if out.solver == "snapshot":
+            import warnings
+
+            warnings.warn(f"{ctx.path or '<scenario>'}: [hydro] solver = 'snapshot' is deprecated; it is 'snapshot_frozen' "
+                          "(the ingested flow served unchanged, it does not respond to the pile)", DeprecationWarning,
+                          stacklevel=2)
         return out
 
 
@@ -295,25 +345,72 @@ def closure_setup(scenario, *, overrides: dict | None = None):
     from .driver import ClosureSetup, DemSettings
 
     site = scenario.get("site") or SiteSection()
-    levee = scenario["levee"].geometry if "levee" in scenario else None
-    breach = None
-    if "breach" in scenario and scenario["breach"].length is not None:
-        b = scenario["breach"]
-        base = site.scene().breach
-        breach = BreachGeometry(length=float(b.length), depth=float(b.depth) if b.depth is not None else base.depth,
-                                wall_slope=float(b.wall_slope) if b.wall_slope is not None else base.wall_slope,
-                                scour_depth=float(b.scour_depth) if b.scour_depth is not None else base.scour_depth)
-    scene = site.scene(levee, breach)
     hydro = scenario.get("hydro") or HydroSection()
-    dom = breach_domain(scene, hydro.resolution)
-    dom.crs_wkt = _crs_wkt(site.crs)
-    X, Y = np.meshgrid(dom.x, dom.y)
-    half = 0.5 * scene.breach.length
-    region = (np.abs(X) <= half + hydro.monitor_radius) & (np.abs(Y) <= hydro.monitor_radius + half)
-    if hydro.solver == "swe":
-        solver = _WarmStartSWE(hydro, region)
+    attrs = {}
+    metadata = {}
+    if hasattr(site, "build"):  # a terrain site (breachflow.site)
+        built = site.build(hydro.resolution)
+        dom = built.domain
+        (xc, yc), half = built.centre, 0.5 * built.breach.length
+        flood_level, bottom = built.flood_level, built.breach.bottom
+        metadata["site"] = _jsonable(built.report)
+        attrs.update(site_terrain=str(built.terrain.path.name), site_levee=str(built.levee.source).split("/")[-1],
+                     site_breach_centre=f"{xc:.3f} {yc:.3f}", site_flood_side=built.report["flood_side"])
     else:
-        solver = get_solver(hydro.solver, snapshots=hydro.snapshots) if hydro.solver == "snapshot" else get_solver(hydro.solver)
+        levee = scenario["levee"].geometry if "levee" in scenario else None
+        breach = None
+        if "breach" in scenario and scenario["breach"].length is not None:
+            b = scenario["breach"]
+            base = site.scene().breach
+            breach = BreachGeometry(length=float(b.length), depth=float(b.depth) if b.depth is not None else base.depth,
+                                    wall_slope=float(b.wall_slope) if b.wall_slope is not None else base.wall_slope,
+                                    scour_depth=float(b.scour_depth) if b.scour_depth is not None else base.scour_depth)
+        scene = site.scene(levee, breach)
+        built = None
+        dom = breach_domain(scene, hydro.resolution)
+        dom.crs_wkt = _crs_wkt(site.crs)
+        (xc, yc), half = (0.0, 0.0), 0.5 * scene.breach.length
+        flood_level = scene.flood_water_elevation
+        bottom = scene.ground_elevation + scene.levee.height - scene.breach.depth - scene.breach.scour_depth
+    nested = None
+    if hydro.solver == "nested":
+        from ..hydro.nested import NestedSolver, breach_window
+
+        window, spacing = breach_window(xc, yc, 2.0 * half, hydro.resolution)
+        if hydro.window is not None:
+            window, spacing = hydro.window, hydro.resolution
+        nested = NestedSolver(hydro.snapshots, window, spacing, manning=float(np.mean(dom.manning)),
+                              order=hydro.order, courant=hydro.courant, tolerance=hydro.tolerance,
+                              t_max_initial=hydro.t_max_initial, t_max=hydro.t_max)
+        dom = nested.domain
+        metadata.update(hydro_mode="nested", nested_window=list(nested.window), nested_regional=nested.source,
+                        nested_cells=list(dom.shape))
+    X, Y = np.meshgrid(dom.x, dom.y)
+    region = (np.abs(X - xc) <= half + hydro.monitor_radius) & (np.abs(Y - yc) <= hydro.monitor_radius + half)
+    if nested is not None:
+        nested.region = region
+        solver = nested
+    elif hydro.solver == "swe":
+        solver = _WarmStartSWE(hydro, region)
+        if built is not None and built.stage is not None:
+            solver = _StageSolver(solver, built)
+    else:
+        import warnings
+
+        with warnings.catch_warnings():  # the deprecation was reported where the scenario was parsed
+            warnings.simplefilter("ignore", DeprecationWarning)
+            solver = (get_solver(hydro.solver, snapshots=hydro.snapshots) if hydro.solver in ("snapshot", "snapshot_frozen")
+                      else get_solver(hydro.solver))
+    if getattr(solver, "responds_to_pile", True) is False:
+        from ..errors import BreachflowWarning
+        from ..hydro.solvers import FROZEN_NOTE
+
+        attrs.update(hydro_mode=getattr(solver, "mode", hydro.solver), flow_responds_to_pile=np.int32(0),
+                     hydro_note=FROZEN_NOTE)
+        metadata.update(hydro_mode=getattr(solver, "mode", hydro.solver), flow_responds_to_pile=False)
+        import warnings
+
+        warnings.warn(f"[hydro] solver = {hydro.solver!r}: {FROZEN_NOTE}", BreachflowWarning, stacklevel=2)
     dem_vals = dict((scenario.get("dem") or DemSection()).values)
     mat_keys = {k: dem_vals.pop(k) for k in ("kn", "ks", "friction", "rolling_friction", "adhesion") if k in dem_vals}
     dem_kw = {}
@@ -326,19 +423,19 @@ def closure_setup(scenario, *, overrides: dict | None = None):
     dem = DemSettings(material=material, drag_law=fluid.drag_law, sampling=fluid.sampling, xi=fluid.xi,
                       **dem_vals, **dem_kw)
     placement = scenario["placement"].plan if "placement" in scenario else PlacementPlan(
-        diameter=(1.4, 1.6), batch=4, positions="line", start=(-half + 0.5, 0.0), stop=(half - 0.5, 0.0))
+        diameter=(1.4, 1.6), batch=4, positions="line", start=(xc - half + 0.5, yc), stop=(xc + half - 0.5, yc))
     if placement.positions == "line" and placement.start == placement.stop == (0.0, 0.0):
         # no line given: across the breach along the levee centreline, one radius in from the walls
         r = 0.5 * placement.diameter[1]
-        placement.start, placement.stop = (-half + r, 0.0), (half - r, 0.0)
+        placement.start, placement.stop = (xc - half + r, yc), (xc + half - r, yc)
     criteria = scenario["criteria"].criteria if "criteria" in scenario else EndCriteria.from_config(
         {"mode": "any", "max_cycles": 20, "max_speed": "0.5 m/s"})
     closure = scenario.get("closure") or ClosureSection()
+    if isinstance(solver, _StageSolver):
+        solver.plan = placement
     setup = ClosureSetup(domain=dom, solver=solver, placement=placement, criteria=criteria, dem=dem,
-                         remap_mode=closure.remap, seed=closure.seed, breach_x=(-half, half), levee_y=0.0,
-                         flood_level=scene.flood_water_elevation,
-                         bottom=scene.ground_elevation + scene.levee.height - scene.breach.depth - scene.breach.scour_depth,
-                         name=scenario.name)
+                         remap_mode=closure.remap, seed=closure.seed, breach_x=(xc - half, xc + half), levee_y=yc,
+                         flood_level=flood_level, bottom=bottom, name=scenario.name, attrs=attrs, metadata=metadata)
     for k, v in (overrides or {}).items():
         setattr(setup, k, v)
     return setup
@@ -356,6 +453,35 @@ class _WarmStartSWE:
 
     def solve(self, domain, obstacles=None, initial=None):
         return (self.cold if initial is None else self.warm).solve(domain, obstacles=obstacles, initial=initial)
+
+
+class _StageSolver:
+    """A solver whose flood-side level follows a stage hydrograph: solve ``k`` (0 the initial one) uses the
+    stage at the operation time of cycle ``k`` (quasi-steady: each cycle's flow is the steady state at the
+    level of the moment its masses are placed)."""
+
+    def __init__(self, inner, site, plan=None):
+        self.inner, self.site, self.plan, self.calls = inner, site, plan, 0
+
+    def solve(self, domain, obstacles=None, initial=None):
+        t = 0.0 if self.plan is None else self.plan.operation_time(self.calls * self.plan.batch)
+        self.calls += 1
+        level = self.site.level_at(t)
+        from ..hydro.terrain import _copy_spacing
+
+        d = replace(domain, boundaries=self.site.with_level(level).boundaries)
+        _copy_spacing(domain, d)
+        return self.inner.solve(d, obstacles=obstacles, initial=initial)
+
+
+def _jsonable(obj):
+    if isinstance(obj, dict):
+        return {str(k): _jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_jsonable(v) for v in obj]
+    if isinstance(obj, (np.floating, np.integer)):
+        return obj.item()
+    return obj
 
 
 def _crs_wkt(crs: str | None) -> str:

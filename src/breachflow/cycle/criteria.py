@@ -201,6 +201,20 @@ class DischargeProxy(Criterion):
         return best
 
 
+@criteria.register("breach_discharge")
+class BreachDischarge(Criterion):
+    """SPEC §7 criterion 3, direct form: ``|Q|`` through the breach section at the levee centreline,
+    Σ h v Δx over the open wet cells of the row at ``levee_y`` between ``breach_x`` (m³/s). Unlike the
+    maximum speed or the proxy it is not fooled by water still draining off the polder or moving in
+    the deep flood-side basin once the pile has shut the breach."""
+
+    name, kind, units = "breach_discharge", "discharge", "m3 s-1"
+    description = "discharge through the breach section"
+
+    def value(self, ctx):
+        return abs(section_discharge(ctx.snapshot, ctx.breach_x, ctx.levee_y))
+
+
 @criteria.register("head_gradient")
 class HeadGradient(Criterion):
     """SPEC §7 criterion 4: ``max |ΔH| / Δs`` between neighbouring wet open cells, ``H = η + |u|²/(2g)``."""

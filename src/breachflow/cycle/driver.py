@@ -87,6 +87,10 @@ class ClosureSetup:
     flood_level: float = 0.0
     bottom: float = 0.0
     name: str = "closure"
+    #: global attributes added to every cycle file (e.g. the site, or that the flow is frozen)
+    attrs: dict = field(default_factory=dict)
+    #: extra run metadata for the manifest (JSON-serialisable)
+    metadata: dict = field(default_factory=dict)
 
 
 @dataclass
@@ -159,7 +163,7 @@ class ClosureRun:
                                      (dom.y[0] - 0.5 * dom.dy, dom.y[-1] + 0.5 * dom.dy))
         self.rundir = RunDirectory(run_dir)
         self.rundir.start(scenario_text, seed=setup.seed, resume=resume, overwrite=overwrite,
-                          metadata={"name": setup.name, **(metadata or {})})
+                          metadata={"name": setup.name, **setup.metadata, **(metadata or {})})
         self.progress = progress  # callable(CycleReport) or None
         self.reports: list[CycleReport] = []
         self._live = None  # (cycle, DemSimulation) of the last cycle, continued by the next one
@@ -326,12 +330,16 @@ class ClosureRun:
         obstacle, bed = remap_top(top, dom.bed, snapshot["water_surface"].values, s.remap_mode)
         solve_domain = dom if s.remap_mode == "no_flow" else dom.with_raised_bed(bed > dom.bed, bed)
         new_obstacle = dom.obstacle | obstacle
-        changed = int(np.count_nonzero(new_obstacle != snapshot["obstacle"].values.astype(bool)))
+        before = snapshot["obstacle"].values.astype(bool) if "obstacle" in snapshot else np.zeros(dom.shape, bool)
+        changed = int(np.count_nonzero(new_obstacle != before))
         if s.remap_mode == "raised_bed":
             changed += int(np.count_nonzero(np.abs(solve_domain.bed - snapshot["bed_elevation"].values) > 1e-9))
         if changed == 0:
             new_snapshot = snapshot
             hydro = "skipped (remap changed no cell)"
+        elif getattr(s.solver, "responds_to_pile", True) is False:
+            new_snapshot = s.solver.solve(solve_domain, obstacles=obstacle, initial=snapshot)
+            hydro = f"frozen flow, does not respond to the pile ({changed} cells changed)"
         else:
             new_snapshot = s.solver.solve(solve_domain, obstacles=obstacle, initial=snapshot)
             hydro = f"solved (warm start, {changed} cells changed)"
@@ -390,6 +398,7 @@ class ClosureRun:
         part = pad_particles(part, max(self.setup.criteria.max_cycles * self.setup.placement.batch, st.n))
         ds = xr.merge([grid, part], combine_attrs="override")
         ds.attrs.update(grid.attrs)
+        ds.attrs.update(self.setup.attrs)
         ds.attrs.update(title=f"breachflow closure run {self.setup.name!r}, cycle {rep.cycle}", cycle=np.int32(rep.cycle),
                         masses_placed=np.int32(rep.masses), closure_achieved=np.int32(rep.closed),
                         governing_criterion=rep.governing, hydro_work=rep.hydro, stability_check=rep.stability,

@@ -2,8 +2,9 @@
 
 A solver is a class with one method, ``solve(domain, obstacles=None, initial=None) -> xr.Dataset``,
 returning a grid snapshot (INTERFACES §1). Built-ins: ``"swe"`` (the embedded shallow-water solver,
-solved to incremental steady state) and ``"snapshot"`` (serves ingested ADH / HEC-RAS snapshots,
-unchanged or one per cycle from a sequence). Third-party solvers register through the entry point
+solved to incremental steady state) and ``"snapshot_frozen"`` (serves ingested ADH / HEC-RAS snapshots,
+unchanged or one per cycle from a sequence: the flow does not respond to the pile; ``"snapshot"`` is
+its deprecated old name). Third-party solvers register through the entry point
 group ``breachflow.solvers``, as xarray backends do::
 
     [project.entry-points."breachflow.solvers"]
@@ -50,14 +51,24 @@ def _swe(**options):
     return SWESolver(**options)
 
 
-@solvers.register("snapshot")
+#: what a frozen-flow run says in its log and output attributes
+FROZEN_NOTE = ("the flow is the ingested snapshot served unchanged: it does not respond to the pile "
+               "(no re-solve in cycle <g>, SPEC §7)")
+
+
+@solvers.register("snapshot_frozen")
 class SnapshotSolver:
     """Serve ingested snapshots: always the same one, or the next of a sequence on each ``solve`` call.
+    The pile never changes the flow (``responds_to_pile = False``); every snapshot served carries
+    ``flow_responds_to_pile = 0`` and ``hydro_mode = "snapshot_frozen"``.
 
     *snapshots*: a Dataset, a NetCDF path, or a sequence of them; a Dataset with a ``time`` dimension
     is a sequence of its time steps. After the last one the last is repeated (with a warning).
     The domain, obstacles and initial state are ignored: the external model already contains them.
     """
+
+    responds_to_pile = False
+    mode = "snapshot_frozen"
 
     def __init__(self, snapshots=None, *, repeat_last: bool = True):
         if snapshots is None:
@@ -74,6 +85,8 @@ class SnapshotSolver:
                 seq.append(ds.isel(time=0) if "time" in ds.dims else ds)
         if not seq:
             raise InputError("snapshot solver: empty sequence of snapshots")
+        for ds in seq:  # marked in place: the served Dataset is the ingested one itself
+            ds.attrs.update(hydro_mode=self.mode, flow_responds_to_pile=0, hydro_note=FROZEN_NOTE)
         self.sequence = seq
         self.repeat_last = repeat_last
         self.calls = 0
@@ -89,3 +102,19 @@ class SnapshotSolver:
                               BreachflowWarning, stacklevel=2)
             k = len(self.sequence) - 1
         return self.sequence[k]
+
+
+@solvers.register("snapshot")
+def _deprecated_snapshot(**options):
+    """Old name of ``snapshot_frozen`` (deprecated, warns)."""
+    warnings.warn("hydrodynamic solver 'snapshot' is deprecated: it is 'snapshot_frozen' (" + FROZEN_NOTE + "); "
+                  "use solver = 'snapshot_frozen', or 'nested' for a local model that re-solves with the pile",
+                  DeprecationWarning, stacklevel=3)
+    return SnapshotSolver(**options)
+
+
+@solvers.register("nested")
+def _nested(**options):
+    from .nested import NestedSolver
+
+    return NestedSolver(**options)

@@ -1,0 +1,253 @@
+"""A local shallow-water model nested in an ingested regional field (issue 13; SPEC §4, §7 cycle <g>).
+
+The regional field is an ingested snapshot (ADH/SMS mesh, HEC-RAS sdf or HDF mesh, ESRI grid, or a
+grid snapshot of our own solver). Around the breach a local structured-grid model is built from it:
+
+* terrain: the regional bed interpolated at the local cell centres (bilinear on grids, barycentric on
+  triangles — :class:`~breachflow.hydro.sampling.FieldSampler`); cells outside the regional field (mesh
+  holes such as an intact levee modelled as no-flow, or the regional model's obstacle cells) are local
+  obstacles;
+* initial state: the regional depth and velocity there;
+* boundary conditions, per edge cell, from the regional field: where water enters, the regional water
+  level (supercritical inflow: level and unit discharge); where it leaves, free outflow (``leaving =
+  "free"``, the default: a level held where the open breach's jet left would keep the polder at the
+  open-breach state and drive water back in once the pile shuts the breach) or, with ``leaving =
+  "level"``, the regional level where it leaves subcritically; dry edge cells free outflow; outside the
+  regional field, wall. The
+  levels are absorbing (relaxation ``4 L / sqrt(g h_max)``, L the window size, as the typical breach's
+  flood source): an exact level reflects every wave and the local basin would ring;
+* the window (:func:`breach_window`): the breach ± (B/2 + 3 B) along the levee and ± 3 B across, its
+  cells sized ``B / round(B / resolution)`` so that the breach ends fall on cell faces (the breach width
+  is then exact on the local grid whatever the regional mesh).
+
+Each ``solve`` re-solves the local model to steady state with the pile (obstacles / raised bed) from
+the previous state; outside the local window the regional field stays as ingested. The snapshots it
+returns are the local grid (the DEM samples the local field) with ``hydro_mode = "nested"``.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+from ..errors import InputError
+from .sampling import FieldSampler
+from .snapshot import DRY_DEPTH
+from .terrain import BoundaryCondition, Domain, uniform_grid
+
+GRAVITY = 9.81
+
+
+def load_regional(snapshots) -> xr.Dataset:
+    """One regional snapshot from a Dataset / path / list of them (a time series: its last step)."""
+    items = list(snapshots) if isinstance(snapshots, (list, tuple)) else [snapshots]
+    if not items:
+        raise InputError("nested solver: give the ingested regional snapshot (snapshots = [file])")
+    item = items[-1]
+    if isinstance(item, (str, Path)):
+        if not Path(item).exists():
+            raise InputError(f"nested solver: regional snapshot not found: {item}")
+        ds = xr.open_dataset(item).load()
+    elif isinstance(item, xr.Dataset):
+        ds = item
+    else:
+        raise InputError(f"nested solver: {item!r} is not a Dataset or a NetCDF path")
+    if "time" in ds.dims:
+        ds = ds.isel(time=-1)
+    for v in ("bed_elevation", "depth", "u", "v"):
+        if v not in ds:
+            raise InputError(f"nested solver: the regional snapshot has no {v!r}")
+    return ds
+
+
+def fill_obstacles(grid: xr.Dataset, layers: int = 3) -> xr.Dataset:
+    """A grid snapshot whose obstacle cells (no-flow, e.g. an intact levee at crest elevation) take the
+    mean bed, depth and velocity of their open neighbours, *layers* cells deep, so that interpolation
+    next to them sees the open flow, not the obstacle (the obstacle mask itself is kept)."""
+    if "obstacle" not in grid or grid["obstacle"].dims != ("y", "x") or not grid["obstacle"].values.any():
+        return grid
+    ob = grid["obstacle"].values.astype(bool)
+    fields = {k: np.where(ob, np.nan, grid[k].values.astype(float)) for k in ("bed_elevation", "depth", "u", "v")}
+    todo = ob.copy()
+    for _ in range(layers):
+        known = ~np.isnan(fields["bed_elevation"])
+        pad = np.pad(known, 1)
+        cnt = pad[:-2, 1:-1].astype(int) + pad[2:, 1:-1] + pad[1:-1, :-2] + pad[1:-1, 2:]
+        new = todo & (cnt > 0)
+        if not new.any():
+            break
+        for k, a in fields.items():
+            p = np.pad(np.nan_to_num(a), 1)
+            tot = p[:-2, 1:-1] + p[2:, 1:-1] + p[1:-1, :-2] + p[1:-1, 2:]
+            a[new] = (tot / np.maximum(cnt, 1))[new]
+        todo &= ~new
+    out = grid.copy()
+    for k, a in fields.items():
+        keep = np.isnan(a)
+        out[k] = grid[k].copy(data=np.where(keep, grid[k].values, a))
+    return out
+
+
+def _regional_obstacle(regional: xr.Dataset, X, Y) -> np.ndarray:
+    """The regional grid's obstacle mask at points (nearest cell); none for meshes."""
+    if "obstacle" not in regional or regional["obstacle"].dims != ("y", "x"):
+        return np.zeros(X.shape, bool)
+    xs, ys = regional.x.values, regional.y.values
+    i = np.clip(np.round((X - xs[0]) / (xs[1] - xs[0])).astype(int), 0, xs.size - 1)
+    j = np.clip(np.round((Y - ys[0]) / (ys[1] - ys[0])).astype(int), 0, ys.size - 1)
+    return regional["obstacle"].values.astype(bool)[j, i]
+
+
+def nested_domain(regional: xr.Dataset, window, resolution: float, manning=0.025, *, name: str = "nested",
+                  leaving: str = "free"):
+    """The local :class:`~breachflow.hydro.terrain.Domain` in *window* ``(x0, x1, y0, y1)`` at *resolution* and its initial state
+    ``(h, hu, hv)`` from *regional*; boundary conditions from the regional field (module docstring)."""
+    x0, x1, y0, y1 = map(float, window)
+    dom = uniform_grid(x0, x1, y0, y1, resolution)
+    if min(dom.shape) < 4:
+        raise InputError(f"nested window {window} at {resolution} m has only {dom.shape[1]} x {dom.shape[0]} cells")
+    X, Y = np.meshgrid(dom.x, dom.y)
+    smp = FieldSampler(fill_obstacles(regional), "bilinear").sample(X.ravel(), Y.ravel())
+    inside = smp.inside.reshape(dom.shape) & ~_regional_obstacle(regional, X, Y)
+    if inside.mean() < 0.5:
+        raise InputError(f"nested window {window}: only {100 * inside.mean():.0f} % of it lies inside the regional field")
+    bed = smp.bed.reshape(dom.shape)
+    fill = np.nanmax(bed[inside]) if inside.any() else 0.0
+    bed = np.where(inside, bed, fill)
+    h = np.where(inside, np.nan_to_num(smp.depth.reshape(dom.shape)), 0.0)
+    u = np.where(inside & (h > DRY_DEPTH), np.nan_to_num(smp.u.reshape(dom.shape)), 0.0)
+    v = np.where(inside & (h > DRY_DEPTH), np.nan_to_num(smp.v.reshape(dom.shape)), 0.0)
+    dom.bed = bed
+    dom.manning = np.broadcast_to(np.asarray(manning, float), dom.shape).copy()
+    dom.obstacle = ~inside
+    dom.initial_surface = np.where(h > DRY_DEPTH, bed + h, np.nan)
+    dom.name = name
+    crs = regional["crs"].attrs.get("crs_wkt") if "crs" in regional else None
+    dom.crs_wkt = crs
+    hmax = float(np.max(h)) if h.size else 1.0
+    relaxation = 4.0 * max(x1 - x0, y1 - y0) / np.sqrt(GRAVITY * max(hmax, 1e-3))
+    if leaving not in ("free", "level"):
+        raise InputError(f"nested solver: leaving = {leaving!r}; use 'free' or 'level'")
+    dom.boundaries = _edge_conditions(bed, h, u, v, inside, dom, relaxation, leaving == "level")
+    return dom, (h, h * u, h * v)
+
+
+def _edge_conditions(bed, h, u, v, inside, dom: Domain, relaxation=None, leaving_level: bool = False) -> dict:
+    edges = {  # side: (cells along it, inward normal velocity, along-side coordinate)
+        "west": (np.s_[:, 0], u[:, 0], dom.y), "east": (np.s_[:, -1], -u[:, -1], dom.y),
+        "south": (np.s_[0, :], v[0, :], dom.x), "north": (np.s_[-1, :], -v[-1, :], dom.x),
+    }
+    out = {}
+    for side, (sl, un_in, s) in edges.items():
+        hh, ins = h[sl], inside[sl]
+        level = bed[sl] + hh
+        c = np.sqrt(GRAVITY * np.maximum(hh, 1e-12))
+        leaving = (un_in < -c) if leaving_level else (un_in < 0.0)
+        kind = np.where(~ins, "wall", np.where(hh <= 1e-3, "outflow",
+                        np.where(leaving, "outflow", np.where(un_in > c, "discharge", "level"))))
+        bcs = []
+        start = 0
+        for k in range(1, s.size + 1):
+            if k < s.size and kind[k] == kind[start]:
+                continue
+            sel = slice(start, k)
+            a, b = float(s[start]), float(s[k - 1])
+            kd = kind[start]
+            if kd == "wall":
+                bcs.append(BoundaryCondition.wall(start=a, stop=b))
+            elif kd == "outflow":
+                bcs.append(BoundaryCondition.outflow(start=a, stop=b))
+            elif kd == "level":
+                bcs.append(BoundaryCondition.water_level(level[sel].copy(), start=a, stop=b, absorbing=relaxation))
+            else:
+                bcs.append(BoundaryCondition.inflow((hh * un_in)[sel].copy(), level=level[sel].copy(), start=a, stop=b))
+            start = k
+        out[side] = bcs
+    return out
+
+
+def breach_window(xc: float, yc: float, length: float, resolution: float, along: float = 3.0, across: float = 3.0):
+    """``(window, spacing)``: the default local window around a breach of *length* B centred at (xc, yc)
+    on a levee along x, with cells of ``B / round(B / resolution)`` and the breach ends on cell faces."""
+    n = max(1, int(round(length / resolution)))
+    dx = length / n
+    k = int(round(along * length / dx))
+    m = int(round(across * length / dx))
+    return (xc - 0.5 * length - k * dx, xc + 0.5 * length + k * dx, yc - m * dx, yc + m * dx), dx
+
+
+class NestedSolver:
+    """``solver = "nested"``: the local model of :func:`nested_domain`, re-solved with the pile.
+
+    ``NestedSolver(snapshots, window, resolution, manning=...)``; ``domain`` is the local domain
+    the closure runs on. ``solve(domain, obstacles=None, initial=None)``: a cold solve starts from the
+    regional state; every later one from the previous local state (warm start)."""
+
+    responds_to_pile = True
+    mode = "nested"
+
+    def __init__(self, snapshots=None, window=None, resolution: float = 4.0, manning=0.025, *, order: int = 2,
+                 courant: float = 0.45, tolerance: float = 2e-3, t_max_initial: float = 300.0, t_max: float = 60.0,
+                 region=None, threads: int | None = 1, leaving: str = "free"):
+        if snapshots is None or window is None:
+            raise InputError("nested solver: give snapshots= (the ingested regional field) and window=(x0, x1, y0, y1)")
+        self.regional = load_regional(snapshots)
+        bx = self.regional["mesh2d_node_x"].values if "mesh2d_node_x" in self.regional else self.regional.x.values
+        by = self.regional["mesh2d_node_y"].values if "mesh2d_node_y" in self.regional else self.regional.y.values
+        w = tuple(map(float, window))
+        # the window is clipped to the regional field's bounding box (outside it there is nothing to nest
+        # in) by whole cells, so that its lattice (e.g. breach ends on cell faces) is kept
+        r = float(resolution)
+        cut = lambda lo, hi, sign: (np.ceil(max(sign * (hi - lo), 0.0) / r - 1e-9) * r)
+        self.window = (w[0] + cut(w[0], float(np.min(bx)), 1), w[1] - cut(float(np.max(bx)), w[1], 1),
+                       w[2] + cut(w[2], float(np.min(by)), 1), w[3] - cut(float(np.max(by)), w[3], 1))
+        if not (self.window[1] > self.window[0] and self.window[3] > self.window[2]):
+            raise InputError(f"nested window {w} does not overlap the regional field "
+                             f"(x {np.min(bx):g}..{np.max(bx):g}, y {np.min(by):g}..{np.max(by):g})")
+        self.domain, self.initial_state = nested_domain(self.regional, self.window, resolution, manning,
+                                                        leaving=leaving)
+        from .swe.solver import SWEOptions
+
+        self.options = SWEOptions(order=order, courant=courant, threads=threads)
+        self.tolerance, self.t_max_initial, self.t_max, self.region = tolerance, t_max_initial, t_max, region
+        self.source = self.regional.attrs.get("source", "ingested snapshot")
+        self.last = None
+
+    def solve(self, domain=None, obstacles=None, initial=None) -> xr.Dataset:
+        from .swe.solver import SWESimulation
+
+        domain = self.domain if domain is None else domain
+        cold = initial is None
+        sim = SWESimulation(domain, self.options, obstacles=obstacles, initial=self.initial_state if cold else initial)
+        sim.run_to_steady(self.tolerance, self.t_max_initial if cold else self.t_max, region=self.region)
+        self.last = sim
+        ds = sim.snapshot(source=f"breachflow nested local model in {self.source}")
+        ds.attrs.update(hydro_mode=self.mode, flow_responds_to_pile=1,
+                        hydro_note=(f"local shallow-water model on x {self.window[0]:g}..{self.window[1]:g}, "
+                                    f"y {self.window[2]:g}..{self.window[3]:g} m re-solved with the pile; outside it "
+                                    f"the ingested field ({self.source}) unchanged"))
+        return ds
+
+
+def consistency(local: xr.Dataset, regional: xr.Dataset, centre, radius: float) -> dict:
+    """Differences between a local solution and the regional field within *radius* (m) of *centre*, over
+    local cells wet in both: max / mean ``|Δ speed|`` and ``|Δ depth|`` (m/s, m), the peak speeds of both, the
+    mean regional speed and depth there, and the cell count."""
+    X, Y = np.meshgrid(local.x.values, local.y.values)
+    smp = FieldSampler(fill_obstacles(regional), "bilinear").sample(X.ravel(), Y.ravel())
+    rs = np.hypot(smp.u, smp.v).reshape(X.shape)
+    rh = smp.depth.reshape(X.shape)
+    ls = np.hypot(local.u.values, local.v.values)
+    lh = local.depth.values
+    ob = local["obstacle"].values.astype(bool) if "obstacle" in local else np.zeros(X.shape, bool)
+    sel = ((np.hypot(X - centre[0], Y - centre[1]) <= radius) & smp.inside.reshape(X.shape) & ~ob
+           & (rh > 0.01) & (lh > 0.01))
+    if not sel.any():
+        raise InputError("consistency: no cell wet in both fields near the breach")
+    ds_, dh = np.abs(ls - rs)[sel], np.abs(lh - rh)[sel]
+    return {"cells": int(sel.sum()), "max_speed_diff": float(ds_.max()), "mean_speed_diff": float(ds_.mean()),
+            "max_depth_diff": float(dh.max()), "mean_depth_diff": float(dh.mean()),
+            "regional_peak_speed": float(rs[sel].max()), "local_peak_speed": float(ls[sel].max()),
+            "regional_mean_speed": float(rs[sel].mean()),
+            "regional_mean_depth": float(rh[sel].mean())}
