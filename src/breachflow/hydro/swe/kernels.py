@@ -75,9 +75,14 @@ def _interp_series(times, values, side, k, t):
 
 
 @_jit
-def _ghost(h, hu, hv, z, jg, ig, ji, ii, kind, level, q_in, outer_un, nx_out, ny_out, h_dry, g):
+def _ghost(h, hu, hv, z, jg, ig, ji, ii, z_out, eta_out, kind, level, q_in, outer_un, nx_out, ny_out, h_dry, g):
     """Set ghost cell (jg, ig) from its mirror interior cell (ji, ii); (nx_out, ny_out) is the outward
-    normal; *outer_un* the relaxed outer normal velocity of an absorbing level boundary (NaN: exact level)."""
+    normal; *outer_un* the relaxed outer normal velocity of an absorbing level boundary (NaN: exact level).
+
+    Where water leaves with the state extrapolated from inside (free outflow, supercritical outflow
+    through a level boundary) the ghost bed is *z_out* and the ghost surface *eta_out*, both continued
+    from inside (:func:`fill_ghosts`); the velocity is the interior one.
+    """
     z[jg, ig] = z[ji, ii]
     hi = h[ji, ii]
     if hi > h_dry:
@@ -93,18 +98,22 @@ def _ghost(h, hu, hv, z, jg, ig, ji, ii, kind, level, q_in, outer_un, nx_out, ny
         hv[jg, ig] = hv[ji, ii]
     elif kind == BC_OUTFLOW:
         # free outflow: zero gradient, but water never re-enters (inward normal velocity set to zero)
-        h[jg, ig] = hi
+        z[jg, ig] = z_out
+        hg = max(eta_out - z_out, 0.0) if hi > h_dry else hi
+        h[jg, ig] = hg
         un = ui * nx_out + vi * ny_out
         if un < 0.0:
             ui -= un * nx_out
             vi -= un * ny_out
-        hu[jg, ig] = hi * ui
-        hv[jg, ig] = hi * vi
+        hu[jg, ig] = hg * ui
+        hv[jg, ig] = hg * vi
     elif kind == BC_LEVEL and hi > h_dry and ui * nx_out + vi * ny_out >= math.sqrt(g * hi):
         # supercritical outflow: the level cannot be imposed, the boundary is free
-        h[jg, ig] = hi
-        hu[jg, ig] = hu[ji, ii]
-        hv[jg, ig] = hv[ji, ii]
+        z[jg, ig] = z_out
+        hg = max(eta_out - z_out, 0.0)
+        h[jg, ig] = hg
+        hu[jg, ig] = hg * ui
+        hv[jg, ig] = hg * vi
     elif kind == BC_LEVEL and outer_un == outer_un and hi > h_dry:
         # absorbing level: the outgoing invariant R+ = u_n + 2c from inside, the incoming one
         # R- = U - 2 c_t from water at the prescribed level moving with U, the interior normal velocity
@@ -161,30 +170,106 @@ def _ghost(h, hu, hv, z, jg, ig, ji, ii, kind, level, q_in, outer_un, nx_out, ny
             hv[jg, ig] = 0.0
 
 
+def ghost_bed_slopes(z, obst):
+    """Bed change per cell outwards, ``(4, nmax)``, at each boundary cell of the padded bed *z*.
+
+    Minmod of the two bed differences next to the boundary (``z_b - z_b1`` and ``z_b1 - z_b2``, b the
+    boundary cell, b1 and b2 the next ones inwards), so that a single bump or pit at the edge is not
+    continued; zero where one of the three cells is an obstacle or the grid is a single cell across.
+    A uniform slope is continued exactly.
+    """
+    zi = z[G:-G, G:-G]
+    blocked = obst[G:-G, G:-G] == 1
+    ny, nx = zi.shape
+    out = np.zeros((4, max(nx, ny)))
+    lines = {WEST: (zi, blocked), EAST: (zi[:, ::-1], blocked[:, ::-1]),
+             SOUTH: (zi.T, blocked.T), NORTH: (zi[::-1, :].T, blocked[::-1, :].T)}
+    for side, (a, b) in lines.items():  # a[k, m]: cell m inwards from the boundary of boundary cell k
+        n = a.shape[0]
+        if a.shape[1] < 2:
+            continue
+        d1 = a[:, 0] - a[:, 1]
+        if a.shape[1] >= 3:
+            d2 = a[:, 1] - a[:, 2]
+            d = np.where(d1 * d2 > 0.0, np.where(np.abs(d1) < np.abs(d2), d1, d2), 0.0)
+            bad = b[:, 0] | b[:, 1] | b[:, 2]
+        else:
+            d = d1
+            bad = b[:, 0] | b[:, 1]
+        out[side, :n] = np.where(bad, 0.0, d)
+    return out
+
+
 @_jit
-def fill_ghosts(h, hu, hv, z, kinds, times, levels, discharges, outer_un, t, h_dry, g):
+def fill_ghosts(h, hu, hv, z, bed_dz, kinds, times, levels, discharges, outer_un, t, h_dry, g):
     """Fill the two ghost layers on the four sides from the boundary specification at time *t*;
-    ``outer_un (4, nmax)`` holds the relaxed outer velocities of absorbing level cells (NaN elsewhere)."""
+    ``outer_un (4, nmax)`` holds the relaxed outer velocities of absorbing level cells (NaN elsewhere);
+    ``bed_dz (4, nmax)`` the bed change per cell outwards at each boundary cell (:func:`ghost_bed_slopes`).
+    The continued bed and surface of outflows are those of :func:`_outflow_ghost`."""
     ny = h.shape[0] - 2 * G
     nx = h.shape[1] - 2 * G
     for k in range(ny):
         j = G + k
         for layer in range(G):
-            _ghost(h, hu, hv, z, j, G - 1 - layer, j, G + layer, kinds[WEST, k],
+            zo, eo = _outflow_ghost(h, z, j, G, 0, 1, nx, bed_dz[WEST, k], layer, h_dry)
+            _ghost(h, hu, hv, z, j, G - 1 - layer, j, G + layer, zo, eo, kinds[WEST, k],
                    _interp_series(times, levels, WEST, k, t), _interp_series(times, discharges, WEST, k, t),
                    outer_un[WEST, k], -1.0, 0.0, h_dry, g)
-            _ghost(h, hu, hv, z, j, G + nx + layer, j, G + nx - 1 - layer, kinds[EAST, k],
+            zo, eo = _outflow_ghost(h, z, j, G + nx - 1, 0, -1, nx, bed_dz[EAST, k], layer, h_dry)
+            _ghost(h, hu, hv, z, j, G + nx + layer, j, G + nx - 1 - layer, zo, eo, kinds[EAST, k],
                    _interp_series(times, levels, EAST, k, t), _interp_series(times, discharges, EAST, k, t),
                    outer_un[EAST, k], 1.0, 0.0, h_dry, g)
     for k in range(nx):
         i = G + k
         for layer in range(G):
-            _ghost(h, hu, hv, z, G - 1 - layer, i, G + layer, i, kinds[SOUTH, k],
+            zo, eo = _outflow_ghost(h, z, G, i, 1, 0, ny, bed_dz[SOUTH, k], layer, h_dry)
+            _ghost(h, hu, hv, z, G - 1 - layer, i, G + layer, i, zo, eo, kinds[SOUTH, k],
                    _interp_series(times, levels, SOUTH, k, t), _interp_series(times, discharges, SOUTH, k, t),
                    outer_un[SOUTH, k], 0.0, -1.0, h_dry, g)
-            _ghost(h, hu, hv, z, G + ny + layer, i, G + ny - 1 - layer, i, kinds[NORTH, k],
+            zo, eo = _outflow_ghost(h, z, G + ny - 1, i, -1, 0, ny, bed_dz[NORTH, k], layer, h_dry)
+            _ghost(h, hu, hv, z, G + ny + layer, i, G + ny - 1 - layer, i, zo, eo, kinds[NORTH, k],
                    _interp_series(times, levels, NORTH, k, t), _interp_series(times, discharges, NORTH, k, t),
                    outer_un[NORTH, k], 0.0, 1.0, h_dry, g)
+
+
+@_jit
+def _outflow_ghost(h, z, jb, ib, dj, di, n, dz, layer, h_dry):
+    """Bed and water surface ``(z_g, eta_g)`` of ghost layer *layer* (0: next to the boundary cell
+    (jb, ib); (dj, di) the step inwards, *n* cells across) of a boundary that water leaves.
+
+    The bed continues the boundary cell's bed slope *dz* (change per cell outwards) where it falls
+    outwards (``z_g = z_b + l dz``, l = 1, 2 cells out), else it is mirrored. The surface continues the
+    interior surface slope ``s`` (minmod of the two differences next to the boundary, wet cells only),
+    clipped to ``[dz, 0]``: ``eta_g = eta_b + l s``. A uniform flow (``s = dz``) then sees its own
+    depth in the ghost cells and stays at normal depth. On a flat or outward-rising bed, or with a flat
+    surface (a lake at rest; ``|s| <= 1e-12 (1 + |eta_b|)``), the ghost is the mirror cell (zero
+    gradient of depth, as before). A mirrored, flat ghost bed with the interior depth would force the
+    surface flat at a sloping outlet and take the gravity term from the boundary cell: the outlet
+    ponds (issue 12).
+    """
+    jm = jb + layer * dj
+    im = ib + layer * di
+    zb = z[jb, ib]
+    eb = h[jb, ib] + zb
+    s = 0.0
+    if n >= 2 and h[jb, ib] > h_dry and h[jb + dj, ib + di] > h_dry:
+        s = eb - (h[jb + dj, ib + di] + z[jb + dj, ib + di])
+        if n >= 3:
+            if h[jb + 2 * dj, ib + 2 * di] > h_dry:
+                s2 = (h[jb + dj, ib + di] + z[jb + dj, ib + di]) - (h[jb + 2 * dj, ib + 2 * di] + z[jb + 2 * dj, ib + 2 * di])
+                if s * s2 <= 0.0:
+                    s = 0.0
+                elif abs(s2) < abs(s):
+                    s = s2
+            else:
+                s = 0.0
+    if s < dz:
+        s = dz
+    if not (dz < 0.0 and s < -1e-12 * (1.0 + abs(eb))):
+        # flat or rising bed, or a flat surface (round-off differences count as flat): the mirrored
+        # bed and the mirror cell's depth, which keeps a lake at rest at rest to round-off
+        return z[jm, im], h[jm, im] + z[jm, im]
+    return zb + (layer + 1) * dz, eb + (layer + 1) * s
 
 
 @_jit
@@ -542,7 +627,7 @@ def stage_update(h0, hu0, hv0, h, hu, hv, dh, dhu, dhv, obst, manning, dt, g, h_
 
 
 @_jit
-def advance(h, hu, hv, z, obst, manning, kinds, times, levels, discharges, outer_un, relaxation,
+def advance(h, hu, hv, z, obst, manning, bed_dz, kinds, times, levels, discharges, outer_un, relaxation,
             dx, dy, g, second_order, limiter, riemann, courant, h_dry,
             t, t_stop, max_steps, dt_min,
             h1, hu1, hv1, u, v, eta, dh, dhu, dhv, fy, stats):
@@ -554,7 +639,7 @@ def advance(h, hu, hv, z, obst, manning, kinds, times, levels, discharges, outer
     """
     steps = 0
     while t < t_stop and steps < max_steps:
-        fill_ghosts(h, hu, hv, z, kinds, times, levels, discharges, outer_un, t, h_dry, g)
+        fill_ghosts(h, hu, hv, z, bed_dz, kinds, times, levels, discharges, outer_un, t, h_dry, g)
         primitives(h, hu, hv, z, obst, u, v, eta, h_dry)
         rate = max_wave_rate(h, u, v, obst, dx, dy, g)
         if not (rate == rate) or rate == math.inf:
@@ -573,7 +658,7 @@ def advance(h, hu, hv, z, obst, manning, kinds, times, levels, discharges, outer
         if second_order:
             stats[0] += stage_update(h, hu, hv, h, hu, hv, dh, dhu, dhv, obst, manning, dt, g, h_dry, 0.0,
                                      h1, hu1, hv1)
-            fill_ghosts(h1, hu1, hv1, z, kinds, times, levels, discharges, outer_un, t + dt, h_dry, g)
+            fill_ghosts(h1, hu1, hv1, z, bed_dz, kinds, times, levels, discharges, outer_un, t + dt, h_dry, g)
             primitives(h1, hu1, hv1, z, obst, u, v, eta, h_dry)
             rhs(h1, u, v, eta, obst, dx, dy, g, second_order, limiter, riemann, dh, dhu, dhv, fy)
             stats[0] += stage_update(h, hu, hv, h1, hu1, hv1, dh, dhu, dhv, obst, manning, dt, g, h_dry, 0.5,

@@ -101,6 +101,7 @@ class SWESimulation:
             self.obst[P:-P, P + nx + layer] = wall[K.EAST, :ny]
             self.obst[P - 1 - layer, P:-P] = wall[K.SOUTH, :nx]
             self.obst[P + ny + layer, P:-P] = wall[K.NORTH, :nx]
+        self.bed_dz = K.ghost_bed_slopes(self.z, self.obst)
         self.h = np.zeros(shape)
         self.hu = np.zeros(shape)
         self.hv = np.zeros(shape)
@@ -195,7 +196,7 @@ class SWESimulation:
             numba.set_num_threads(max(1, min(int(o.threads), numba.config.NUMBA_NUM_THREADS)))
         try:
             t, steps, status = K.advance(
-                self.h, self.hu, self.hv, self.z, self.obst, self.manning,
+                self.h, self.hu, self.hv, self.z, self.obst, self.manning, self.bed_dz,
                 self.kinds, self.times, self.levels, self.discharges, self.outer_velocity, self.relaxation,
                 self.dx, self.dy, o.gravity, o.order == 2, K.LIMITERS[o.limiter], K.RIEMANN[o.riemann],
                 o.courant, o.h_dry, float(self.t), float(t_end), int(max_steps), o.dt_min,
