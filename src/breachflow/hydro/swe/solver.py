@@ -59,11 +59,14 @@ class SWEOptions:
 @dataclass
 class ConvergenceHistory:
     """Steady-state monitor: per check, simulated time (s), relative rates of change of depth and of
-    discharge (1/s, L1 over the open cells), steps and wall time (s)."""
+    discharge (1/s, L1 over the open cells), the discharge through the monitored section (m³/s, NaN
+    without one) and its relative rate of change (1/s), steps and wall time (s)."""
 
     time: list = field(default_factory=list)
     depth_rate: list = field(default_factory=list)
     discharge_rate: list = field(default_factory=list)
+    section_discharge: list = field(default_factory=list)
+    section_rate: list = field(default_factory=list)
     steps: list = field(default_factory=list)
     wall_time: list = field(default_factory=list)
     converged: bool = False
@@ -213,14 +216,35 @@ class SWESimulation:
             raise PhysicsError(f"shallow-water solver: negative depth at t = {t:.6g} s")
         return self
 
+    def section_discharge(self, section) -> float:
+        """Discharge (m³/s) across the grid row nearest ``y`` between ``x0`` and ``x1``, *section* =
+        ``(x0, x1, y)``: ``Σ h v Δx`` over the open cells (positive towards +y; the closure's breach
+        discharge, :func:`breachflow.cycle.criteria.section_discharge`)."""
+        j, cols = self._section_cells(section)
+        return float(self.discharge[1][j, cols].sum() * self.dx)
+
+    def _section_cells(self, section):
+        d = self.domain
+        try:
+            x0, x1, y = (float(v) for v in section)
+        except (TypeError, ValueError):
+            raise InputError(f"section must be (x0, x1, y) in m, got {section!r}") from None
+        j = int(np.argmin(np.abs(d.y - y)))
+        cols = (d.x >= x0) & (d.x <= x1) & ~d.obstacle[j]
+        if not ((d.x >= x0) & (d.x <= x1)).any():
+            raise InputError(f"section {section!r} holds no cell of the domain")
+        return j, cols
+
     def run_to_steady(self, tolerance: float = 1e-4, t_max: float = 3600.0, check_interval: float | None = None,
-                      min_time: float = 0.0, region=None, progress=None) -> ConvergenceHistory:
+                      min_time: float = 0.0, region=None, progress=None, section=None) -> ConvergenceHistory:
         """March until the relative rates of change of depth and discharge fall below *tolerance* (1/s).
 
         Rates over each check window Δt: ``sum|h - h_prev| / (sum h Δt)`` and the same with the
         discharge magnitude, summed over the cells of *region* (a boolean mask; default all cells —
-        e.g. the breach vicinity when only the flow there matters). Stops at *t_max* (s) of simulated
-        time otherwise (``converged`` False). *progress(sim, history)* is called after each check window.
+        e.g. the breach vicinity when only the flow there matters). With *section* ``(x0, x1, y)``
+        (the breach: :meth:`section_discharge`) its discharge Q must settle too:
+        ``|Q - Q_prev| / (max(|Q|, |Q_prev|) Δt) < tolerance``. Stops at *t_max* (s) of simulated time
+        otherwise (``converged`` False). *progress(sim, history)* is called after each check window.
         """
         sel = np.ones(self.domain.shape, bool) if region is None else _mask(region, self.domain)
         if not sel.any():
@@ -229,6 +253,8 @@ class SWESimulation:
             raise InputError(f"steady-state tolerance must be > 0, got {tolerance}")
         if not t_max > 0:
             raise InputError(f"t_max must be > 0 s, got {t_max}")
+        if section is not None:
+            self._section_cells(section)  # checked before the run
         if check_interval is None:
             # a few gravity-wave crossings of a cell band: 20 cells at the fastest wave speed, at least 1 s
             hmax = max(float(self.depth.max()), float(np.nanmax(self.levels)) - float(self.domain.bed.min())
@@ -240,6 +266,7 @@ class SWESimulation:
         wall0 = _time.perf_counter()
         h_prev = self.depth[sel]
         q_prev = np.hypot(*self.discharge)[sel]
+        qs_prev = self.section_discharge(section) if section is not None else math.nan
         while self.t < t_start + t_max - 1e-12:
             t0 = self.t
             self.advance_to(min(self.t + check_interval, t_start + t_max))
@@ -248,16 +275,25 @@ class SWESimulation:
             q = np.hypot(*self.discharge)[sel]
             rate_h = float(np.abs(h - h_prev).sum() / (max(h.sum(), 1e-300) * dt))
             rate_q = float(np.abs(q - q_prev).sum() / (max(q.sum(), 1e-300) * dt)) if q.sum() > 0 else 0.0
+            rate_s = 0.0
+            qs = math.nan
+            if section is not None:
+                qs = self.section_discharge(section)
+                scale = max(abs(qs), abs(qs_prev))
+                rate_s = abs(qs - qs_prev) / (scale * dt) if scale > 0 else 0.0
             hist.time.append(self.t)
             hist.depth_rate.append(rate_h)
             hist.discharge_rate.append(rate_q)
+            hist.section_discharge.append(qs)
+            hist.section_rate.append(rate_s if section is not None else math.nan)
             hist.steps.append(self.steps)
             hist.wall_time.append(_time.perf_counter() - wall0)
             h_prev = h
             q_prev = q
+            qs_prev = qs
             if progress is not None:
                 progress(self, hist)
-            if rate_h < tolerance and rate_q < tolerance and self.t - t_start >= min_time:
+            if rate_h < tolerance and rate_q < tolerance and rate_s < tolerance and self.t - t_start >= min_time:
                 hist.converged = True
                 break
         return hist
@@ -281,6 +317,10 @@ class SWESimulation:
                                                {"long_name": "relative rate of change of depth (L1)", "units": "s-1"})
             extra["convergence_discharge_rate"] = (("convergence_check",), np.array(hist.discharge_rate),
                                                    {"long_name": "relative rate of change of unit discharge (L1)", "units": "s-1"})
+            if np.isfinite(hist.section_discharge).any():
+                extra["convergence_section_discharge"] = (
+                    ("convergence_check",), np.array(hist.section_discharge),
+                    {"long_name": "discharge through the monitored section (breach)", "units": "m3 s-1"})
         ds = grid_snapshot(d.x, d.y, d.bed, h, u, v, obstacle=d.obstacle.astype("i1"), crs_wkt=d.crs_wkt,
                            source=source, extra=extra)
         o = self.options
@@ -341,14 +381,16 @@ class SWESolver:
 
     ``solve(domain, obstacles=None, initial=None)`` returns the snapshot Dataset; the last
     :class:`SWESimulation` is kept as ``last`` (its ``history`` is the convergence history).
+    *region* and *section* are those of :meth:`SWESimulation.run_to_steady`.
     """
 
     def __init__(self, order: int = 2, courant: float = 0.45, limiter: str = "minmod", riemann: str = "hllc",
                  tolerance: float = 1e-4, t_max: float = 3600.0, check_interval: float | None = None,
-                 h_dry: float = 1e-8, threads: int | None = 1, region=None, **derived_kwargs):
+                 h_dry: float = 1e-8, threads: int | None = 1, region=None, section=None, **derived_kwargs):
         self.options = SWEOptions(order=order, courant=courant, limiter=limiter, riemann=riemann, h_dry=h_dry,
                                   threads=threads)
         self.region = region
+        self.section = section
         self.tolerance = tolerance
         self.t_max = t_max
         self.check_interval = check_interval
@@ -357,6 +399,6 @@ class SWESolver:
 
     def solve(self, domain: Domain, obstacles=None, initial=None) -> xr.Dataset:
         sim = SWESimulation(domain, self.options, obstacles=obstacles, initial=initial)
-        sim.run_to_steady(self.tolerance, self.t_max, self.check_interval, region=self.region)
+        sim.run_to_steady(self.tolerance, self.t_max, self.check_interval, region=self.region, section=self.section)
         self.last = sim
         return sim.snapshot(**self.derived_kwargs)

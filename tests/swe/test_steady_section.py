@@ -1,0 +1,45 @@
+"""The steady-state monitor's section discharge (issue 12, part 3)."""
+import numpy as np
+import pytest
+
+from breachflow.errors import InputError
+from breachflow.hydro.swe import SWESimulation
+from breachflow.hydro.terrain import BoundaryCondition as BC, uniform_grid
+
+
+def _channel():
+    # 10 m wide channel along y, 2 m²/s fed at the south end: 20 m³/s through every row at steady state
+    return uniform_grid(0, 10, 0, 200, 2.0, bed=lambda X, Y: 5.0 - 1e-3 * Y, manning=0.03, initial_surface=6.0,
+                        boundaries={"south": [BC.inflow(2.0)], "north": [BC.outflow()]})
+
+
+def test_section_discharge_is_the_row_sum_and_reaches_the_inflow():
+    sim = SWESimulation(_channel())
+    hist = sim.run_to_steady(1e-5, 3000.0, section=(-1.0, 11.0, 100.0))
+    assert hist.converged
+    j = int(np.argmin(np.abs(sim.domain.y - 100.0)))
+    assert sim.section_discharge((-1.0, 11.0, 100.0)) == pytest.approx(sim.discharge[1][j].sum() * sim.dx, rel=1e-12)
+    assert hist.section_discharge[-1] == pytest.approx(20.0, rel=1e-3)
+    assert len(hist.section_rate) == len(hist.time) and hist.section_rate[-1] < 1e-5
+    assert "convergence_section_discharge" in sim.snapshot(derived=False)
+
+
+def test_the_section_discharge_keeps_the_run_going_until_it_settles():
+    """Depth and discharge rates averaged over the whole channel fall below the tolerance before the
+    discharge through one row does: with the section, the monitor waits for it."""
+    runs = {}
+    for section in (None, (-1.0, 11.0, 180.0)):
+        sim = SWESimulation(_channel())
+        hist = sim.run_to_steady(2e-3, 3000.0, check_interval=5.0, section=section)
+        assert hist.converged
+        runs[section is not None] = sim
+    probe = (-1.0, 11.0, 180.0)
+    err = {k: abs(s.section_discharge(probe) / 20.0 - 1.0) for k, s in runs.items()}
+    assert runs[True].t > runs[False].t
+    assert err[True] < err[False]
+
+
+@pytest.mark.parametrize("section", [(0.0, 1.0), "x", (20.0, 30.0, 5.0)])
+def test_a_bad_section_is_a_clear_error(section):
+    with pytest.raises(InputError, match="section"):
+        SWESimulation(_channel()).run_to_steady(1e-3, 10.0, section=section)
