@@ -70,7 +70,8 @@ def one_resolution(scenario: Path, res_m: float, work: Path) -> dict:
              lost=last.get("left_domain", 0), lost_t=last.get("lost_tonnage", 0.0),
              solve=[c.get("time_solve", float("nan")) for c in cyc], dem=[c.get("time_dem", float("nan")) for c in cyc],
              output=[c.get("time_output", float("nan")) for c in cyc], first_solve=init.get("solve_wall_time"),
-             gap0=cyc[0].get("gap_speed") if cyc else None, q0=init.get("breach_discharge"),
+             cpu_solve=[c.get("cpu_solve", float("nan")) for c in cyc], cpu_dem=[c.get("cpu_dem", float("nan")) for c in cyc],
+             first_solve_cpu=init.get("solve_cpu_time"), gap0=init.get("gap_speed"), q0=init.get("breach_discharge"),
              vmax0=init.get("max_speed"), governing=last.get("governing", ""), final=man.get("final", {}))
     return r
 
@@ -89,7 +90,7 @@ def report(rows) -> None:
                                                       f"{r['maxrss_mb']:.0f}", r["cycles"], r["masses"],
                                                       f"{r['tonnage']:.0f}", f"{r['lost']} ({r['lost_t']:.0f} t)"))
               + f" | {outcome}")
-    print("\nper cycle (wall s, mean over cycles; first cold solve separately):")
+    print("\nper cycle (wall s and this process's CPU s, mean over cycles; first cold solve separately):")
     for r in rows:
         n = max(r["cycles"], 1)
         tot = sum(r["solve"]) + sum(r["dem"]) + sum(r["output"])
@@ -97,9 +98,11 @@ def report(rows) -> None:
               f"{_mean(r['solve']):.2f} / DEM {_mean(r['dem']):.2f} / output {_mean(r['output']):.3f} s "
               f"({100 * sum(r['solve']) / max(tot, 1e-9):.0f} / {100 * sum(r['dem']) / max(tot, 1e-9):.0f} / "
               f"{100 * sum(r['output']) / max(tot, 1e-9):.1f} %) over {n} cycles")
+        print(f"        CPU: first solve {r['first_solve_cpu'] or float('nan'):.1f} s; per cycle solve "
+              f"{_mean(r['cpu_solve']):.2f} / DEM {_mean(r['cpu_dem']):.2f} s")
     print("\nerror figures (open breach before the first mass; report's ADH peak ~6.1 m/s, ~1,800 m3/s):")
     for r in rows:
-        print(f"  {r['res']:g} m: peak speed {r['vmax0'] or float('nan'):.2f} m/s, gap speed (cycle 1 field) "
+        print(f"  {r['res']:g} m: peak speed {r['vmax0'] or float('nan'):.2f} m/s, gap speed "
               f"{r['gap0'] or float('nan'):.2f} m/s, breach discharge {r['q0'] or float('nan'):.0f} m3/s, "
               f"tonnage placed {r['tonnage']:.0f} t")
     if len(rows) > 1:

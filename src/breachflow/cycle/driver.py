@@ -132,6 +132,8 @@ class CycleReport:
     time_solve: float = 0.0  #: wall time (s) of the re-solve
     time_dem: float = 0.0  #: wall time (s) of the DEM settle
     time_output: float = 0.0  #: wall time (s) of writing the cycle
+    cpu_solve: float = 0.0  #: CPU time (s) of this process in the re-solve
+    cpu_dem: float = 0.0  #: CPU time (s) of the DEM settle
 
     def as_dict(self) -> dict:
         d = dict(self.__dict__)
@@ -212,16 +214,18 @@ class ClosureRun:
         else:
             g0 = 0
             rec = self._initial_record()
-            t0 = _time.perf_counter()
+            t0, c0 = _time.perf_counter(), _time.process_time()
             snapshot = s.solver.solve(s.domain)
             self.initial_solve_time = _time.perf_counter() - t0
+            initial_solve_cpu = _time.process_time() - c0
             from .criteria import DischargeProxy, MaxSpeed
 
             ctx0 = CycleContext(cycle=0, snapshot=snapshot, breach_x=s.breach_x, levee_y=s.levee_y)
             self.rundir.update_metadata(initial={
                 "max_speed": MaxSpeed("0 m/s").value(ctx0), "discharge_proxy": DischargeProxy("0 m^3/s").value(ctx0),
                 "breach_discharge": section_discharge(snapshot, s.breach_x, s.levee_y),
-                "solve_wall_time": self.initial_solve_time})
+                "gap_speed": gap_speed(snapshot, s.area if s.area is not None else (-np.inf, np.inf, -np.inf, np.inf)),
+                "solve_wall_time": self.initial_solve_time, "solve_cpu_time": initial_solve_cpu})
         for g in range(g0 + 1, s.criteria.max_cycles + 1):
             rep, rec, snapshot = self._cycle(g, rec, snapshot)
             self.reports.append(rep)
@@ -360,9 +364,9 @@ class ClosureRun:
         steps0, ps0 = sim.steps, sim.particle_steps
         moving = np.flatnonzero(sim.state.awake & sim.state.active)
         active0 = sim.state.active.copy()
-        t_dem = _time.perf_counter()
+        t_dem, c_dem = _time.perf_counter(), _time.process_time()
         converged, t_rec, frames, vframes = self._settle(sim, d.max_time, record_ids=moving)
-        t_dem = _time.perf_counter() - t_dem
+        t_dem, c_dem = _time.perf_counter() - t_dem, _time.process_time() - c_dem
         st = sim.state
         lost_now = np.flatnonzero(active0 & ~st.active)
         speed = np.linalg.norm(st.vel, axis=1)
@@ -378,7 +382,7 @@ class ClosureRun:
         changed = int(np.count_nonzero(new_obstacle != before))
         if s.remap_mode == "raised_bed":
             changed += int(np.count_nonzero(np.abs(solve_domain.bed - snapshot["bed_elevation"].values) > 1e-9))
-        t_solve = _time.perf_counter()
+        t_solve, c_solve = _time.perf_counter(), _time.process_time()
         if changed == 0:
             new_snapshot = snapshot
             hydro = "skipped (remap changed no cell)"
@@ -388,7 +392,7 @@ class ClosureRun:
         else:
             new_snapshot = s.solver.solve(solve_domain, obstacles=obstacle, initial=snapshot)
             hydro = f"solved (warm start, {changed} cells changed)"
-        t_solve = _time.perf_counter() - t_solve
+        t_solve, c_solve = _time.perf_counter() - t_solve, _time.process_time() - c_solve
         new_rec = {"dem." + k: v for k, v in sim.save_state().items()}
         new_rec.update(placed_cycle=placed_cycle, resting=resting.copy())
         # 5. stability re-run (criterion 5) only when asked for
@@ -426,7 +430,7 @@ class ClosureRun:
                           lost_cycle=int(lost_now.size), lost_cycle_tonnage=lost_t, placed_cycle_tonnage=placed_t,
                           lost_tonnage=lost_total_t, gap_speed=gspeed, verdict=verdict,
                           losses_flagged=losses_flagged(lost_total_t, tonnage + lost_total_t, s.loss_limit),
-                          time_solve=t_solve, time_dem=t_dem)
+                          time_solve=t_solve, time_dem=t_dem, cpu_solve=c_solve, cpu_dem=c_dem)
         t_out = _time.perf_counter()
         field_ds = validate(self._field_dataset(new_snapshot, st, placed_cycle, resting, rep), "closure_cycle")
         traj = None
