@@ -2,9 +2,10 @@
 
 Each cycle: release the cycle's masses above the water (placement plan) → run the DEM in the frozen
 field of the current snapshot until the assembly is in equilibrium (``E_TOL``: every mass at rest or
-removed from the breach area, :mod:`.losses`; ``max_time`` is only a safety cap) → remap the resting masses into the hydrodynamic model (no-flow cells or raised bed) → re-solve
-the flow (warm start; skipped when the remap changed no cell) → optional stability re-run
-(criterion 5) → end criteria → write the cycle to the run directory.
+removed from the breach area, :mod:`.losses`; ``max_time`` is only a safety cap) → remap the resting
+masses into the hydrodynamic model (no-flow cells or raised bed) → re-solve the flow (warm start;
+skipped when the remap changed no cell) → optional stability re-run (criterion 5) → end criteria →
+write the cycle to the run directory.
 
 Determinism and resume: cycle ``g``'s DEM continues the DEM of cycle ``g − 1`` in the new frozen field
 (kept in memory; after a resume restored bit-identically from the restart record of cycle ``g − 1``),
