@@ -324,7 +324,7 @@ class CriteriaSection:
 class ClosureSection:
     """``[closure]``: ``remap`` (``raised_bed`` | ``no_flow``), ``seed``, ``area`` (the breach area
     ``[x0, x1, y0, y1]`` outside which masses count as carried away; default from the scene, see
-    :mod:`.losses`), ``loss_limit`` (fraction of a cycle's tonnage whose loss ends the run with a
+    :mod:`~breachflow.cycle.losses`), ``loss_limit`` (fraction of a cycle's tonnage whose loss ends the run with a
     "not closable" verdict, default 0.5)."""
 
     remap: str = "raised_bed"

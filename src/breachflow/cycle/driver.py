@@ -2,7 +2,7 @@
 
 Each cycle: release the cycle's masses above the water (placement plan) → run the DEM in the frozen
 field of the current snapshot until the assembly is in equilibrium (``E_TOL``: every mass at rest or
-removed from the breach area, :mod:`.losses`; ``max_time`` is only a safety cap) → remap the resting
+removed from the breach area, :mod:`~breachflow.cycle.losses`; ``max_time`` is only a safety cap) → remap the resting
 masses into the hydrodynamic model (no-flow cells or raised bed) → re-solve the flow (warm start;
 skipped when the remap changed no cell) → optional stability re-run (criterion 5) → end criteria →
 write the cycle to the run directory.
@@ -43,7 +43,7 @@ class DemSettings:
     """DEM settings of a closure run (SI). A cycle's DEM ends at equilibrium (``e_tol``), or when every
     awake mass has moved slower than ``rest_speed`` (centre speed and ``|omega| r``) for ``rest_time``
     (checked every ``record_interval``), or at the safety cap ``max_time`` of simulated time; masses
-    carried out of the breach area are removed meanwhile (:mod:`.losses`). ``rest_speed`` is also the
+    carried out of the breach area are removed meanwhile (:mod:`~breachflow.cycle.losses`). ``rest_speed`` is also the
     speed below which a mass counts as resting when the cycle ends at ``max_time``;
     ``record_interval`` the trajectory sampling interval (s)."""
 
@@ -81,7 +81,7 @@ class ClosureSetup:
     elevation; ``bottom`` the breach bottom elevation (for the cross-section criteria); ``area`` the
     breach area ``(x0, x1, y0, y1)`` outside which masses are removed and counted as lost (None: the
     whole domain); ``loss_limit`` the fraction of a cycle's tonnage whose loss ends the run with a
-    verdict (:mod:`.losses`).
+    verdict (:mod:`~breachflow.cycle.losses`).
     """
 
     domain: object
