@@ -42,6 +42,12 @@ def ensure_env() -> None:
         [str(PY), "-m", "pip", "install", "--disable-pip-version-check", "-q", "-e", f"{ROOT}[test]"],
         check=True,
     )
+    # compile the numba kernels once now, so that the first run does not spend most of its time compiling
+    print("[tasks] compiling the numba kernels into the cache (once per install, about 30 CPU s)", flush=True)
+    env = dict(os.environ)
+    env.setdefault("NUMBA_CACHE_DIR", str(ROOT / ".numba_cache"))
+    if subprocess.run([str(PY), "-m", "breachflow.warmup"], env=env).returncode:
+        print("[tasks] warning: the numba warm-up failed; kernels compile on first use", file=sys.stderr, flush=True)
     STAMP.write_text(want)
 
 

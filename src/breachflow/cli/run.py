@@ -152,9 +152,12 @@ def run_closure_cli(scenario: Path | None, out: Path, resume: bool, overwrite: b
         console.print(f"[bold]cycle {rep.cycle:3d}[/]  masses {rep.masses:4d}  max speed {rep.max_speed:5.2f} m/s  "
                       f"breach Q {rep.breach_discharge:7.2f} m³/s  DEM {rep.dem_steps} steps"
                       f"{'' if rep.dem_converged else ' (cycle time limit)'}  {rep.hydro}  {crit}  "
+                      f"{f'lost {rep.lost_cycle} ({rep.lost_cycle_tonnage:.1f} t)  ' if rep.lost_cycle else ''}"
                       f"{rep.wall_time:.1f} s", highlight=False)
         console.print(f"           tonnage {fmt(rep.tonnage, 't')}, operation time {fmt(rep.operation_time / 3600, 'h')}, "
                       f"stability: {rep.stability}, {rep.left_domain} left the domain", level=VERBOSE, highlight=False)
+        if rep.verdict:
+            console.print(f"[bold red]{escape(rep.verdict)}[/]", highlight=False)
 
     name = "embedded default scenario" if scenario is None and not resume else (
         f"scenario stored in {out}" if scenario is None else str(scenario))

@@ -16,6 +16,7 @@ from ..errors import BreachflowError
 from ..scenario.config import register_section
 from ..scenario.geometry import BreachGeometry, BreachScene, LeveeGeometry, typical_breach
 from .criteria import EndCriteria
+from .losses import breach_area
 from .placement import POSITION_MODES, PlacementPlan
 
 
@@ -176,7 +177,7 @@ class HydroSection:
 @dataclass
 class DemSection:
     """``[dem]``: material (``kn``, ``ks``, ``friction``, ``rolling_friction``, ``adhesion``, ``restitution``, ``global_damping``)
-    and run control (``integrator``, ``e_tol``, ``max_time`` per cycle, ``rest_speed``,
+    and run control (``integrator``, ``e_tol``, ``max_time`` per cycle (safety cap), ``rest_speed``, ``rest_time``,
     ``record_interval``, ``sleeping``, ``stability_time``)."""
 
     values: dict = field(default_factory=dict)
@@ -203,7 +204,7 @@ class DemSection:
     KINDS = {"kn": "stiffness", "ks": "stiffness", "friction": "dimensionless", "rolling_friction": "dimensionless",
              "adhesion": "force",
              "restitution": "dimensionless", "global_damping": "damping", "e_tol": "length", "max_time": "time",
-             "rest_speed": "speed", "record_interval": "time", "stability_time": "time"}
+             "rest_speed": "speed", "record_interval": "time", "stability_time": "time", "rest_time": "time"}
 
     @classmethod
     def from_table(cls, table, ctx):
@@ -324,15 +325,30 @@ class CriteriaSection:
 @register_section("closure")
 @dataclass
 class ClosureSection:
-    """``[closure]``: ``remap`` (``raised_bed`` | ``no_flow``), ``seed``."""
+    """``[closure]``: ``remap`` (``raised_bed`` | ``no_flow``), ``seed``, ``area`` (the breach area
+    ``[x0, x1, y0, y1]`` outside which masses count as carried away; default from the scene, see
+    :mod:`~breachflow.cycle.losses`), ``loss_limit`` (fraction of a cycle's tonnage whose loss ends the run with a
+    "not closable" verdict, default 0.5)."""
 
     remap: str = "raised_bed"
     seed: int = 0
+    area: tuple | None = None
+    loss_limit: float = 0.5
 
     @classmethod
     def from_table(cls, table, ctx):
-        ctx.check_keys(table, {"remap", "seed"})
-        out = cls(ctx.raw(table, "remap", default="raised_bed"), ctx.raw(table, "seed", types=(int,), default=0))
+        ctx.check_keys(table, {"remap", "seed", "area", "loss_limit"})
+        area = None
+        if "area" in table:
+            val = ctx.raw(table, "area", types=(list,))
+            if len(val) != 4:
+                raise ctx.error(f"area must be [x0, x1, y0, y1], got {val!r}", "area")
+            area = tuple(float(v) for v in ctx.quantity({"area": val}, "area", "length", dim="area").values)
+            if not (area[0] < area[1] and area[2] < area[3]):
+                raise ctx.error(f"area must be [x0, x1, y0, y1] with x0 < x1 and y0 < y1, got {val!r}", "area")
+        loss = ctx.quantity(table, "loss_limit", "dimensionless", default=0.5, default_unit="", positive=True)
+        out = cls(ctx.raw(table, "remap", default="raised_bed"), ctx.raw(table, "seed", types=(int,), default=0),
+                  area, float(loss))
         from .remap import REMAP_MODES
 
         if out.remap not in REMAP_MODES:
@@ -438,7 +454,9 @@ def closure_setup(scenario, *, overrides: dict | None = None):
         solver.plan = placement
     setup = ClosureSetup(domain=dom, solver=solver, placement=placement, criteria=criteria, dem=dem,
                          remap_mode=closure.remap, seed=closure.seed, breach_x=(xc - half, xc + half), levee_y=yc,
-                         flood_level=flood_level, bottom=bottom, name=scenario.name, attrs=attrs, metadata=metadata)
+                         flood_level=flood_level, bottom=bottom, name=scenario.name, attrs=attrs, metadata=metadata,
+                         area=closure.area or (breach_area(scene, placement.diameter[1]) if built is None else None),
+                         loss_limit=closure.loss_limit)
     for k, v in (overrides or {}).items():
         setattr(setup, k, v)
     return setup

@@ -11,6 +11,7 @@ SPEC   name                    satisfied when
 1      ``placed_volume``       solid volume of resting masses ≥ threshold (m³)
 2      ``max_speed``           maximum fluid speed anywhere < threshold (m/s)
 3      ``discharge_proxy``     max over subdomains of (max speed × open flow area) < threshold (m³/s)
+3      ``breach_discharge``    absolute discharge through the breach section at the levee line < threshold (m³/s)
 4      ``head_gradient``       max total-head gradient between neighbouring wet cells < threshold
 5      ``stability``           re-running the assembly in the new flow moves no mass more than threshold (m)
 6      ``speed_change``        change of the maximum speed since the previous cycle < threshold (m/s)

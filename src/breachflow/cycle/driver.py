@@ -1,10 +1,11 @@
 """The closure cycle ``<g>`` (SPEC §7, report Figs 4.2, 4.5, §4.4).
 
 Each cycle: release the cycle's masses above the water (placement plan) → run the DEM in the frozen
-field of the current snapshot until the assembly is in equilibrium (``E_TOL``) or the cycle time
-limit → remap the resting masses into the hydrodynamic model (no-flow cells or raised bed) → re-solve
-the flow (warm start; skipped when the remap changed no cell) → optional stability re-run
-(criterion 5) → end criteria → write the cycle to the run directory.
+field of the current snapshot until the assembly is in equilibrium (``E_TOL``: every mass at rest or
+removed from the breach area, :mod:`~breachflow.cycle.losses`; ``max_time`` is only a safety cap) → remap the resting
+masses into the hydrodynamic model (no-flow cells or raised bed) → re-solve the flow (warm start;
+skipped when the remap changed no cell) → optional stability re-run (criterion 5) → end criteria →
+write the cycle to the run directory.
 
 Determinism and resume: cycle ``g``'s DEM continues the DEM of cycle ``g − 1`` in the new frozen field
 (kept in memory; after a resume restored bit-identically from the restart record of cycle ``g − 1``),
@@ -32,15 +33,19 @@ from ..schemas import validate
 from ..output import RunDirectory, particles_dataset, trajectories_dataset
 from ..output.cf import pad_particles
 from .criteria import CycleContext, EndCriteria, section_discharge
+from .losses import LOSS_LIMIT, gap_speed, losses_flagged, not_closable_verdict
 from .placement import PlacementPlan
 from .remap import IncrementalPileTop, remap_top
 
 
 @dataclass
 class DemSettings:
-    """DEM settings of a closure run (SI). ``max_time`` caps the simulated DEM time of one cycle;
-    ``rest_speed`` is the speed below which a mass counts as resting when the cycle ends without
-    equilibrium; ``record_interval`` the trajectory sampling interval (s)."""
+    """DEM settings of a closure run (SI). A cycle's DEM ends at equilibrium (``e_tol``), or when every
+    awake mass has moved slower than ``rest_speed`` (centre speed and ``|omega| r``) for ``rest_time``
+    (checked every ``record_interval``), or at the safety cap ``max_time`` of simulated time; masses
+    carried out of the breach area are removed meanwhile (:mod:`~breachflow.cycle.losses`). ``rest_speed`` is also the
+    speed below which a mass counts as resting when the cycle ends at ``max_time``;
+    ``record_interval`` the trajectory sampling interval (s)."""
 
     material: Material = field(default_factory=lambda: Material(density=2650.0, kn=2.0e7, friction=0.6,
                                                                  rolling_friction=0.3))
@@ -56,9 +61,10 @@ class DemSettings:
     sampling: str = "bilinear"
     xi: float = 0.5
     stability_time: float = 5.0
+    rest_time: float = 0.5
 
     def __post_init__(self):
-        for name in ("e_tol", "max_time", "rest_speed", "record_interval", "stability_time"):
+        for name in ("e_tol", "max_time", "rest_speed", "record_interval", "stability_time", "rest_time"):
             v = getattr(self, name)
             if not (np.isfinite(v) and v > 0):
                 raise InputError(f"dem.{name} must be > 0, got {v!r}")
@@ -72,7 +78,10 @@ class ClosureSetup:
 
     ``domain`` the hydrodynamic :class:`~breachflow.hydro.terrain.Domain`; ``solver`` a HydroSolver;
     ``breach_x`` the breach extent along the levee at ``levee_y``; ``flood_level`` flood-side water
-    elevation; ``bottom`` the breach bottom elevation (for the cross-section criteria).
+    elevation; ``bottom`` the breach bottom elevation (for the cross-section criteria); ``area`` the
+    breach area ``(x0, x1, y0, y1)`` outside which masses are removed and counted as lost (None: the
+    whole domain); ``loss_limit`` the fraction of a cycle's tonnage whose loss ends the run with a
+    verdict (:mod:`~breachflow.cycle.losses`).
     """
 
     domain: object
@@ -91,6 +100,8 @@ class ClosureSetup:
     attrs: dict = field(default_factory=dict)
     #: extra run metadata for the manifest (JSON-serialisable)
     metadata: dict = field(default_factory=dict)
+    area: tuple | None = None
+    loss_limit: float = LOSS_LIMIT
 
 
 @dataclass
@@ -112,6 +123,18 @@ class CycleReport:
     stability: str
     wall_time: float
     left_domain: int
+    lost_cycle: int = 0  #: masses carried out of the breach area in this cycle
+    lost_cycle_tonnage: float = 0.0  #: their tonnage (t)
+    placed_cycle_tonnage: float = 0.0  #: tonnage placed in this cycle (t)
+    lost_tonnage: float = 0.0  #: tonnage lost over the run so far (t); the number is ``left_domain``
+    gap_speed: float = 0.0  #: largest flow speed in the breach area (m/s)
+    losses_flagged: bool = False  #: more than ``loss_limit`` of all placed tonnage lost so far
+    verdict: str = ""  #: why the run ends without closure (empty while it goes on)
+    time_solve: float = 0.0  #: wall time (s) of the re-solve
+    time_dem: float = 0.0  #: wall time (s) of the DEM settle
+    time_output: float = 0.0  #: wall time (s) of writing the cycle
+    cpu_solve: float = 0.0  #: CPU time (s) of this process in the re-solve
+    cpu_dem: float = 0.0  #: CPU time (s) of the DEM settle
 
     def as_dict(self) -> dict:
         d = dict(self.__dict__)
@@ -192,26 +215,34 @@ class ClosureRun:
         else:
             g0 = 0
             rec = self._initial_record()
-            t0 = _time.perf_counter()
+            t0, c0 = _time.perf_counter(), _time.process_time()
             snapshot = s.solver.solve(s.domain)
             self.initial_solve_time = _time.perf_counter() - t0
+            initial_solve_cpu = _time.process_time() - c0
             from .criteria import DischargeProxy, MaxSpeed
 
             ctx0 = CycleContext(cycle=0, snapshot=snapshot, breach_x=s.breach_x, levee_y=s.levee_y)
             self.rundir.update_metadata(initial={
                 "max_speed": MaxSpeed("0 m/s").value(ctx0), "discharge_proxy": DischargeProxy("0 m^3/s").value(ctx0),
                 "breach_discharge": section_discharge(snapshot, s.breach_x, s.levee_y),
-                "solve_wall_time": self.initial_solve_time})
+                "gap_speed": gap_speed(snapshot, s.area if s.area is not None else (-np.inf, np.inf, -np.inf, np.inf)),
+                "solve_wall_time": self.initial_solve_time, "solve_cpu_time": initial_solve_cpu})
         for g in range(g0 + 1, s.criteria.max_cycles + 1):
             rep, rec, snapshot = self._cycle(g, rec, snapshot)
             self.reports.append(rep)
             if self.progress:
                 self.progress(rep)
-            if rep.closed:
+            if rep.closed or rep.verdict:
                 break
         last = self.reports[-1] if self.reports else None
+        verdict = last.verdict if last else ""
+        if last and not last.closed and not verdict and self.rundir.last_cycle() >= s.criteria.max_cycles:
+            verdict = f"not closed after max_cycles = {s.criteria.max_cycles} cycles"
         self.rundir.finish({"cycles": self.rundir.last_cycle(), "closed": bool(last and last.closed),
-                            "governing": last.governing if last else ""})
+                            "governing": last.governing if last else "", "verdict": verdict,
+                            "lost_masses": last.left_domain if last else 0,
+                            "lost_tonnage": last.lost_tonnage if last else 0.0,
+                            "losses_flagged": bool(last and last.losses_flagged)})
         return self.reports
 
     @staticmethod
@@ -241,8 +272,10 @@ class ClosureRun:
         d = s.dem
         dom = s.domain
         terrain = HeightField(dom.x, dom.y, dom.bed, self._terrain_material())
-        box = (dom.x[0] - 0.5 * dom.dx, dom.x[-1] + 0.5 * dom.dx, dom.y[0] - 0.5 * dom.dy, dom.y[-1] + 0.5 * dom.dy,
-               float(dom.bed.min()) - 50.0, float(dom.bed.max()) + 200.0)
+        x0, x1, y0, y1 = s.area if s.area is not None else (dom.x[0] - 0.5 * dom.dx, dom.x[-1] + 0.5 * dom.dx,
+                                                               dom.y[0] - 0.5 * dom.dy, dom.y[-1] + 0.5 * dom.dy)
+        # masses leaving this box (the breach area) are retired by the DEM and counted as lost
+        box = (x0, x1, y0, y1, float(dom.bed.min()) - 50.0, float(dom.bed.max()) + 200.0)
         fluid = self._fluid(snapshot)
         kw = dict(boundaries=[terrain], models=[fluid], integrator=d.integrator, domain=box, sleeping=d.sleeping,
                   static_models=True)
@@ -285,6 +318,7 @@ class ClosureRun:
         vframes = [sim.state.vel[record_ids].copy()] if record_ids is not None else []
         t_start = sim.t
         converged = False
+        slow_since = None  # simulated time since when every awake mass is slower than rest_speed
         while sim.t - t_start < max_time:
             res = sim.run_to_equilibrium(d.e_tol, max_steps=chunk, consecutive=consecutive)
             if record_ids is not None:
@@ -293,6 +327,17 @@ class ClosureRun:
                 vframes.append(sim.state.vel[record_ids].copy())
             if res.converged:
                 converged = True
+                break
+            st = sim.state
+            a = np.flatnonzero(st.awake & st.active)
+            fast = a.size and max(float(np.linalg.norm(st.vel[a], axis=1).max()),
+                                  float((np.linalg.norm(st.omega[a], axis=1) * st.radius[a]).max())) >= d.rest_speed
+            if fast:
+                slow_since = None
+            elif slow_since is None:
+                slow_since = sim.t
+            elif sim.t - slow_since >= d.rest_time - 1e-9:
+                converged = True  # every mass at rest (or removed) for rest_time
                 break
         if record_ids is None:
             return converged, np.asarray(times), None, None
@@ -319,8 +364,12 @@ class ClosureRun:
         # 3. settle in the frozen field, recording the moving masses
         steps0, ps0 = sim.steps, sim.particle_steps
         moving = np.flatnonzero(sim.state.awake & sim.state.active)
+        active0 = sim.state.active.copy()
+        t_dem, c_dem = _time.perf_counter(), _time.process_time()
         converged, t_rec, frames, vframes = self._settle(sim, d.max_time, record_ids=moving)
+        t_dem, c_dem = _time.perf_counter() - t_dem, _time.process_time() - c_dem
         st = sim.state
+        lost_now = np.flatnonzero(active0 & ~st.active)
         speed = np.linalg.norm(st.vel, axis=1)
         resting = st.active & ((~st.awake) | (speed < d.rest_speed) | converged)
         sim.sleep(np.flatnonzero(resting & st.awake))
@@ -334,6 +383,7 @@ class ClosureRun:
         changed = int(np.count_nonzero(new_obstacle != before))
         if s.remap_mode == "raised_bed":
             changed += int(np.count_nonzero(np.abs(solve_domain.bed - snapshot["bed_elevation"].values) > 1e-9))
+        t_solve, c_solve = _time.perf_counter(), _time.process_time()
         if changed == 0:
             new_snapshot = snapshot
             hydro = "skipped (remap changed no cell)"
@@ -343,6 +393,7 @@ class ClosureRun:
         else:
             new_snapshot = s.solver.solve(solve_domain, obstacles=obstacle, initial=snapshot)
             hydro = f"solved (warm start, {changed} cells changed)"
+        t_solve, c_solve = _time.perf_counter() - t_solve, _time.process_time() - c_solve
         new_rec = {"dem." + k: v for k, v in sim.save_state().items()}
         new_rec.update(placed_cycle=placed_cycle, resting=resting.copy())
         # 5. stability re-run (criterion 5) only when asked for
@@ -363,17 +414,32 @@ class ClosureRun:
         # 6. write the cycle
         masses = int(st.n)
         tonnage = float(st.mass[st.active].sum()) / 1000.0
+        placed_t = float(st.mass[new_ids].sum()) / 1000.0
+        lost_t = float(st.mass[lost_now].sum()) / 1000.0
+        lost_total_t = float(st.mass[:st.n][~st.active[:st.n]].sum()) / 1000.0
+        area = s.area if s.area is not None else (-np.inf, np.inf, -np.inf, np.inf)
+        gspeed = gap_speed(new_snapshot, area)
+        verdict = ""
+        if not closed and placed_t > 0 and lost_t > s.loss_limit * placed_t:
+            verdict = not_closable_verdict(g, lost_now.size, len(new_ids), lost_t, placed_t, 2.0 * rel.radius,
+                                           rel.density, gap_speed(snapshot, area))
         rep = CycleReport(cycle=g, masses=masses, tonnage=tonnage, operation_time=rel.time, max_speed=max_speed,
                           discharge_proxy=proxy, breach_discharge=q_breach, criteria=results, closed=closed, governing=governing,
                           dem_steps=sim.steps - steps0, dem_particle_steps=sim.particle_steps - ps0,
                           dem_converged=converged, hydro=hydro, stability=stability,
-                          wall_time=_time.perf_counter() - wall0, left_domain=int((~st.active).sum()))
+                          wall_time=_time.perf_counter() - wall0, left_domain=int((~st.active[:st.n]).sum()),
+                          lost_cycle=int(lost_now.size), lost_cycle_tonnage=lost_t, placed_cycle_tonnage=placed_t,
+                          lost_tonnage=lost_total_t, gap_speed=gspeed, verdict=verdict,
+                          losses_flagged=losses_flagged(lost_total_t, tonnage + lost_total_t, s.loss_limit),
+                          time_solve=t_solve, time_dem=t_dem, cpu_solve=c_solve, cpu_dem=c_dem)
+        t_out = _time.perf_counter()
         field_ds = validate(self._field_dataset(new_snapshot, st, placed_cycle, resting, rep), "closure_cycle")
         traj = None
         if moving.size:
             tt = np.broadcast_to(t_rec, (moving.size, t_rec.size))  # seconds since the cycle's release
             traj = validate(trajectories_dataset(moving, tt, frames, vframes, cycle=g, cycle_start=rel.time),
                             "closure_trajectories")
+        rep.time_output = _time.perf_counter() - t_out  # the summary records the time up to the write itself
         self.rundir.write_cycle(g, field_ds, traj, new_rec, _summary(rep))
         self._live = (g, sim)
         return rep, new_rec, new_snapshot
@@ -403,7 +469,9 @@ class ClosureRun:
                         masses_placed=np.int32(rep.masses), closure_achieved=np.int32(rep.closed),
                         governing_criterion=rep.governing, hydro_work=rep.hydro, stability_check=rep.stability,
                         dem_converged=np.int32(rep.dem_converged), dem_steps=np.int64(rep.dem_steps),
-                        operation_time_s=float(rep.operation_time))
+                        operation_time_s=float(rep.operation_time), masses_lost=np.int32(rep.left_domain),
+                        masses_lost_cycle=np.int32(rep.lost_cycle), tonnage_lost_t=float(rep.lost_tonnage),
+                        gap_speed_m_s=float(rep.gap_speed), verdict=rep.verdict)
         for r in rep.criteria:
             ds.attrs[f"criterion_{r.name}"] = f"{r.value:.6g} {r.units} (threshold {r.threshold:.6g}, {'met' if r.satisfied else 'not met'})"
         return with_cycle_dimension(ds, rep.cycle)

@@ -39,6 +39,10 @@ class ClosureResult:
     wall_time: float
     peak_speed: float
     plots: list = field(default_factory=list)
+    verdict: str = ""  #: why the run ended without closure ("" when closed)
+    lost_masses: int = 0  #: masses carried out of the breach area over the run
+    lost_tonnage: float = 0.0  #: their tonnage (t)
+    losses_flagged: bool = False  #: more than ``loss_limit`` of the placed tonnage lost
 
     def table_rows(self) -> list[tuple[str, str]]:
         hrs = lambda s: f"{s / 3600:.2f} h"
@@ -46,6 +50,11 @@ class ClosureResult:
                 ("tonnage", f"{self.tonnage:.1f} t"), ("closure operation time", hrs(self.operation_time)),
                 ("closure achieved", "yes" if self.closed else "no"),
                 ("governing criterion", self.governing or "-"),
+                ("masses lost (carried out of the breach area)",
+                 f"{self.lost_masses} ({self.lost_tonnage:.1f} t){' — FLAGGED' if self.losses_flagged else ''}")]
+        if self.verdict:
+            rows.append(("verdict", self.verdict))
+        rows += [
                 ("peak fluid speed (first cycle)", f"{self.peak_speed:.2f} m/s")]
         if self.closure_window is not None:
             rows.append(("closure window", hrs(self.closure_window)))
@@ -105,7 +114,10 @@ def run_closure(scenario=None, out="runs/default", *, resume: bool = False, over
                         governing=last.get("governing", ""), cycles=len(cycles), masses=int(last.get("masses", 0)),
                         tonnage=float(last.get("tonnage", 0.0)), operation_time=float(last.get("operation_time", 0.0)),
                         closure_window=window, feasible=feasible, wall_time=_time.perf_counter() - t0,
-                        peak_speed=float(cycles[0]["summary"]["max_speed"]) if cycles else float("nan"))
+                        peak_speed=float(cycles[0]["summary"]["max_speed"]) if cycles else float("nan"),
+                        verdict=str(man.get("final", {}).get("verdict", "")),
+                        lost_masses=int(last.get("left_domain", 0)), lost_tonnage=float(last.get("lost_tonnage", 0.0)),
+                        losses_flagged=bool(last.get("losses_flagged", False)))
     if plots and cycles:
         from .plots import plot_closure_progress, plot_plan_view
 

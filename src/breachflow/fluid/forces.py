@@ -23,6 +23,11 @@ when ``air=None``.
 Sleeping particles of the DEM still get their (steady) fluid force, evaluated at rest at ``state.pos``:
 the DEM wakes a sleeper when the force models' force on it changes.
 
+On a (non-uniform) grid snapshot without the Basset term, :meth:`FluidForces.accumulate` and
+:meth:`FluidForces.added_mass` run as one compiled call each (:mod:`breachflow.fluid.compiled`: the field
+sampled once per particle inside the kernel); ``compiled=False`` keeps the step-by-step path, which gives
+the same forces to round-off.
+
 Particles outside the hydrodynamic field: ``outside="error"`` (default) raises
 :class:`~breachflow.errors.PhysicsError` naming the particle; ``outside="air"`` treats them as in air.
 """
@@ -95,13 +100,16 @@ class FluidForces:
     basset
         Add the Basset history force (off by default; SPEC §6); ``basset_range`` ``(s_min, s_max)`` (s)
         is where its kernel quadrature is accurate (relative ~3e-7).
+    compiled
+        Use the fused kernels of :mod:`breachflow.fluid.compiled` where they apply (default); ``False``
+        evaluates term by term (the reference they are tested against).
     """
 
     def __init__(self, field=0.0, *, drag_law: str | DragLaw = "report", sampling: str = "bilinear",
                  water: Fluid = WATER, air: Fluid | None = AIR, xi: float = 0.5, torque: bool = True,
                  time_step: float | None = None, wind=(0.0, 0.0, 0.0), outside: str = "error",
                  gravity: float = G, torque_points: int = 5, basset: bool = False,
-                 basset_range=(1e-8, 1e5)):
+                 basset_range=(1e-8, 1e5), compiled: bool = True):
         self.field = as_field(field, sampling)
         self.drag_law = get_drag_law(drag_law)
         self.water = water
@@ -120,6 +128,27 @@ class FluidForces:
         self.basset = BassetHistory(*basset_range) if basset else None
         #: number of :meth:`accumulate` calls (force evaluations), for work–precision measurements
         self.evaluations = 0
+        self._fused = self._fused_args() if compiled else None
+
+    def _fused_args(self):
+        """Arguments of the fused kernels of :mod:`.compiled` when they apply to this field, else None."""
+        from . import compiled as C
+
+        sampler = getattr(self.field, "sampler", None)
+        if self.basset is not None or sampler is None or sampler.kind != "grid" or self.field.uniform:
+            return None
+        method = {"bilinear": C.BILINEAR, "linear": C.BILINEAR, "barycentric": C.BILINEAR,
+                  "neighbourhood": C.NEIGHBOURHOOD, "neighborhood": C.NEIGHBOURHOOD}.get(sampler.method)
+        if method is None:
+            return None
+        g = sampler.grid_arrays()
+        return (method, g.bed, g.depth, g.u, g.v, float(g.x0), float(g.y0), float(g.dx), float(g.dy),
+                float(self.field.s_max), self.outside == "air")
+
+    def _outside_error(self, pos, k, idx):
+        raise PhysicsError(
+            f"particle {int(idx[k])} at x={pos[idx[k], 0]:.3f} m, y={pos[idx[k], 1]:.3f} m left the hydrodynamic "
+            "field (FluidForces(outside='air') lets it see air there)")
 
     # -- helpers --------------------------------------------------------------------------------------
     def _indices(self, state):
@@ -177,7 +206,15 @@ class FluidForces:
         pos = state.pos if pos is None else pos
         rows = self._indices(state) if idx is None else np.asarray(idx)
         m = np.empty(rows.size)
-        if rows.size:
+        if rows.size and self._fused is not None:
+            from .compiled import grid_added_masses
+
+            rows = np.ascontiguousarray(rows, dtype=np.int64)
+            k = grid_added_masses(rows, pos, state.radius, *self._fused, self.water.rho,
+                                  0.0 if self.air is None else self.air.rho, self.xi, m)
+            if k >= 0:
+                self._outside_error(pos, k, rows)
+        elif rows.size:
             rad = state.radius[rows]
             phi = self.submerged_fraction(pos[rows], rad)
             K.added_masses(rad, phi, self.water.rho, 0.0 if self.air is None else self.air.rho, self.xi, m)
@@ -193,6 +230,21 @@ class FluidForces:
         if idx is None:
             idx = self._indices(state)
         if idx.size == 0:
+            return
+        if self._fused is not None:
+            from .compiled import grid_fluid_forces
+
+            ids = np.ascontiguousarray(idx, dtype=np.int64)
+            awake = getattr(state, "awake", None)
+            if awake is None:
+                awake = np.ones(state.radius.shape[0], bool)
+            air = self.air if self.air is not None else self.water
+            k = grid_fluid_forces(ids, pos, vel, omega, state.pos, awake, state.radius, *self._fused, self.wind,
+                                  self.water.rho, self.water.nu, air.rho, air.nu, self.air is not None, self.gravity,
+                                  self.drag_law.law_id, self.drag_law.params, self.xi, self.time_step or 0.0,
+                                  self.torque, force, torque)
+            if k >= 0:
+                self._outside_error(np.where(awake[:, None], pos, state.pos), k, ids)
             return
         p, w, om = self._kinematics(state, idx, pos, vel, omega)
         rad = np.ascontiguousarray(state.radius[idx])

@@ -1,0 +1,194 @@
+"""The report's typical breach closed end to end, timed against the issue-16 targets.
+
+    python3 tasks.py bench closure [--resolutions 4,2] [--scenario examples/typical_breach.toml] [--no-dem]
+
+For each resolution the shipped scenario ``examples/typical_breach.toml`` (61 m breach in a 7.6 m levee,
+4 m rock masses) runs in a child process, as ``breachflow run`` would: to closure, to a "not closable"
+verdict, or to ``max_cycles``. Printed per resolution: wall and CPU time, peak memory (max RSS), cycles,
+masses, tonnage, masses lost, the outcome, and the time per cycle split into re-solve / DEM / output (wall,
+from the run's manifest), plus the first (cold) solve. Against the targets: the whole run at 2 m cells
+under 10 minutes wall; the 27-member feasibility ensemble overnight (12 h on the 2 cores), projected from
+the measured CPU time of one member (27 x CPU / 2 — a projection, not a measurement).
+
+Error figures that go with the speed figures: the open breach's peak gap speed and breach discharge at
+each resolution (their change from 4 m to 2 m is the discretisation error of the answer; the report's ADH
+peak speed is ~6.1 m/s) and the tonnage each resolution needs.
+
+``--no-dem`` skips the DEM measurement: cycle 1 of the embedded default scenario (1 m cells, 5 masses)
+stepped with the fluid forces term by term (``FluidForces(compiled=False)``, the path before issue 16) and
+with the fused kernels, in the same process: microseconds per DEM step, their ratio, and the largest
+difference of the final positions (the error figure: round-off amplified by the contacts).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import re
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+TARGET_2M_WALL = 600.0  # s
+NIGHT = 12 * 3600.0  # s
+CORES = 2
+MEMBERS = 27
+
+
+def child(scenario: str, out: str, result: str) -> None:
+    """Run one closure in this process and write its resource use to *result* (JSON)."""
+    from breachflow.cycle.main import run_closure
+
+    w0, c0 = time.perf_counter(), time.process_time()
+    res = run_closure(scenario, out, overwrite=True, plots=False)
+    ru = resource.getrusage(resource.RUSAGE_SELF)
+    Path(result).write_text(json.dumps({"wall": time.perf_counter() - w0, "cpu": time.process_time() - c0,
+                                        "maxrss_mb": ru.ru_maxrss / 1024.0, "closed": res.closed,
+                                        "verdict": res.verdict}))
+
+
+def one_resolution(scenario: Path, res_m: float, work: Path) -> dict:
+    text = scenario.read_text(encoding="utf-8")
+    text, n = re.subn(r'resolution = "[^"]*"', f'resolution = "{res_m:g} m"', text)
+    if n != 1:
+        raise SystemExit(f"{scenario}: no single [hydro] resolution to override")
+    sc = work / f"typical_{res_m:g}m.toml"
+    sc.write_text(text, encoding="utf-8")
+    out, rfile = work / f"run_{res_m:g}m", work / f"res_{res_m:g}m.json"
+    w0 = time.perf_counter()
+    subprocess.run([sys.executable, __file__, "--child", str(sc), str(out), str(rfile)], check=True)
+    r = json.loads(rfile.read_text())
+    r["wall_total"] = time.perf_counter() - w0  # including interpreter start and imports
+    man = json.loads((out / "manifest.json").read_text())
+    cyc = [c["summary"] for c in man["cycles"]]
+    last = cyc[-1] if cyc else {}
+    init = man.get("metadata", {}).get("initial") or man.get("initial") or {}
+    r.update(res=res_m, cycles=len(cyc), masses=last.get("masses", 0), tonnage=last.get("tonnage", 0.0),
+             lost=last.get("left_domain", 0), lost_t=last.get("lost_tonnage", 0.0),
+             solve=[c.get("time_solve", float("nan")) for c in cyc], dem=[c.get("time_dem", float("nan")) for c in cyc],
+             output=[c.get("time_output", float("nan")) for c in cyc], first_solve=init.get("solve_wall_time"),
+             cpu_solve=[c.get("cpu_solve", float("nan")) for c in cyc], cpu_dem=[c.get("cpu_dem", float("nan")) for c in cyc],
+             first_solve_cpu=init.get("solve_cpu_time"), gap0=init.get("gap_speed"), q0=init.get("breach_discharge"),
+             vmax0=init.get("max_speed"), governing=last.get("governing", ""), final=man.get("final", {}))
+    return r
+
+
+def _mean(a):
+    return sum(a) / len(a) if a else float("nan")
+
+
+def report(rows) -> None:
+    print("\ntypical breach (examples/typical_breach.toml), one run per resolution, this machine now:")
+    hdr = ("cells", "wall s", "CPU s", "max RSS MB", "cycles", "masses", "tonnage t", "lost", "outcome")
+    print("  " + " | ".join(f"{h:>10}" for h in hdr))
+    for r in rows:
+        outcome = "closed (" + r["governing"] + ")" if r["closed"] else (r["verdict"] or "not closed")
+        print("  " + " | ".join(f"{v:>10}" for v in (f"{r['res']:g} m", f"{r['wall_total']:.0f}", f"{r['cpu']:.0f}",
+                                                      f"{r['maxrss_mb']:.0f}", r["cycles"], r["masses"],
+                                                      f"{r['tonnage']:.0f}", f"{r['lost']} ({r['lost_t']:.0f} t)"))
+              + f" | {outcome}")
+    print("\nper cycle (wall s and this process's CPU s, mean over cycles; first cold solve separately):")
+    for r in rows:
+        n = max(r["cycles"], 1)
+        tot = sum(r["solve"]) + sum(r["dem"]) + sum(r["output"])
+        print(f"  {r['res']:g} m: first solve {r['first_solve'] or float('nan'):.1f} s; per cycle solve "
+              f"{_mean(r['solve']):.2f} / DEM {_mean(r['dem']):.2f} / output {_mean(r['output']):.3f} s "
+              f"({100 * sum(r['solve']) / max(tot, 1e-9):.0f} / {100 * sum(r['dem']) / max(tot, 1e-9):.0f} / "
+              f"{100 * sum(r['output']) / max(tot, 1e-9):.1f} %) over {n} cycles")
+        print(f"        CPU: first solve {r['first_solve_cpu'] or float('nan'):.1f} s; per cycle solve "
+              f"{_mean(r['cpu_solve']):.2f} / DEM {_mean(r['cpu_dem']):.2f} s")
+    print("\nerror figures (open breach before the first mass; report's ADH peak ~6.1 m/s, ~1,800 m3/s):")
+    for r in rows:
+        print(f"  {r['res']:g} m: peak speed {r['vmax0'] or float('nan'):.2f} m/s, gap speed "
+              f"{r['gap0'] or float('nan'):.2f} m/s, breach discharge {r['q0'] or float('nan'):.0f} m3/s, "
+              f"tonnage placed {r['tonnage']:.0f} t")
+    if len(rows) > 1:
+        a, b = rows[0], rows[-1]
+        if a["q0"] and b["q0"]:
+            print(f"  {a['res']:g} m vs {b['res']:g} m: discharge {100 * (a['q0'] - b['q0']) / b['q0']:+.1f} %, "
+                  f"peak speed {100 * (a['vmax0'] - b['vmax0']) / b['vmax0']:+.1f} %, tonnage "
+                  f"{100 * (a['tonnage'] - b['tonnage']) / max(b['tonnage'], 1e-9):+.1f} %")
+    print("\ntargets (2 cores):")
+    for r in rows:
+        if r["res"] == 2.0:
+            ok = "MET" if r["wall_total"] < TARGET_2M_WALL else "NOT MET"
+            print(f"  whole run at 2 m cells < {TARGET_2M_WALL:.0f} s wall: {r['wall_total']:.0f} s — {ok}")
+        proj = MEMBERS * r["cpu"] / CORES
+        ok = "MET" if proj < NIGHT else "NOT MET"
+        print(f"  {MEMBERS}-member ensemble at {r['res']:g} m overnight (< {NIGHT / 3600:.0f} h): projected "
+              f"{MEMBERS} x {r['cpu']:.0f} CPU s / {CORES} cores = {proj / 3600:.1f} h — {ok} (projection)")
+
+
+def dem_ratio(n_steps: int = 1500) -> None:
+    """µs per DEM step of the default scenario's cycle 1, fluid forces term by term vs fused."""
+    import numpy as np
+
+    from breachflow.cycle.config import closure_setup
+    from breachflow.cycle.driver import ClosureRun
+    from breachflow.cycle.main import default_scenario_text
+    from breachflow.fluid.forces import FluidForces
+    from breachflow.hydro.sampling import FieldSampler
+    from breachflow.scenario.config import parse_scenario
+
+    text = default_scenario_text()
+    setup = closure_setup(parse_scenario(text))
+    snap = setup.solver.solve(setup.domain)
+    out = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        for compiled in (False, True, False, True):  # interleaved: load drifts on a shared machine
+            run = ClosureRun(setup, Path(tmp) / f"r{compiled}{len(out)}", text, overwrite=True)
+            d = setup.dem
+            orig = run._fluid
+            run._fluid = lambda s, c=compiled: FluidForces(__import__("breachflow.cycle.driver", fromlist=["x"]).dem_view(s),
+                                                           drag_law=d.drag_law, sampling=d.sampling, xi=d.xi,
+                                                           outside="air", compiled=c)
+            sim = run._make_dem(snap)
+            sampler = FieldSampler(snap, method="bilinear")
+
+            def surface_at(x, y):
+                smp = sampler.sample(np.asarray(x, float), np.asarray(y, float))
+                return np.where(smp.inside, np.maximum(smp.surface, smp.bed), np.nan)
+
+            rel = setup.placement.release(1, setup.seed, surface_at)
+            run._add(sim, rel.pos, rel.radius, rel.density)
+            sim.step(10)
+            c0 = time.process_time()
+            sim.step(n_steps)
+            cpu = time.process_time() - c0
+            out.setdefault(compiled, []).append((cpu, sim.state.pos.copy(), sim.n_awake))
+            run._fluid = orig
+    t_ref = min(c for c, _, _ in out[False]) / n_steps * 1e6
+    t_new = min(c for c, _, _ in out[True]) / n_steps * 1e6
+    dx = float(np.abs(out[True][0][1] - out[False][0][1]).max())
+    print(f"\nDEM of the default run's cycle 1 ({n_steps} steps, 5 masses; CPU, best of 2 interleaved): "
+          f"fluid forces term by term {t_ref:.0f} µs/step, fused {t_new:.0f} µs/step, ratio {t_ref / t_new:.2f}x; "
+          f"largest position difference after {n_steps + 10} steps {dx:.2e} m")
+
+
+def main(argv) -> int:
+    if argv and argv[0] == "--child":
+        child(*argv[1:4])
+        return 0
+    ap = argparse.ArgumentParser(prog="bench closure")
+    ap.add_argument("--resolutions", default="4,2")
+    ap.add_argument("--scenario", default=str(ROOT / "examples" / "typical_breach.toml"))
+    ap.add_argument("--no-dem", action="store_true")
+    a = ap.parse_args(argv)
+    if not a.no_dem:
+        dem_ratio()
+    rows = []
+    with tempfile.TemporaryDirectory(prefix="bench-closure-") as tmp:
+        for res in [float(r) for r in a.resolutions.split(",") if r]:
+            rows.append(one_resolution(Path(a.scenario), res, Path(tmp)))
+            report(rows[-1:])
+    if len(rows) > 1:
+        print("\n=== all resolutions ===")
+        report(rows)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
