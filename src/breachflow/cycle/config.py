@@ -220,18 +220,28 @@ class DemSection:
 @register_section("fluid")
 @dataclass
 class FluidSection:
-    """``[fluid]``: ``drag_law`` (registry name), ``sampling`` (``bilinear`` | ``neighbourhood``), ``xi``."""
+    """``[fluid]``: ``drag_law`` (registry name), ``sampling`` (``bilinear`` | ``neighbourhood``), ``xi``,
+    ``velocity_profile`` (``uniform`` | ``log`` | ``power``, :mod:`breachflow.fluid.profile`) and
+    ``roughness`` (k_s of the log law; default from the site's Manning n)."""
 
     drag_law: str = "report"
     sampling: str = "bilinear"
     xi: float = 0.5
+    velocity_profile: str = "uniform"
+    roughness: float | None = None
 
     @classmethod
     def from_table(cls, table, ctx):
-        ctx.check_keys(table, {"drag_law", "sampling", "xi"})
+        ctx.check_keys(table, {"drag_law", "sampling", "xi", "velocity_profile", "roughness"})
         out = cls(ctx.raw(table, "drag_law", default="report"), ctx.raw(table, "sampling", default="bilinear"),
-                  ctx.quantity(table, "xi", "dimensionless", default=0.5, default_unit="", nonnegative=True))
+                  ctx.quantity(table, "xi", "dimensionless", default=0.5, default_unit="", nonnegative=True),
+                  ctx.raw(table, "velocity_profile", default="uniform"),
+                  ctx.quantity(table, "roughness", "length", default=None, default_unit="m", positive=True))
         from ..fluid.drag import get_drag_law
+        from ..fluid.profile import PROFILES
+
+        if out.velocity_profile not in PROFILES:
+            raise ctx.error(f"velocity_profile must be one of {sorted(PROFILES)}", "velocity_profile")
 
         try:
             get_drag_law(out.drag_law)
@@ -424,6 +434,7 @@ def closure_setup(scenario, *, overrides: dict | None = None):
                         adhesion=mat["adhesion"], rolling_friction=mat["rolling_friction"])
     fluid = scenario.get("fluid") or FluidSection()
     dem = DemSettings(material=material, drag_law=fluid.drag_law, sampling=fluid.sampling, xi=fluid.xi,
+                      velocity_profile=fluid.velocity_profile, roughness=fluid.roughness,
                       **dem_vals, **dem_kw)
     placement = scenario["placement"].plan if "placement" in scenario else PlacementPlan(
         diameter=(1.4, 1.6), batch=4, positions="line", start=(xc - half + 0.5, yc), stop=(xc + half - 0.5, yc))

@@ -55,6 +55,8 @@ class DemSettings:
     drag_law: str = "report"
     sampling: str = "bilinear"
     xi: float = 0.5
+    velocity_profile: str = "uniform"
+    roughness: float | None = None
     stability_time: float = 5.0
 
     def __post_init__(self):
@@ -222,7 +224,9 @@ class ClosureRun:
     def _fluid(self, snapshot) -> FluidForces:
         """The frozen fluid field of *snapshot* as the DEM's force model."""
         d = self.setup.dem
-        return FluidForces(dem_view(snapshot), drag_law=d.drag_law, sampling=d.sampling, xi=d.xi, outside="air")
+        return FluidForces(dem_view(snapshot), drag_law=d.drag_law, sampling=d.sampling, xi=d.xi, outside="air",
+                           velocity_profile=d.velocity_profile, roughness=d.roughness,
+                           manning=float(np.median(self.setup.domain.manning)))
 
     def _cycle_dem(self, g, snapshot, rec):
         """The DEM of cycle *g*: the previous cycle's simulation continued in the field of *snapshot*, or
