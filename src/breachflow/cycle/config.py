@@ -334,19 +334,25 @@ class CriteriaSection:
 @register_section("closure")
 @dataclass
 class ClosureSection:
-    """``[closure]``: ``remap`` (``raised_bed`` | ``no_flow``), ``seed``."""
+    """``[closure]``: ``remap`` (``raised_bed`` | ``no_flow`` | ``porous``), ``seed``, ``porous_law``
+    (``ergun`` | ``van_gent``: Forchheimer coefficients of a porous pile)."""
 
     remap: str = "raised_bed"
     seed: int = 0
+    porous_law: str = "ergun"
 
     @classmethod
     def from_table(cls, table, ctx):
-        ctx.check_keys(table, {"remap", "seed"})
-        out = cls(ctx.raw(table, "remap", default="raised_bed"), ctx.raw(table, "seed", types=(int,), default=0))
+        ctx.check_keys(table, {"remap", "seed", "porous_law"})
+        out = cls(ctx.raw(table, "remap", default="raised_bed"), ctx.raw(table, "seed", types=(int,), default=0),
+                  ctx.raw(table, "porous_law", default="ergun"))
+        from ..hydro.swe.porous import FORCHHEIMER_LAWS
         from .remap import REMAP_MODES
 
         if out.remap not in REMAP_MODES:
             raise ctx.error(f"remap must be one of {REMAP_MODES}", "remap")
+        if out.porous_law not in FORCHHEIMER_LAWS:
+            raise ctx.error(f"porous_law must be one of {sorted(FORCHHEIMER_LAWS)}", "porous_law")
         return out
 
 
@@ -448,7 +454,8 @@ def closure_setup(scenario, *, overrides: dict | None = None):
     if isinstance(solver, _StageSolver):
         solver.plan = placement
     setup = ClosureSetup(domain=dom, solver=solver, placement=placement, criteria=criteria, dem=dem,
-                         remap_mode=closure.remap, seed=closure.seed, breach_x=(xc - half, xc + half), levee_y=yc,
+                         remap_mode=closure.remap, porous_law=closure.porous_law, seed=closure.seed,
+                         breach_x=(xc - half, xc + half), levee_y=yc,
                          flood_level=flood_level, bottom=bottom, name=scenario.name, attrs=attrs, metadata=metadata)
     for k, v in (overrides or {}).items():
         setattr(setup, k, v)

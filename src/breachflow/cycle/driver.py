@@ -33,7 +33,7 @@ from ..output import RunDirectory, particles_dataset, trajectories_dataset
 from ..output.cf import pad_particles
 from .criteria import CycleContext, EndCriteria, section_discharge
 from .placement import PlacementPlan
-from .remap import IncrementalPileTop, remap_top
+from .remap import IncrementalPileTop, porous_pile, remap_top
 
 
 @dataclass
@@ -83,6 +83,8 @@ class ClosureSetup:
     criteria: EndCriteria
     dem: DemSettings = field(default_factory=DemSettings)
     remap_mode: str = "no_flow"
+    #: Forchheimer coefficients of a porous pile (``ergun`` | ``van_gent``, hydro/swe/porous.py)
+    porous_law: str = "ergun"
     seed: int = 0
     breach_x: tuple = (0.0, 0.0)
     levee_y: float = 0.0
@@ -114,6 +116,8 @@ class CycleReport:
     stability: str
     wall_time: float
     left_domain: int
+    #: part of breach_discharge through the porous pile (remap "porous"; 0 otherwise), m³/s
+    seepage_discharge: float = 0.0
 
     def as_dict(self) -> dict:
         d = dict(self.__dict__)
@@ -170,6 +174,7 @@ class ClosureRun:
         self.reports: list[CycleReport] = []
         self._live = None  # (cycle, DemSimulation) of the last cycle, continued by the next one
         self._pile = IncrementalPileTop(setup.domain.x, setup.domain.y, setup.domain.bed)
+        self._pile_height = None  # porous remap: the pile heights of the last solve
 
     # ------------------------------------------------------------------ restart record
     def _initial_record(self) -> dict:
@@ -187,6 +192,8 @@ class ClosureRun:
         if done:
             g0 = done[-1]
             rec = self.rundir.load_restart(g0)
+            if "pile_height" in rec:
+                self._pile_height = np.asarray(rec["pile_height"], float)
             snapshot = self._grid_only(self.rundir.open_cycle(g0))
             closed = bool(self.rundir.manifest()["cycles"][-1]["summary"].get("closed"))
             if closed or self.rundir.manifest().get("finished"):
@@ -332,10 +339,19 @@ class ClosureRun:
         dom = s.domain
         top = self._pile.update(st.pos, st.radius, resting)
         obstacle, bed = remap_top(top, dom.bed, snapshot["water_surface"].values, s.remap_mode)
-        solve_domain = dom if s.remap_mode == "no_flow" else dom.with_raised_bed(bed > dom.bed, bed)
+        pile = None
+        if s.remap_mode == "porous":
+            pile = porous_pile(dom.x, dom.y, dom.bed, st.pos, st.radius, resting, law=s.porous_law)
+            solve_domain = dom.with_porous(pile)
+        else:
+            solve_domain = dom if s.remap_mode == "no_flow" else dom.with_raised_bed(bed > dom.bed, bed)
         new_obstacle = dom.obstacle | obstacle
         before = snapshot["obstacle"].values.astype(bool) if "obstacle" in snapshot else np.zeros(dom.shape, bool)
         changed = int(np.count_nonzero(new_obstacle != before))
+        if pile is not None:
+            last = self._pile_height if self._pile_height is not None else np.zeros(dom.shape)
+            changed += int(np.count_nonzero(np.abs(pile.height - last) > 1e-9))
+            self._pile_height = pile.height
         if s.remap_mode == "raised_bed":
             changed += int(np.count_nonzero(np.abs(solve_domain.bed - snapshot["bed_elevation"].values) > 1e-9))
         if changed == 0:
@@ -349,6 +365,8 @@ class ClosureRun:
             hydro = f"solved (warm start, {changed} cells changed)"
         new_rec = {"dem." + k: v for k, v in sim.save_state().items()}
         new_rec.update(placed_cycle=placed_cycle, resting=resting.copy())
+        if pile is not None:
+            new_rec["pile_height"] = pile.height.copy()
         # 5. stability re-run (criterion 5) only when asked for
         stab = None
         stability = "not requested"
@@ -357,7 +375,8 @@ class ClosureRun:
             stability = f"re-run {d.stability_time:g} s: max displacement {stab:.3g} m"
         ctx = CycleContext(cycle=g, snapshot=new_snapshot, previous=snapshot, pos=st.pos, radius=st.radius,
                            resting=resting, breach_x=s.breach_x, levee_y=s.levee_y, flood_level=s.flood_level,
-                           bottom=s.bottom, stability_displacement=stab)
+                           bottom=s.bottom, stability_displacement=stab,
+                           seepage_discharge=self._seepage(new_snapshot, pile))
         closed, results, governing = s.criteria.evaluate(ctx)
         from .criteria import DischargeProxy, MaxSpeed
 
@@ -371,7 +390,8 @@ class ClosureRun:
                           discharge_proxy=proxy, breach_discharge=q_breach, criteria=results, closed=closed, governing=governing,
                           dem_steps=sim.steps - steps0, dem_particle_steps=sim.particle_steps - ps0,
                           dem_converged=converged, hydro=hydro, stability=stability,
-                          wall_time=_time.perf_counter() - wall0, left_domain=int((~st.active).sum()))
+                          wall_time=_time.perf_counter() - wall0, left_domain=int((~st.active).sum()),
+                          seepage_discharge=ctx.seepage_discharge)
         field_ds = validate(self._field_dataset(new_snapshot, st, placed_cycle, resting, rep), "closure_cycle")
         traj = None
         if moving.size:
@@ -393,6 +413,26 @@ class ClosureRun:
         disp = np.linalg.norm(sim.state.pos - start, axis=1)
         disp = np.where(sim.state.active, disp, np.inf)[resting]
         return float(disp.max()) if disp.size else 0.0
+
+    def _seepage(self, snapshot, pile) -> float:
+        """Discharge through the porous pile across the breach section (m³/s), from the steady split of
+        each cell's unit discharge (:func:`~breachflow.hydro.swe.porous.seepage_field`)."""
+        if pile is None or not pile.any:
+            return 0.0
+        s = self.setup
+        from ..hydro.swe.porous import seepage_field
+
+        h = np.asarray(snapshot["depth"].values, float)
+        u = np.asarray(snapshot["u"].values, float)
+        v = np.asarray(snapshot["v"].values, float)
+        speed = np.hypot(u, v)
+        q_seep = seepage_field(h, speed, pile, s.domain.manning)
+        x = np.asarray(snapshot["x"].values, float)
+        j = int(np.argmin(np.abs(np.asarray(snapshot["y"].values, float) - s.levee_y)))
+        sel = (x >= s.breach_x[0]) & (x <= s.breach_x[1])
+        frac_y = np.where(speed[j] > 0, v[j] / np.where(speed[j] > 0, speed[j], 1.0), 0.0)
+        dx = abs(x[1] - x[0]) if x.size > 1 else 1.0
+        return float(np.sum((q_seep[j] * frac_y)[sel]) * dx)
 
     def _field_dataset(self, snapshot, st, placed_cycle, resting, rep) -> xr.Dataset:
         grid = self._grid_only(snapshot)

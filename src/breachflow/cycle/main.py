@@ -39,6 +39,12 @@ class ClosureResult:
     wall_time: float
     peak_speed: float
     plots: list = field(default_factory=list)
+    #: the pre-simulation estimate (:func:`breachflow.scenario.stone.stone_size`) for the first cycle's
+    #: peak speed and the breach cross-section, shown beside the simulated tonnage
+    estimate: object = None
+    #: breach discharge and its seepage part after the last cycle (m³/s)
+    final_discharge: float = float("nan")
+    final_seepage: float = 0.0
 
     def table_rows(self) -> list[tuple[str, str]]:
         hrs = lambda s: f"{s / 3600:.2f} h"
@@ -50,6 +56,13 @@ class ClosureResult:
         if self.closure_window is not None:
             rows.append(("closure window", hrs(self.closure_window)))
             rows.append(("closed inside the window", "yes" if self.feasible else "no"))
+        rows.append(("breach discharge at the end (seepage)",
+                     f"{self.final_discharge:.2f} m³/s ({self.final_seepage:.2f} m³/s)"))
+        if self.estimate is not None:
+            e = self.estimate
+            rows.append(("estimate (Izbash/Shields, before simulation)",
+                         f"D {e.design_diameter:.2f} m, {e.tonnage:.1f} t (dam {e.height:.1f} m high, porosity "
+                         f"{e.porosity:g}, slopes 1:{e.side_slope:g})"))
         rows.append(("wall time", f"{self.wall_time:.1f} s"))
         rows.append(("run directory", str(self.run_dir)))
         return rows
@@ -105,10 +118,31 @@ def run_closure(scenario=None, out="runs/default", *, resume: bool = False, over
                         governing=last.get("governing", ""), cycles=len(cycles), masses=int(last.get("masses", 0)),
                         tonnage=float(last.get("tonnage", 0.0)), operation_time=float(last.get("operation_time", 0.0)),
                         closure_window=window, feasible=feasible, wall_time=_time.perf_counter() - t0,
-                        peak_speed=float(cycles[0]["summary"]["max_speed"]) if cycles else float("nan"))
+                        peak_speed=float(cycles[0]["summary"]["max_speed"]) if cycles else float("nan"),
+                        final_discharge=float(last.get("breach_discharge", float("nan"))),
+                        final_seepage=float(last.get("seepage_discharge", 0.0)),
+                        estimate=_estimate(setup, man))
     if plots and cycles:
         from .plots import plot_closure_progress, plot_plan_view
 
         res.plots = [plot_plan_view(run.rundir, Path(out) / "plan_view.png"),
                      plot_closure_progress(run.rundir, Path(out) / "closure_progress.png")]
     return res
+
+
+def _estimate(setup, manifest):
+    """The stone-size estimate for the run's breach: the initial solve's peak speed, the water depth
+    and length of the breach, rock of the placement's mean density, porosity 0.4, slopes 1V:1.5H."""
+    from ..errors import BreachflowError
+    from ..scenario.stone import stone_size
+
+    try:
+        u = float(manifest["metadata"]["initial"]["max_speed"])
+        depth = float(setup.flood_level - setup.bottom)
+        length = float(setup.breach_x[1] - setup.breach_x[0])
+        rho = float(np.mean(np.atleast_1d(setup.placement.density)))
+        if not (u > 0 and depth > 0 and length > 0):
+            return None
+        return stone_size(u, depth, length, density=rho)
+    except (KeyError, BreachflowError):
+        return None
