@@ -34,7 +34,10 @@ class ClosureRunner:
         run_dir = Path(run_dir)
         table = dict(member.table)
         closure = dict(table.get("closure", {}))
-        closure.setdefault("seed", int(seed) % (2**31))
+        if member.replicate is not None:
+            closure["seed"] = int(seed) % (2**31)  # replicates: the placement randomness varies
+        else:
+            closure.setdefault("seed", int(seed) % (2**31))
         table["closure"] = closure
         member.table = table
         path = member.write(run_dir / "closure_scenario.toml")

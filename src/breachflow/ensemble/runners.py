@@ -119,6 +119,9 @@ class MemberScenario:
     values_si: dict[str, Any]
     paths: dict[str, str]
     path: Path | None = None
+    #: replicate number when the spec has ``replicates > 1`` (the seed then differs per replicate and a
+    #: runner must use it even where the scenario fixes a seed), else None
+    replicate: int | None = None
     _cache: dict = field(default_factory=dict, repr=False)
 
     def text(self, sections=None) -> str:
