@@ -459,6 +459,9 @@ def closure_setup(scenario, *, overrides: dict | None = None):
                          flood_level=flood_level, bottom=bottom, name=scenario.name, attrs=attrs, metadata=metadata)
     for k, v in (overrides or {}).items():
         setattr(setup, k, v)
+    from .sanity import check_setup
+
+    setup.warnings = check_setup(setup)
     return setup
 
 

@@ -95,6 +95,8 @@ class ClosureSetup:
     attrs: dict = field(default_factory=dict)
     #: extra run metadata for the manifest (JSON-serialisable)
     metadata: dict = field(default_factory=dict)
+    #: warnings of the scenario's sanity check (:func:`breachflow.cycle.sanity.check_setup`)
+    warnings: list = field(default_factory=list)
 
 
 @dataclass
@@ -118,6 +120,8 @@ class CycleReport:
     left_domain: int
     #: part of breach_discharge through the porous pile (remap "porous"; 0 otherwise), m³/s
     seepage_discharge: float = 0.0
+    #: masses in the domain still moving at the end of the cycle's DEM (not at rest)
+    not_at_rest: int = 0
 
     def as_dict(self) -> dict:
         d = dict(self.__dict__)
@@ -210,7 +214,7 @@ class ClosureRun:
             self.rundir.update_metadata(initial={
                 "max_speed": MaxSpeed("0 m/s").value(ctx0), "discharge_proxy": DischargeProxy("0 m^3/s").value(ctx0),
                 "breach_discharge": section_discharge(snapshot, s.breach_x, s.levee_y),
-                "solve_wall_time": self.initial_solve_time})
+                "solve_wall_time": self.initial_solve_time}, warnings=list(s.warnings))
         for g in range(g0 + 1, s.criteria.max_cycles + 1):
             rep, rec, snapshot = self._cycle(g, rec, snapshot)
             self.reports.append(rep)
@@ -391,7 +395,7 @@ class ClosureRun:
                           dem_steps=sim.steps - steps0, dem_particle_steps=sim.particle_steps - ps0,
                           dem_converged=converged, hydro=hydro, stability=stability,
                           wall_time=_time.perf_counter() - wall0, left_domain=int((~st.active).sum()),
-                          seepage_discharge=ctx.seepage_discharge)
+                          seepage_discharge=ctx.seepage_discharge, not_at_rest=int((st.active & ~resting).sum()))
         field_ds = validate(self._field_dataset(new_snapshot, st, placed_cycle, resting, rep), "closure_cycle")
         traj = None
         if moving.size:

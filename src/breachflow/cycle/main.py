@@ -45,6 +45,8 @@ class ClosureResult:
     #: breach discharge and its seepage part after the last cycle (m³/s)
     final_discharge: float = float("nan")
     final_seepage: float = 0.0
+    #: sanity warnings: the scenario's (before the run) and the outcome's (masses lost or never at rest)
+    warnings: list = field(default_factory=list)
 
     def table_rows(self) -> list[tuple[str, str]]:
         hrs = lambda s: f"{s / 3600:.2f} h"
@@ -63,6 +65,8 @@ class ClosureResult:
             rows.append(("estimate (Izbash/Shields, before simulation)",
                          f"D {e.design_diameter:.2f} m, {e.tonnage:.1f} t (dam {e.height:.1f} m high, porosity "
                          f"{e.porosity:g}, slopes 1:{e.side_slope:g})"))
+        for w in self.warnings:
+            rows.append(("warning", w))
         rows.append(("wall time", f"{self.wall_time:.1f} s"))
         rows.append(("run directory", str(self.run_dir)))
         return rows
@@ -122,6 +126,12 @@ def run_closure(scenario=None, out="runs/default", *, resume: bool = False, over
                         final_discharge=float(last.get("breach_discharge", float("nan"))),
                         final_seepage=float(last.get("seepage_discharge", 0.0)),
                         estimate=_estimate(setup, man))
+    from .sanity import outcome_warnings
+
+    res.warnings = list(setup.warnings) + outcome_warnings(
+        int(last.get("left_domain", 0)), int(last.get("not_at_rest", 0)), res.masses,
+        float(np.mean(setup.placement.diameter)),
+        res.estimate.d_izbash_exposed if res.estimate is not None else None)
     if plots and cycles:
         from .plots import plot_closure_progress, plot_plan_view
 
