@@ -275,8 +275,9 @@ def test_closure_feasibility_pipeline_runs_closure_members(client, tmp_path, cap
     feas = ds["feasible"].values == 1
     np.testing.assert_allclose(ds["closure_probability"].values, feas.mean(axis=-1))
     assert np.all(ds["closure_probability_lower"].values <= ds["closure_probability"].values)
-    # the placed masses cut the breach discharge
+    # the placed masses cut the breach discharge; an impervious (raised-bed) pile has no seepage
     assert np.all(ds["final_breach_discharge"].values < ds["initial_breach_discharge"].values)
+    assert np.all(ds["final_seepage_discharge"].values == 0.0)
     assert (tmp_path / "closure_feasibility.png").stat().st_size > 10_000
     out = capsys.readouterr().out
     assert "4 members in" in out and "P(closure inside the window) over 2 seeds" in out

@@ -61,6 +61,7 @@ class ClosureRunner:
             peak_velocity=Q_(m["metadata"]["initial"]["max_speed"], "m/s"),
             initial_breach_discharge=Q_(m["metadata"]["initial"]["breach_discharge"], "m**3/s"),
             final_breach_discharge=Q_(last.get("breach_discharge", float("nan")), "m**3/s"),
+            final_seepage_discharge=Q_(last.get("seepage_discharge", 0.0), "m**3/s"),
             feasible=bool(res.closed and window is not None and res.operation_time <= window),
         )
         return results
