@@ -165,3 +165,44 @@ def test_scenario_key_reaches_the_fluid_forces():
 
     with pytest.raises(BreachflowError, match="velocity_profile"):
         parse_scenario('[fluid]\nvelocity_profile = "cubic"\n')
+
+
+def test_closure_cycle_runs_with_the_log_profile(tmp_path):
+    """The `[fluid] velocity_profile` key reaches the closure run's force model: a cycle with the log law
+    runs, and the force model the DEM uses carries the profile and the roughness from Manning's n."""
+    from breachflow.cycle.config import closure_setup
+    from breachflow.cycle.driver import ClosureRun
+    from breachflow.scenario.config import parse_scenario
+
+    text = """
+[site]
+preset = "demo_breach"
+levee_length_each_side = "16 m"
+flood_side_extent = "20 m"
+protected_side_extent = "20 m"
+[hydro]
+resolution = "2 m"
+order = 1
+t_max_initial = "60 s"
+t_max = "20 s"
+monitor_radius = "10 m"
+[dem]
+max_time = "3 s"
+[placement]
+diameter = ["1.6 m", "2.0 m"]
+batch = 3
+start = ["-4 m", "0 m"]
+stop = ["4 m", "0 m"]
+release_height = "0.5 m"
+[criteria]
+max_cycles = 1
+max_speed = "0.05 m/s"
+[fluid]
+velocity_profile = "log"
+"""
+    run = ClosureRun(closure_setup(parse_scenario(text)), tmp_path / "log", text)
+    (rep,) = run.run()
+    assert rep.masses == 3
+    fluid = run._live[1].models[0]
+    assert fluid.velocity_profile == "log"
+    assert fluid.roughness == pytest.approx(roughness_from_manning(0.025))

@@ -12,7 +12,9 @@ Per particle, with ``V_sub`` the submerged volume (spherical cap while straddlin
 * fluid torque from the gridpoints in the particle's neighbourhood (Step 7E, Fig 4.4);
 * the water velocity at a particle is the depth-averaged one times the vertical profile factor at the
   particle's centre height (``velocity_profile``: ``uniform`` (default, the report), ``log``, ``power``;
-  :mod:`breachflow.fluid.profile`); buoyancy and apparent mass do not depend on it;
+  :mod:`breachflow.fluid.profile`; the drag, the Basset history and the convective apparent-mass term use
+  it; buoyancy and apparent mass do not depend on it, and the gridpoint torque still uses the
+  depth-averaged gridpoint velocities);
 * optional (``basset=True``) Basset history force ``-phi 6 a^2 sqrt(pi rho_W mu_W) int r_W' / sqrt(t - tau)``
   (eq 3.13, :mod:`breachflow.fluid.basset`); the history advances through :meth:`FluidForces.commit`, which
   the DEM and the free-flight integrators call once per accepted step, and is saved with the DEM state
