@@ -397,6 +397,17 @@ def test_replicates_give_probabilities_with_wilson_intervals(client, tmp_path):
     np.testing.assert_allclose(ds["closure_duration_p10"].values, np.quantile(ds["closure_duration"].values, 0.1, axis=1))
     np.testing.assert_allclose(ds["closure_duration_p90"].values, np.quantile(ds["closure_duration"].values, 0.9, axis=1))
     assert ds["replicates_ok"].values.tolist() == [40, 40]
+    for name in ("replicates_ok", "closure_probability", "tonnage_median"):
+        assert "flag_meanings" not in ds[name].attrs and ds[name].attrs["ensemble_reduction"] == "replicate"
+    # the CLI's summary shows the per-combination probabilities
+    from rich.console import Console
+
+    from breachflow.cli.ensemble import summary_table
+
+    con = Console(record=True, width=160)
+    con.print(summary_table(ds))
+    text = con.export_text()
+    assert "P(closure)" in text and f"{ds['closure_probability'].values[0]:.2f}" in text
     back = open_result(spec.parent / "spec.ensemble" / "ensemble.nc")
     np.testing.assert_allclose(back["closure_probability"].values, ds["closure_probability"].values)
     # feasible and closure_probability agree with a single draw per replicate: the same seeds as the

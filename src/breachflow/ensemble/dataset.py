@@ -201,32 +201,36 @@ def wilson_interval(k, n, confidence: float = 0.95):
 
 def replicate_reductions(ds: xr.Dataset) -> xr.Dataset:
     """Add the reductions over ``replicate`` (see the module docstring) to a result Dataset."""
+    def fresh(da, **attrs):  # a reduction's own attributes only (none inherited from its operands)
+        da = da.copy()
+        da.attrs = {**attrs, "ensemble_reduction": "replicate"}
+        da.encoding = {}
+        return da
+
     ok = ds["member_status"] == STATUS_OK
-    attrs = {"ensemble_reduction": "replicate"}
     n = ok.sum("replicate")
-    ds["replicates_ok"] = n.astype("i8").assign_attrs(long_name="replicates that ran (member_status ok)",
-                                                       units="1", **attrs)
+    ds["replicates_ok"] = fresh(n.astype("i8"), long_name="replicates that ran (member_status ok)", units="1")
     flag = "feasible" if "feasible" in ds else ("closure_achieved" if "closure_achieved" in ds else None)
     if flag is not None:
         closed = ((ds[flag] == 1) & ok).sum("replicate")
         p = xr.where(n > 0, closed / n.where(n > 0), np.nan)
         what = "inside the closure window" if flag == "feasible" else "within the cycle limit"
-        ds["closure_probability"] = p.assign_attrs(long_name=f"probability of closure {what} (over replicates)",
-                                                   units="1", cell_methods="replicate: mean", **attrs)
+        ds["closure_probability"] = fresh(p.astype(float), long_name=f"probability of closure {what} (over replicates)",
+                                          units="1", cell_methods="replicate: mean")
         lo, hi = wilson_interval(closed.values, n.values)
         for name, arr, side in (("closure_probability_lower", lo, "lower"), ("closure_probability_upper", hi, "upper")):
-            ds[name] = xr.DataArray(arr, dims=p.dims, attrs={
-                "long_name": f"{side} bound of the 95 % Wilson interval of closure_probability", "units": "1", **attrs})
+            ds[name] = fresh(xr.DataArray(arr, dims=p.dims),
+                             long_name=f"{side} bound of the 95 % Wilson interval of closure_probability", units="1")
     for name in REPLICATE_QUANTILES:
         if name not in ds:
             continue
         v = ds[name].where(ok)
         units = ds[name].attrs.get("units", "1")
-        ds[f"{name}_median"] = v.median("replicate").assign_attrs(
-            long_name=f"median over replicates of {name}", units=units, cell_methods="replicate: median", **attrs)
+        ds[f"{name}_median"] = fresh(v.median("replicate"), long_name=f"median over replicates of {name}", units=units,
+                                     cell_methods="replicate: median")
         for q in (10, 90):
-            ds[f"{name}_p{q}"] = v.quantile(q / 100, "replicate").drop_vars("quantile").assign_attrs(
-                long_name=f"{q} % quantile over replicates of {name}", units=units, **attrs)
+            ds[f"{name}_p{q}"] = fresh(v.quantile(q / 100, "replicate").drop_vars("quantile"),
+                                       long_name=f"{q} % quantile over replicates of {name}", units=units)
     return ds
 
 
