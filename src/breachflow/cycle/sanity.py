@@ -46,10 +46,10 @@ def check_setup(setup) -> list[str]:
         return pts[(pts[:, 0] < x0) | (pts[:, 0] > x1) | (pts[:, 1] < y0) | (pts[:, 1] > y1)]
 
     if pl.positions == "line":
-        bad = outside([pl.start, pl.stop])
-        if bad.size:
-            raise InputError(f"[placement] start/stop: release point(s) {bad.tolist()} lie outside the domain "
-                             f"x {x0:g}..{x1:g} m, y {y0:g}..{y1:g} m")
+        for key, pt in (("start", pl.start), ("stop", pl.stop)):
+            if outside([pt]).size:
+                raise InputError(f"placement.{key}: release point {list(pt)} lies outside the domain "
+                                 f"x {x0:g}..{x1:g} m, y {y0:g}..{y1:g} m")
         length = float(np.hypot(pl.stop[0] - pl.start[0], pl.stop[1] - pl.start[1]))
         if length < pl.diameter[1]:
             warnings.append(f"[placement] the release line ({length:g} m) is shorter than the masses "
@@ -62,7 +62,7 @@ def check_setup(setup) -> list[str]:
         zx0, zx1, zy0, zy1 = pl.zone
         bad = outside([(zx0, zy0), (zx1, zy1)])
         if bad.size:
-            raise InputError(f"[placement] zone {list(pl.zone)} reaches outside the domain "
+            raise InputError(f"placement.zone {list(pl.zone)} reaches outside the domain "
                              f"x {x0:g}..{x1:g} m, y {y0:g}..{y1:g} m")
         area = abs(zx1 - zx0) * abs(zy1 - zy0)
         if pl.batch * pl.diameter[0] ** 2 > area + pl.diameter[1] ** 2:
@@ -71,7 +71,7 @@ def check_setup(setup) -> list[str]:
     else:
         bad = outside(pl.points)
         if bad.size:
-            raise InputError(f"[placement] points {bad.tolist()} lie outside the domain "
+            raise InputError(f"placement.points {bad.tolist()} lie outside the domain "
                              f"x {x0:g}..{x1:g} m, y {y0:g}..{y1:g} m")
     return warnings
 
