@@ -41,12 +41,12 @@ def test_porous_pile_reports_seepage_and_leaks(tmp_path):
 
 
 def test_discharge_criteria(tmp_path):
-    run = _run(tmp_path / "c", cycles=2, extra='\ndischarge = "1e4 m^3/s"\nseepage_discharge = "1e-6 m^3/s"\n'
+    run = _run(tmp_path / "c", cycles=2, extra='\nbreach_discharge = "1e4 m^3/s"\nseepage_discharge = "1e-6 m^3/s"\n'
                                               'overflow_discharge = "1e-6 m^3/s"')
     rep = run.reports[0]
     by = {r.name: r for r in rep.criteria}
-    assert by["discharge"].satisfied and rep.closed  # the breach passes far less than 1e4 m3/s
-    assert by["discharge"].value == pytest.approx(abs(rep.breach_discharge))
+    assert by["breach_discharge"].satisfied and rep.closed  # the breach passes far less than 1e4 m3/s
+    assert by["breach_discharge"].value == pytest.approx(abs(rep.breach_discharge))
     assert by["seepage_discharge"].value == pytest.approx(rep.seepage_discharge)
     assert by["overflow_discharge"].value == pytest.approx(abs(rep.breach_discharge) - rep.seepage_discharge)
     assert not by["seepage_discharge"].satisfied
@@ -58,7 +58,7 @@ def test_discharge_criteria(tmp_path):
     ds = xr.Dataset({"depth": (("y", "x"), h), "u": (("y", "x"), 0 * v), "v": (("y", "x"), v),
                      "wet": (("y", "x"), h > 0)}, coords={"x": x, "y": y})
     ctx = CycleContext(cycle=1, snapshot=ds, breach_x=(-3.0, 3.0), levee_y=0.0, seepage_discharge=2.0)
-    assert criteria.get("discharge")("6 m^3/s").value(ctx) == pytest.approx(7 * 2.0 * 0.5)
+    assert criteria.get("breach_discharge")("6 m^3/s").value(ctx) == pytest.approx(7 * 2.0 * 0.5)
     assert section_discharge(ds, (-3.0, 3.0), 0.0) == pytest.approx(7.0)
     assert criteria.get("overflow_discharge")("1 m^3/s").value(ctx) == pytest.approx(5.0)
 

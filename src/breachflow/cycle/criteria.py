@@ -14,7 +14,6 @@ SPEC   name                    satisfied when
 4      ``head_gradient``       max total-head gradient between neighbouring wet cells < threshold
 5      ``stability``           re-running the assembly in the new flow moves no mass more than threshold (m)
 6      ``speed_change``        change of the maximum speed since the previous cycle < threshold (m/s)
-3      ``discharge``           breach discharge (across the breach at the levee centreline) < threshold (m³/s)
 3      ``seepage_discharge``   its part through a porous pile (``remap = "porous"``) < threshold (m³/s)
 3      ``overflow_discharge``  its part over the pile's crest < threshold (m³/s)
 =====  ======================  ===============================================================
@@ -318,18 +317,6 @@ class EndCriteria:
         if done:
             governing = next(r.name for r in results if r.satisfied) if self.mode == "any" else "+".join(r.name for r in results)
         return done, results, governing
-
-
-@criteria.register("discharge")
-class Discharge(Criterion):
-    """Breach discharge (m³/s) across the breach at the levee centreline (:func:`section_discharge`):
-    overflow and seepage through a porous pile together."""
-
-    name, kind, units = "discharge", "discharge", "m3 s-1"
-    description = "breach discharge (overflow + seepage)"
-
-    def value(self, ctx):
-        return abs(section_discharge(ctx.snapshot, ctx.breach_x, ctx.levee_y))
 
 
 @criteria.register("seepage_discharge")
