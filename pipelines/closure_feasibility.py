@@ -2,7 +2,7 @@
 """Closure feasibility sweep: breach length × polder area × mass size, one dask ensemble (issue 8).
 
     python pipelines/closure_feasibility.py OUTPUT_DIR [--full] [--workers N] [--scheduler tcp://HOST:8786]
-    python pipelines/closure_feasibility.py OUTPUT_DIR --lengths 8 16 --areas 20 200 --sizes 2.5
+    python pipelines/closure_feasibility.py OUTPUT_DIR --lengths 8 16 --areas 20 200 --sizes 2.5 --replicates 8
 
 For which breach lengths, polder areas and mass sizes can the breach be closed inside its closure window?
 Every member runs the ``closure`` member runner: the closure simulation of its scenario (SPEC §7: masses of
@@ -13,11 +13,14 @@ rate <= closure window``. The polder area enters only the window; breach length 
 The base scenario is the embedded demo breach (3 m levee, water at the crest) on a coarse grid (2 m,
 first order), 6 masses per cycle at 30 per hour, at most 8 cycles, closed when the masses block half the
 breach cross-section or no speed exceeds 1 m/s: a member takes a few CPU seconds once numba's cache is
-warm. The default grid is 3 × 3 × 3 (27 members, a few minutes on 2 cores); ``--full`` runs 6 × 5 × 5.
+warm. The default grid is 3 × 3 × 3 parameter combinations; ``--full`` runs 6 × 5 × 5. Each combination
+runs ``--replicates`` placement seeds (default 4; the same seeds in every combination, common random
+numbers), so the map shows the probability of closure inside the window with its 95 % Wilson interval,
+not one random placement (``--replicates 1``: one member per cell, the feasibility category).
 
 Writes ``OUTPUT_DIR/ensemble.nc`` (CF NetCDF, dims breach_length × polder_area × mass_size),
 ``OUTPUT_DIR/members/*/`` (one run directory per member: scenario, closure run, result.json) and
-``OUTPUT_DIR/closure_feasibility.png`` (one feasibility map per mass size). Rerunning resumes: completed
+``OUTPUT_DIR/closure_feasibility.png`` (one map per mass size: P(closure inside the window)). Rerunning resumes: completed
 members are skipped.
 """
 from __future__ import annotations
@@ -38,6 +41,7 @@ name = "closure feasibility"
 description = "breach length x polder area x mass size: closure simulation and closure window (SPEC 2, 7)"
 runner = "closure"
 seed = 2026
+replicates = {replicates}
 
 [ensemble.vary]
 "breach.length" = [{lengths}]
@@ -90,12 +94,15 @@ blocked_fraction = 0.5
 """
 
 
-def spec_text(lengths=DEFAULT_GRID["lengths"], areas=DEFAULT_GRID["areas"], sizes=DEFAULT_GRID["sizes"]) -> str:
-    """The ensemble spec over breach lengths (m), polder areas (ha) and mass diameters (m)."""
+def spec_text(lengths=DEFAULT_GRID["lengths"], areas=DEFAULT_GRID["areas"], sizes=DEFAULT_GRID["sizes"],
+              replicates=4) -> str:
+    """The ensemble spec over breach lengths (m), polder areas (ha) and mass diameters (m), with
+    *replicates* placement seeds per combination."""
     def quoted(values, unit):
         return ", ".join(f'"{v:g} {unit}"' for v in values)
 
-    return SPEC.format(lengths=quoted(lengths, "m"), areas=quoted(areas, "ha"), sizes=quoted(sizes, "m"))
+    return SPEC.format(lengths=quoted(lengths, "m"), areas=quoted(areas, "ha"), sizes=quoted(sizes, "m"),
+                       replicates=int(replicates))
 
 
 #: Categories of the feasibility map: (label, colour).
@@ -111,8 +118,50 @@ def categories(ds) -> "np.ndarray":
     return np.where(~ok, 3, np.where(feasible, 0, np.where(achieved, 1, 2)))
 
 
+def probability_figure(ds, path: Path) -> Path:
+    """One panel per mass size over breach length × polder area: P(closure inside the window) over the
+    replicates (colour), with its 95 % Wilson interval and the median closure duration / window (h)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from breachflow.output.atomic import atomic_path
+
+    ds = ds.transpose("mass_size", "polder_area", "breach_length", "replicate")
+    sizes = ds["mass_size"].values
+    lengths, areas_ha = ds["breach_length"].values, ds["polder_area"].values / 1e4
+    p = ds["closure_probability"].values
+    lo, hi = ds["closure_probability_lower"].values, ds["closure_probability_upper"].values
+    dur = ds["closure_duration_median"].values / 3600.0
+    window_h = ds["closure_window"].isel(replicate=0).values / 3600.0
+    fig, axes = plt.subplots(1, len(sizes), figsize=(3.8 * len(sizes) + 1.5, 3.9), squeeze=False,
+                             constrained_layout=True)
+    im = None
+    for k, (ax, size) in enumerate(zip(axes[0], sizes)):
+        im = ax.imshow(p[k], origin="lower", cmap="RdYlGn", vmin=0, vmax=1, aspect="auto")
+        ax.set_xticks(range(len(lengths)), [f"{v:g}" for v in lengths])
+        ax.set_yticks(range(len(areas_ha)), [f"{v:g}" for v in areas_ha])
+        ax.set_xlabel("breach length B (m)")
+        ax.set_ylabel("polder area A_P (ha)")
+        ax.set_title(f"masses of {size:g} m")
+        for j in range(len(areas_ha)):
+            for i in range(len(lengths)):
+                text = ("no member ran" if not np.isfinite(p[k, j, i]) else
+                        f"P {p[k, j, i]:.2f} [{lo[k, j, i]:.2f}, {hi[k, j, i]:.2f}]\n"
+                        f"{dur[k, j, i]:.2f} / {window_h[k, j, i]:.2f} h")
+                ax.text(i, j, text, ha="center", va="center", fontsize=6.5)
+    fig.colorbar(im, ax=axes[0].tolist(), label="P(closure inside the window)")
+    fig.suptitle(f"Closure feasibility over {ds.sizes['replicate']} placement seeds "
+                 "(cell: P [95 % Wilson], median closure duration / window)")
+    with atomic_path(path, suffix=".png") as tmp:
+        fig.savefig(tmp, dpi=120)
+    plt.close(fig)
+    return path
+
+
 def figure(ds, path: Path) -> Path:
-    """One panel per mass size over breach length × polder area: the feasibility category of each
+    """With a ``replicate`` dimension: :func:`probability_figure`. Otherwise one panel per mass size over breach length × polder area: the feasibility category of each
     member, with its closure duration / closure window (h) printed in the cell."""
     import matplotlib
 
@@ -123,6 +172,8 @@ def figure(ds, path: Path) -> Path:
 
     from breachflow.output.atomic import atomic_path
 
+    if "replicate" in ds.dims:
+        return probability_figure(ds, path)
     ds = ds.transpose("mass_size", "polder_area", "breach_length")
     cat = categories(ds)
     sizes = ds["mass_size"].values
@@ -159,6 +210,8 @@ def main(argv=None) -> int:
     ap.add_argument("--lengths", type=float, nargs="+", help="breach lengths (m), overriding the grid's")
     ap.add_argument("--areas", type=float, nargs="+", help="polder areas (ha), overriding the grid's")
     ap.add_argument("--sizes", type=float, nargs="+", help="mass diameters (m), overriding the grid's")
+    ap.add_argument("--replicates", type=int, default=4,
+                    help="placement seeds per combination (default 4; 1: one member per cell)")
     ap.add_argument("--workers", type=int, default=None, help="local worker processes (default: one per core)")
     ap.add_argument("--scheduler", default=None, help="address of an existing dask scheduler")
     args = ap.parse_args(argv)
@@ -172,7 +225,7 @@ def main(argv=None) -> int:
     for key in grid:
         if getattr(args, key):
             grid[key] = getattr(args, key)
-    text = spec_text(**grid)
+    text = spec_text(**grid, replicates=args.replicates)
     console = Console()
     args.output.mkdir(parents=True, exist_ok=True)
     spec_path = args.output / "closure_feasibility.toml"
@@ -184,6 +237,10 @@ def main(argv=None) -> int:
     png = figure(ds, args.output / "closure_feasibility.png")
     console.print(f"wrote {png}")
     counts = np.bincount(categories(ds).ravel(), minlength=len(CATEGORIES))
+    if "closure_probability" in ds:
+        pr = ds["closure_probability"].values
+        console.print(f"P(closure inside the window) over {ds.sizes['replicate']} seeds: "
+                      f"{np.nanmin(pr):.2f} … {np.nanmax(pr):.2f} across {pr.size} combinations", highlight=False)
     console.print(f"{ds['member_status'].size} members in {wall:.1f} s wall (member CPU time, sum "
                   f"{float(np.nansum(ds['member_cpu_time'].values)):.1f} s): "
                   + ", ".join(f"{n} {label}" for n, (label, _) in zip(counts, CATEGORIES)), highlight=False)

@@ -245,18 +245,19 @@ def test_closure_feasibility_pipeline_runs_closure_members(client, tmp_path, cap
     spec = importlib.util.spec_from_file_location("closure_feasibility_pipeline", path)
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
-    # two real closure members: an 8 m breach closed with 2.5 m masses, into a small and a large polder
+    # real closure members: an 8 m breach closed with 2.5 m masses, into a small and a large polder, two
+    # placement seeds (replicates) each
     assert mod.main([str(tmp_path), "--lengths", "8", "--areas", "20", "200", "--sizes", "2.5",
-                     "--scheduler", client.scheduler.address]) == 0
+                     "--replicates", "2", "--scheduler", client.scheduler.address]) == 0
     ds = open_result(tmp_path / "ensemble.nc")
-    assert ds.sizes == {"breach_length": 1, "polder_area": 2, "mass_size": 1}
+    assert ds.sizes == {"breach_length": 1, "polder_area": 2, "mass_size": 1, "replicate": 2}
     assert (ds["member_status"] == 0).all()
     assert ds["mass_size"].attrs["units"] == "m" and ds["mass_size"].values.tolist() == [2.5]
     # SPEC §2 with the pipeline's base scenario: Q_D = h_W B 3 m/s, r_P = Q_D / A_P,
     # t_B = min(h_W / (r_fall + r_P), d_I / r_P)
     r_p = 3.0 * 8.0 * 3.0 / np.array([20e4, 200e4])
     t_b = np.minimum(3.0 / (0.3 / 3600 + r_p), 1.5 / r_p)
-    np.testing.assert_allclose(ds["closure_window"].values.ravel(), t_b, rtol=1e-9)
+    np.testing.assert_allclose(ds["closure_window"].values.ravel(), np.repeat(t_b, 2), rtol=1e-9)
     # 6 masses per cycle at 30 masses per hour, at most 8 cycles
     cycles = ds["cycles"].values.ravel()
     assert np.all((cycles >= 1) & (cycles <= 8))
@@ -264,11 +265,22 @@ def test_closure_feasibility_pipeline_runs_closure_members(client, tmp_path, cap
     np.testing.assert_allclose(ds["closure_duration"].values.ravel(), 6 * cycles * 120.0)
     achieved = ds["closure_achieved"].values.ravel() == 1
     np.testing.assert_array_equal(ds["feasible"].values.ravel() == 1,
-                                  achieved & (ds["closure_duration"].values.ravel() <= t_b))
-    # the placed masses cut the breach discharge
+                                  achieved & (ds["closure_duration"].values.ravel() <= np.repeat(t_b, 2)))
+    # common random numbers: the polder area enters only the window, so with the same seeds the closure
+    # simulations are identical along polder_area
+    for name in ("cycles", "tonnage", "final_breach_discharge"):
+        v = ds[name].values
+        np.testing.assert_array_equal(v[:, 0], v[:, 1], err_msg=name)
+    # P(closure inside the window) over the replicates
+    feas = ds["feasible"].values == 1
+    np.testing.assert_allclose(ds["closure_probability"].values, feas.mean(axis=-1))
+    assert np.all(ds["closure_probability_lower"].values <= ds["closure_probability"].values)
+    # the placed masses cut the breach discharge; an impervious (raised-bed) pile has no seepage
     assert np.all(ds["final_breach_discharge"].values < ds["initial_breach_discharge"].values)
+    assert np.all(ds["final_seepage_discharge"].values == 0.0)
     assert (tmp_path / "closure_feasibility.png").stat().st_size > 10_000
-    assert "2 members in" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert "4 members in" in out and "P(closure inside the window) over 2 seeds" in out
 
 
 def _worker_settings(dask_worker):
@@ -321,3 +333,86 @@ def test_a_member_that_kills_its_worker_is_recorded_and_the_others_complete(clie
     rec = json.loads((tmp_path / str(ds["member_run_dir"].values[1]) / "result.json").read_text())
     assert rec["status"] == "failed" and rec["error_type"] == "KilledWorker"
     client.wait_for_workers(2, timeout=60)   # the nanny restarts the dead worker
+
+
+# --- replicates: odds, not one dice roll ---------------------------------------------------------------
+class BernoulliRunner:
+    """Test runner: closes with probability ``x.p`` (a varied parameter) using the member's seed; its
+    tonnage is a draw that does not depend on ``x.p`` (so common random numbers make it equal along x_p)."""
+
+    sections = None
+    outputs = {"tonnage": {"units": "kg", "dtype": "f8", "long_name": "mass placed"},
+               "closure_duration": {"units": "s", "dtype": "f8", "long_name": "duration"},
+               "feasible": {"dtype": "bool", "long_name": "closed inside the window"}}
+
+    def run(self, member, run_dir, seed):
+        rng = np.random.default_rng(seed)
+        u, t, d = rng.random(), rng.uniform(100, 500), rng.uniform(1000, 5000)
+        return {"feasible": bool(u < member.values_si["x_p"]), "tonnage": (t * 1000.0, "kg"),
+                "closure_duration": (d, "s")}
+
+
+member_runners.register("bernoulli_test_runner", BernoulliRunner, overwrite=True)
+
+
+def test_replicate_spec_common_random_numbers():
+    from breachflow.errors import ParseError
+    from breachflow.ensemble import parse_spec
+
+    spec = parse_spec('[ensemble]\nrunner = "window"\nreplicates = 3\n[ensemble.vary]\n"polder.area" = ["1 ha", "2 ha"]\n'
+                      + BASE)
+    assert spec.dims == ("polder_area", "replicate") and spec.shape == (2, 3)
+    ms = spec.members()
+    assert [m.index for m in ms] == [(i, r) for i in range(2) for r in range(3)]
+    seeds = np.array([m.seed for m in ms]).reshape(2, 3)
+    np.testing.assert_array_equal(seeds[0], seeds[1])      # same seeds for every parameter value
+    assert len(set(seeds[0])) == 3                          # different seeds across replicates
+    assert len({m.key for m in ms}) == 6
+    assert "replicates = 3" in spec.to_toml()
+    for bad in ("0", "1.5", "true"):
+        with pytest.raises(ParseError, match="replicates"):
+            parse_spec(f'[ensemble]\nrunner = "window"\nreplicates = {bad}\n[ensemble.vary]\n"polder.area" = ["1 ha"]\n'
+                       + BASE)
+
+
+def test_replicates_give_probabilities_with_wilson_intervals(client, tmp_path):
+    from scipy.stats import binomtest
+
+    spec = write_spec(tmp_path, '"x.p" = [0.2, 0.8]', runner="bernoulli_test_runner", extra="replicates = 40")
+    ds = run(spec, client=client, progress=False)
+    assert ds.sizes == {"x_p": 2, "replicate": 40}
+    validate_result(ds)
+    feas = ds["feasible"].values == 1
+    k = feas.sum(axis=1)
+    np.testing.assert_allclose(ds["closure_probability"].values, k / 40)
+    for i in range(2):
+        ci = binomtest(int(k[i]), 40).proportion_ci(method="wilson")
+        assert ds["closure_probability_lower"].values[i] == pytest.approx(ci.low)
+        assert ds["closure_probability_upper"].values[i] == pytest.approx(ci.high)
+        # the interval holds the true probability (it does for these seeds; 95 % of seeds in general)
+        assert ci.low <= [0.2, 0.8][i] <= ci.high
+    # common random numbers: the tonnage draw does not depend on x_p, so it is equal along x_p
+    np.testing.assert_array_equal(ds["tonnage"].values[0], ds["tonnage"].values[1])
+    np.testing.assert_allclose(ds["tonnage_median"].values, np.median(ds["tonnage"].values, axis=1))
+    np.testing.assert_allclose(ds["closure_duration_p10"].values, np.quantile(ds["closure_duration"].values, 0.1, axis=1))
+    np.testing.assert_allclose(ds["closure_duration_p90"].values, np.quantile(ds["closure_duration"].values, 0.9, axis=1))
+    assert ds["replicates_ok"].values.tolist() == [40, 40]
+    for name in ("replicates_ok", "closure_probability", "tonnage_median"):
+        assert "flag_meanings" not in ds[name].attrs and ds[name].attrs["ensemble_reduction"] == "replicate"
+    # the CLI's summary shows the per-combination probabilities
+    from rich.console import Console
+
+    from breachflow.cli.ensemble import summary_table
+
+    con = Console(record=True, width=160)
+    con.print(summary_table(ds))
+    text = con.export_text()
+    assert "P(closure)" in text and f"{ds['closure_probability'].values[0]:.2f}" in text
+    back = open_result(spec.parent / "spec.ensemble" / "ensemble.nc")
+    np.testing.assert_allclose(back["closure_probability"].values, ds["closure_probability"].values)
+    # feasible and closure_probability agree with a single draw per replicate: the same seeds as the
+    # replicate seeds of the spec
+    from breachflow.ensemble import load_spec
+
+    seeds = {m.replicate: m.seed for m in load_spec(spec).members()}
+    np.testing.assert_array_equal(ds["member_seed"].values[0], [seeds[r] for r in range(40)])

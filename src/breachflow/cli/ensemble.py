@@ -59,7 +59,8 @@ def summary_table(ds):
     for name, var in ds.data_vars.items():
         if name in STATUS_VARIABLES or not np.issubdtype(var.dtype, np.number):
             continue
-        vals = var.values[ok].astype(float)
+        reduced = var.attrs.get("ensemble_reduction") == "replicate"
+        vals = (var.values.ravel() if reduced else var.values[ok]).astype(float)
         if "_FillValue" in var.encoding:
             vals = vals[vals != var.encoding["_FillValue"]]
         vals = vals[np.isfinite(vals)]
@@ -82,9 +83,12 @@ def summary_table(ds):
             lo, hi = (Q_(v, units.replace("^", "**")).to(shown.replace("^", "**")).magnitude for v in (lo, hi))
         table.add_row(name, f"{lo:.4g}", f"{hi:.4g}", shown)
     failed = np.flatnonzero(ds["member_status"].values.ravel() == 1)
+    from rich.console import Group
+
+    if "closure_probability" in ds:
+        table = Group(table, probability_table(ds))
     if not failed.size:
         return table
-    from rich.console import Group
 
     errors = Table(title=f"{failed.size} failed member(s)", title_justify="left", title_style="red")
     dims = list(ds["member_status"].dims)
@@ -98,3 +102,30 @@ def summary_table(ds):
     if failed.size > 20:
         errors.add_row(f"... {failed.size - 20} more", *[""] * (len(dims) + 1))
     return Group(table, errors)
+
+
+def probability_table(ds):
+    """Rich table for an ensemble with replicates: per parameter combination, P(closure) with its 95 %
+    Wilson interval and the median (10–90 %) tonnage and closure duration."""
+    import numpy as np
+    from rich.table import Table
+
+    p = ds["closure_probability"]
+    dims = list(p.dims)
+    t = Table(title=f"over {ds.sizes['replicate']} replicates (placement seeds)", title_justify="left")
+    for col in (*dims, "P(closure)", "95 % Wilson", "tonnage t, median (10-90 %)", "duration h, median (10-90 %)"):
+        t.add_column(col)
+    grids = np.meshgrid(*[ds[d].values for d in dims], indexing="ij") if dims else []
+
+    def rng(name, scale):
+        if f"{name}_median" not in ds:
+            return "-"
+        m, lo, hi = (ds[f"{name}_{k}"].values.ravel() for k in ("median", "p10", "p90"))
+        return lambda i: f"{m[i] / scale:.4g} ({lo[i] / scale:.4g}-{hi[i] / scale:.4g})"
+
+    ton, dur = rng("tonnage", 1000.0), rng("closure_duration", 3600.0)
+    pv, lo, hi = p.values.ravel(), ds["closure_probability_lower"].values.ravel(), ds["closure_probability_upper"].values.ravel()
+    for i in range(pv.size):
+        t.add_row(*[str(g.ravel()[i]) for g in grids], f"{pv[i]:.2f}", f"[{lo[i]:.2f}, {hi[i]:.2f}]",
+                  ton(i) if callable(ton) else ton, dur(i) if callable(dur) else dur)
+    return t

@@ -221,18 +221,28 @@ class DemSection:
 @register_section("fluid")
 @dataclass
 class FluidSection:
-    """``[fluid]``: ``drag_law`` (registry name), ``sampling`` (``bilinear`` | ``neighbourhood``), ``xi``."""
+    """``[fluid]``: ``drag_law`` (registry name), ``sampling`` (``bilinear`` | ``neighbourhood``), ``xi``,
+    ``velocity_profile`` (``uniform`` | ``log`` | ``power``, :mod:`breachflow.fluid.profile`) and
+    ``roughness`` (k_s of the log law; default from the site's Manning n)."""
 
     drag_law: str = "report"
     sampling: str = "bilinear"
     xi: float = 0.5
+    velocity_profile: str = "uniform"
+    roughness: float | None = None
 
     @classmethod
     def from_table(cls, table, ctx):
-        ctx.check_keys(table, {"drag_law", "sampling", "xi"})
+        ctx.check_keys(table, {"drag_law", "sampling", "xi", "velocity_profile", "roughness"})
         out = cls(ctx.raw(table, "drag_law", default="report"), ctx.raw(table, "sampling", default="bilinear"),
-                  ctx.quantity(table, "xi", "dimensionless", default=0.5, default_unit="", nonnegative=True))
+                  ctx.quantity(table, "xi", "dimensionless", default=0.5, default_unit="", nonnegative=True),
+                  ctx.raw(table, "velocity_profile", default="uniform"),
+                  ctx.quantity(table, "roughness", "length", default=None, default_unit="m", positive=True))
         from ..fluid.drag import get_drag_law
+        from ..fluid.profile import PROFILES
+
+        if out.velocity_profile not in PROFILES:
+            raise ctx.error(f"velocity_profile must be one of {sorted(PROFILES)}", "velocity_profile")
 
         try:
             get_drag_law(out.drag_law)
@@ -325,7 +335,8 @@ class CriteriaSection:
 @register_section("closure")
 @dataclass
 class ClosureSection:
-    """``[closure]``: ``remap`` (``raised_bed`` | ``no_flow``), ``seed``, ``area`` (the breach area
+    """``[closure]``: ``remap`` (``raised_bed`` | ``no_flow`` | ``porous``), ``seed``, ``porous_law``
+    (``ergun`` | ``van_gent``: Forchheimer coefficients of a porous pile), ``area`` (the breach area
     ``[x0, x1, y0, y1]`` outside which masses count as carried away; default from the scene, see
     :mod:`~breachflow.cycle.losses`), ``loss_limit`` (fraction of a cycle's tonnage whose loss ends the run with a
     "not closable" verdict, default 0.5)."""
@@ -334,10 +345,11 @@ class ClosureSection:
     seed: int = 0
     area: tuple | None = None
     loss_limit: float = 0.5
+    porous_law: str = "ergun"
 
     @classmethod
     def from_table(cls, table, ctx):
-        ctx.check_keys(table, {"remap", "seed", "area", "loss_limit"})
+        ctx.check_keys(table, {"remap", "seed", "area", "loss_limit", "porous_law"})
         area = None
         if "area" in table:
             val = ctx.raw(table, "area", types=(list,))
@@ -348,11 +360,14 @@ class ClosureSection:
                 raise ctx.error(f"area must be [x0, x1, y0, y1] with x0 < x1 and y0 < y1, got {val!r}", "area")
         loss = ctx.quantity(table, "loss_limit", "dimensionless", default=0.5, default_unit="", positive=True)
         out = cls(ctx.raw(table, "remap", default="raised_bed"), ctx.raw(table, "seed", types=(int,), default=0),
-                  area, float(loss))
+                  area, float(loss), ctx.raw(table, "porous_law", default="ergun"))
+        from ..hydro.swe.porous import FORCHHEIMER_LAWS
         from .remap import REMAP_MODES
 
         if out.remap not in REMAP_MODES:
             raise ctx.error(f"remap must be one of {REMAP_MODES}", "remap")
+        if out.porous_law not in FORCHHEIMER_LAWS:
+            raise ctx.error(f"porous_law must be one of {sorted(FORCHHEIMER_LAWS)}", "porous_law")
         return out
 
 
@@ -440,6 +455,7 @@ def closure_setup(scenario, *, overrides: dict | None = None):
                         adhesion=mat["adhesion"], rolling_friction=mat["rolling_friction"])
     fluid = scenario.get("fluid") or FluidSection()
     dem = DemSettings(material=material, drag_law=fluid.drag_law, sampling=fluid.sampling, xi=fluid.xi,
+                      velocity_profile=fluid.velocity_profile, roughness=fluid.roughness,
                       **dem_vals, **dem_kw)
     placement = scenario["placement"].plan if "placement" in scenario else PlacementPlan(
         diameter=(1.4, 1.6), batch=4, positions="line", start=(xc - half + 0.5, yc), stop=(xc + half - 0.5, yc))
@@ -453,12 +469,16 @@ def closure_setup(scenario, *, overrides: dict | None = None):
     if isinstance(solver, _StageSolver):
         solver.plan = placement
     setup = ClosureSetup(domain=dom, solver=solver, placement=placement, criteria=criteria, dem=dem,
-                         remap_mode=closure.remap, seed=closure.seed, breach_x=(xc - half, xc + half), levee_y=yc,
+                         remap_mode=closure.remap, porous_law=closure.porous_law, seed=closure.seed,
+                         breach_x=(xc - half, xc + half), levee_y=yc,
                          flood_level=flood_level, bottom=bottom, name=scenario.name, attrs=attrs, metadata=metadata,
                          area=closure.area or (breach_area(scene, placement.diameter[1]) if built is None else None),
                          loss_limit=closure.loss_limit)
     for k, v in (overrides or {}).items():
         setattr(setup, k, v)
+    from .sanity import check_setup
+
+    setup.warnings = check_setup(setup)
     return setup
 
 

@@ -15,6 +15,8 @@ SPEC   name                    satisfied when
 4      ``head_gradient``       max total-head gradient between neighbouring wet cells < threshold
 5      ``stability``           re-running the assembly in the new flow moves no mass more than threshold (m)
 6      ``speed_change``        change of the maximum speed since the previous cycle < threshold (m/s)
+3      ``seepage_discharge``   its part through a porous pile (``remap = "porous"``) < threshold (m³/s)
+3      ``overflow_discharge``  its part over the pile's crest < threshold (m³/s)
 =====  ======================  ===============================================================
 """
 from __future__ import annotations
@@ -54,6 +56,8 @@ class CycleContext:
     flood_level: float = 0.0
     bottom: float = 0.0
     stability_displacement: float | None = None
+    #: discharge through the porous pile across the breach section (m³/s; 0 without a porous pile)
+    seepage_discharge: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -314,3 +318,25 @@ class EndCriteria:
         if done:
             governing = next(r.name for r in results if r.satisfied) if self.mode == "any" else "+".join(r.name for r in results)
         return done, results, governing
+
+
+@criteria.register("seepage_discharge")
+class SeepageDischarge(Criterion):
+    """The part of the breach discharge through the porous pile (m³/s; ``remap = "porous"``)."""
+
+    name, kind, units = "seepage_discharge", "discharge", "m3 s-1"
+    description = "breach discharge through the porous pile"
+
+    def value(self, ctx):
+        return abs(ctx.seepage_discharge)
+
+
+@criteria.register("overflow_discharge")
+class OverflowDischarge(Criterion):
+    """The part of the breach discharge over the pile's crest and through open cells (m³/s)."""
+
+    name, kind, units = "overflow_discharge", "discharge", "m3 s-1"
+    description = "breach discharge over the crest"
+
+    def value(self, ctx):
+        return max(abs(section_discharge(ctx.snapshot, ctx.breach_x, ctx.levee_y)) - abs(ctx.seepage_discharge), 0.0)

@@ -35,7 +35,7 @@ from ..output.cf import pad_particles
 from .criteria import CycleContext, EndCriteria, section_discharge
 from .losses import LOSS_LIMIT, gap_speed, losses_flagged, not_closable_verdict
 from .placement import PlacementPlan
-from .remap import IncrementalPileTop, remap_top
+from .remap import IncrementalPileTop, porous_pile, remap_top
 
 
 @dataclass
@@ -60,6 +60,8 @@ class DemSettings:
     drag_law: str = "report"
     sampling: str = "bilinear"
     xi: float = 0.5
+    velocity_profile: str = "uniform"
+    roughness: float | None = None
     stability_time: float = 5.0
     rest_time: float = 0.5
 
@@ -90,6 +92,8 @@ class ClosureSetup:
     criteria: EndCriteria
     dem: DemSettings = field(default_factory=DemSettings)
     remap_mode: str = "no_flow"
+    #: Forchheimer coefficients of a porous pile (``ergun`` | ``van_gent``, hydro/swe/porous.py)
+    porous_law: str = "ergun"
     seed: int = 0
     breach_x: tuple = (0.0, 0.0)
     levee_y: float = 0.0
@@ -102,6 +106,8 @@ class ClosureSetup:
     metadata: dict = field(default_factory=dict)
     area: tuple | None = None
     loss_limit: float = LOSS_LIMIT
+    #: warnings of the scenario's sanity check (:func:`breachflow.cycle.sanity.check_setup`)
+    warnings: list = field(default_factory=list)
 
 
 @dataclass
@@ -135,6 +141,10 @@ class CycleReport:
     time_output: float = 0.0  #: wall time (s) of writing the cycle
     cpu_solve: float = 0.0  #: CPU time (s) of this process in the re-solve
     cpu_dem: float = 0.0  #: CPU time (s) of the DEM settle
+    #: part of breach_discharge through the porous pile (remap "porous"; 0 otherwise), m³/s
+    seepage_discharge: float = 0.0
+    #: masses in the domain still moving at the end of the cycle's DEM (not at rest)
+    not_at_rest: int = 0
 
     def as_dict(self) -> dict:
         d = dict(self.__dict__)
@@ -191,6 +201,7 @@ class ClosureRun:
         self.reports: list[CycleReport] = []
         self._live = None  # (cycle, DemSimulation) of the last cycle, continued by the next one
         self._pile = IncrementalPileTop(setup.domain.x, setup.domain.y, setup.domain.bed)
+        self._pile_height = None  # porous remap: the pile heights of the last solve
 
     # ------------------------------------------------------------------ restart record
     def _initial_record(self) -> dict:
@@ -208,6 +219,8 @@ class ClosureRun:
         if done:
             g0 = done[-1]
             rec = self.rundir.load_restart(g0)
+            if "pile_height" in rec:
+                self._pile_height = np.asarray(rec["pile_height"], float)
             snapshot = self._grid_only(self.rundir.open_cycle(g0))
             closed = bool(self.rundir.manifest()["cycles"][-1]["summary"].get("closed"))
             if closed or self.rundir.manifest().get("finished"):
@@ -226,7 +239,7 @@ class ClosureRun:
                 "max_speed": MaxSpeed("0 m/s").value(ctx0), "discharge_proxy": DischargeProxy("0 m^3/s").value(ctx0),
                 "breach_discharge": section_discharge(snapshot, s.breach_x, s.levee_y),
                 "gap_speed": gap_speed(snapshot, s.area if s.area is not None else (-np.inf, np.inf, -np.inf, np.inf)),
-                "solve_wall_time": self.initial_solve_time, "solve_cpu_time": initial_solve_cpu})
+                "solve_wall_time": self.initial_solve_time, "solve_cpu_time": initial_solve_cpu}, warnings=list(s.warnings))
         for g in range(g0 + 1, s.criteria.max_cycles + 1):
             rep, rec, snapshot = self._cycle(g, rec, snapshot)
             self.reports.append(rep)
@@ -253,7 +266,9 @@ class ClosureRun:
     def _fluid(self, snapshot) -> FluidForces:
         """The frozen fluid field of *snapshot* as the DEM's force model."""
         d = self.setup.dem
-        return FluidForces(dem_view(snapshot), drag_law=d.drag_law, sampling=d.sampling, xi=d.xi, outside="air")
+        return FluidForces(dem_view(snapshot), drag_law=d.drag_law, sampling=d.sampling, xi=d.xi, outside="air",
+                           velocity_profile=d.velocity_profile, roughness=d.roughness,
+                           manning=float(np.median(self.setup.domain.manning)))
 
     def _cycle_dem(self, g, snapshot, rec):
         """The DEM of cycle *g*: the previous cycle's simulation continued in the field of *snapshot*, or
@@ -377,10 +392,19 @@ class ClosureRun:
         dom = s.domain
         top = self._pile.update(st.pos, st.radius, resting)
         obstacle, bed = remap_top(top, dom.bed, snapshot["water_surface"].values, s.remap_mode)
-        solve_domain = dom if s.remap_mode == "no_flow" else dom.with_raised_bed(bed > dom.bed, bed)
+        pile = None
+        if s.remap_mode == "porous":
+            pile = porous_pile(dom.x, dom.y, dom.bed, st.pos, st.radius, resting, law=s.porous_law)
+            solve_domain = dom.with_porous(pile)
+        else:
+            solve_domain = dom if s.remap_mode == "no_flow" else dom.with_raised_bed(bed > dom.bed, bed)
         new_obstacle = dom.obstacle | obstacle
         before = snapshot["obstacle"].values.astype(bool) if "obstacle" in snapshot else np.zeros(dom.shape, bool)
         changed = int(np.count_nonzero(new_obstacle != before))
+        if pile is not None:
+            last = self._pile_height if self._pile_height is not None else np.zeros(dom.shape)
+            changed += int(np.count_nonzero(np.abs(pile.height - last) > 1e-9))
+            self._pile_height = pile.height
         if s.remap_mode == "raised_bed":
             changed += int(np.count_nonzero(np.abs(solve_domain.bed - snapshot["bed_elevation"].values) > 1e-9))
         t_solve, c_solve = _time.perf_counter(), _time.process_time()
@@ -396,6 +420,8 @@ class ClosureRun:
         t_solve, c_solve = _time.perf_counter() - t_solve, _time.process_time() - c_solve
         new_rec = {"dem." + k: v for k, v in sim.save_state().items()}
         new_rec.update(placed_cycle=placed_cycle, resting=resting.copy())
+        if pile is not None:
+            new_rec["pile_height"] = pile.height.copy()
         # 5. stability re-run (criterion 5) only when asked for
         stab = None
         stability = "not requested"
@@ -404,7 +430,8 @@ class ClosureRun:
             stability = f"re-run {d.stability_time:g} s: max displacement {stab:.3g} m"
         ctx = CycleContext(cycle=g, snapshot=new_snapshot, previous=snapshot, pos=st.pos, radius=st.radius,
                            resting=resting, breach_x=s.breach_x, levee_y=s.levee_y, flood_level=s.flood_level,
-                           bottom=s.bottom, stability_displacement=stab)
+                           bottom=s.bottom, stability_displacement=stab,
+                           seepage_discharge=self._seepage(new_snapshot, pile))
         closed, results, governing = s.criteria.evaluate(ctx)
         from .criteria import DischargeProxy, MaxSpeed
 
@@ -431,7 +458,9 @@ class ClosureRun:
                           lost_cycle=int(lost_now.size), lost_cycle_tonnage=lost_t, placed_cycle_tonnage=placed_t,
                           lost_tonnage=lost_total_t, gap_speed=gspeed, verdict=verdict,
                           losses_flagged=losses_flagged(lost_total_t, tonnage + lost_total_t, s.loss_limit),
-                          time_solve=t_solve, time_dem=t_dem, cpu_solve=c_solve, cpu_dem=c_dem)
+                          time_solve=t_solve, time_dem=t_dem, cpu_solve=c_solve, cpu_dem=c_dem,
+                          seepage_discharge=ctx.seepage_discharge,
+                          not_at_rest=int((st.active[:st.n] & ~resting[:st.n]).sum()))
         t_out = _time.perf_counter()
         field_ds = validate(self._field_dataset(new_snapshot, st, placed_cycle, resting, rep), "closure_cycle")
         traj = None
@@ -455,6 +484,26 @@ class ClosureRun:
         disp = np.linalg.norm(sim.state.pos - start, axis=1)
         disp = np.where(sim.state.active, disp, np.inf)[resting]
         return float(disp.max()) if disp.size else 0.0
+
+    def _seepage(self, snapshot, pile) -> float:
+        """Discharge through the porous pile across the breach section (m³/s), from the steady split of
+        each cell's unit discharge (:func:`~breachflow.hydro.swe.porous.seepage_field`)."""
+        if pile is None or not pile.any:
+            return 0.0
+        s = self.setup
+        from ..hydro.swe.porous import seepage_field
+
+        h = np.asarray(snapshot["depth"].values, float)
+        u = np.asarray(snapshot["u"].values, float)
+        v = np.asarray(snapshot["v"].values, float)
+        speed = np.hypot(u, v)
+        q_seep = seepage_field(h, speed, pile, s.domain.manning)
+        x = np.asarray(snapshot["x"].values, float)
+        j = int(np.argmin(np.abs(np.asarray(snapshot["y"].values, float) - s.levee_y)))
+        sel = (x >= s.breach_x[0]) & (x <= s.breach_x[1])
+        frac_y = np.where(speed[j] > 0, v[j] / np.where(speed[j] > 0, speed[j], 1.0), 0.0)
+        dx = abs(x[1] - x[0]) if x.size > 1 else 1.0
+        return float(np.sum((q_seep[j] * frac_y)[sel]) * dx)
 
     def _field_dataset(self, snapshot, st, placed_cycle, resting, rep) -> xr.Dataset:
         grid = self._grid_only(snapshot)

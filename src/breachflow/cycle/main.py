@@ -43,6 +43,14 @@ class ClosureResult:
     lost_masses: int = 0  #: masses carried out of the breach area over the run
     lost_tonnage: float = 0.0  #: their tonnage (t)
     losses_flagged: bool = False  #: more than ``loss_limit`` of the placed tonnage lost
+    #: the pre-simulation estimate (:func:`breachflow.scenario.stone.stone_size`) for the first cycle's
+    #: peak speed and the breach cross-section, shown beside the simulated tonnage
+    estimate: object = None
+    #: breach discharge and its seepage part after the last cycle (m³/s)
+    final_discharge: float = float("nan")
+    final_seepage: float = 0.0
+    #: sanity warnings: the scenario's (before the run) and the outcome's (masses lost or never at rest)
+    warnings: list = field(default_factory=list)
 
     def table_rows(self) -> list[tuple[str, str]]:
         hrs = lambda s: f"{s / 3600:.2f} h"
@@ -59,6 +67,15 @@ class ClosureResult:
         if self.closure_window is not None:
             rows.append(("closure window", hrs(self.closure_window)))
             rows.append(("closed inside the window", "yes" if self.feasible else "no"))
+        rows.append(("breach discharge at the end (seepage)",
+                     f"{self.final_discharge:.2f} m³/s ({self.final_seepage:.2f} m³/s)"))
+        if self.estimate is not None:
+            e = self.estimate
+            rows.append(("estimate (Izbash/Shields, before simulation)",
+                         f"D {e.design_diameter:.2f} m, {e.tonnage:.1f} t (dam {e.height:.1f} m high, porosity "
+                         f"{e.porosity:g}, slopes 1:{e.side_slope:g})"))
+        for w in self.warnings:
+            rows.append(("warning", w))
         rows.append(("wall time", f"{self.wall_time:.1f} s"))
         rows.append(("run directory", str(self.run_dir)))
         return rows
@@ -117,10 +134,37 @@ def run_closure(scenario=None, out="runs/default", *, resume: bool = False, over
                         peak_speed=float(cycles[0]["summary"]["max_speed"]) if cycles else float("nan"),
                         verdict=str(man.get("final", {}).get("verdict", "")),
                         lost_masses=int(last.get("left_domain", 0)), lost_tonnage=float(last.get("lost_tonnage", 0.0)),
-                        losses_flagged=bool(last.get("losses_flagged", False)))
+                        losses_flagged=bool(last.get("losses_flagged", False)),
+                        final_discharge=float(last.get("breach_discharge", float("nan"))),
+                        final_seepage=float(last.get("seepage_discharge", 0.0)),
+                        estimate=_estimate(setup, man))
+    from .sanity import outcome_warnings
+
+    res.warnings = list(setup.warnings) + outcome_warnings(
+        int(last.get("left_domain", 0)), int(last.get("not_at_rest", 0)), res.masses,
+        float(np.mean(setup.placement.diameter)),
+        res.estimate.d_izbash_exposed if res.estimate is not None else None)
     if plots and cycles:
         from .plots import plot_closure_progress, plot_plan_view
 
         res.plots = [plot_plan_view(run.rundir, Path(out) / "plan_view.png"),
                      plot_closure_progress(run.rundir, Path(out) / "closure_progress.png")]
     return res
+
+
+def _estimate(setup, manifest):
+    """The stone-size estimate for the run's breach: the initial solve's peak speed, the water depth
+    and length of the breach, rock of the placement's mean density, porosity 0.4, slopes 1V:1.5H."""
+    from ..errors import BreachflowError
+    from ..scenario.stone import stone_size
+
+    try:
+        u = float(manifest["metadata"]["initial"]["max_speed"])
+        depth = float(setup.flood_level - setup.bottom)
+        length = float(setup.breach_x[1] - setup.breach_x[0])
+        rho = float(np.mean(np.atleast_1d(setup.placement.density)))
+        if not (u > 0 and depth > 0 and length > 0):
+            return None
+        return stone_size(u, depth, length, density=rho)
+    except (KeyError, BreachflowError):
+        return None

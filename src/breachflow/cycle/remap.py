@@ -7,6 +7,12 @@ Two modes, chosen by name:
 * ``"raised_bed"``: the pile raises the bed to the top of the spheres above each cell centre,
   ``z_top = z_c + sqrt(r² − d²)`` (d the plan distance); where that top reaches the water surface
   the cell is blocked (an emergent pile), otherwise water flows over the raised bed.
+* ``"porous"``: the pile stays in the water column: per cell its height above the bed (the highest
+  sphere top over k × k sub-points of the cell), its porosity ``n = 1 - V_solid / V_pile`` from the DEM
+  packing (``V_solid`` the sphere volume inside the cell's column, by the mean chord length over the
+  sub-points; ``V_pile = height dx dy``) and its volume-weighted stone diameter give a
+  :class:`~breachflow.hydro.swe.porous.PorousPile`; the ``swe`` solver makes the flow pass through it with
+  Forchheimer resistance and over its crest freely (:mod:`breachflow.hydro.swe.porous`). No cell is blocked.
 """
 from __future__ import annotations
 
@@ -15,7 +21,7 @@ import numpy as np
 
 from ..errors import InputError
 
-REMAP_MODES = ("no_flow", "raised_bed")
+REMAP_MODES = ("no_flow", "raised_bed", "porous")
 
 
 @numba.njit(cache=True)
@@ -146,8 +152,67 @@ def remap_top(top, bed, water_surface, mode: str = "no_flow"):
     _check_mode(mode)
     bed = np.asarray(bed, dtype=float)
     covered = np.isfinite(top)
+    if mode == "porous":
+        return np.zeros(bed.shape, bool), bed.copy()
     if mode == "no_flow":
         return covered, bed.copy()
     raised = np.where(covered & (top > bed), top, bed)
     emergent = covered & (top >= np.asarray(water_surface, float))
     return emergent, raised
+
+
+@numba.njit(cache=True)
+def pile_columns(x, y, bed, pos, radius, use, sub, top, solid, dsum):
+    """Per cell (sub × sub sub-points): highest sphere top ``top`` (−inf: none), mean solid chord length
+    ``solid`` (m) and chord-weighted diameter sum ``dsum`` (m²) of the spheres *use*."""
+    ny, nx = bed.shape
+    dx = x[1] - x[0] if nx > 1 else 1.0
+    dy = y[1] - y[0] if ny > 1 else 1.0
+    w = 1.0 / (sub * sub)
+    for p in range(pos.shape[0]):
+        if not use[p]:
+            continue
+        r = radius[p]
+        i0 = max(int(np.floor((pos[p, 0] - r - x[0]) / dx + 0.5)), 0)
+        i1 = min(int(np.floor((pos[p, 0] + r - x[0]) / dx + 0.5)), nx - 1)
+        j0 = max(int(np.floor((pos[p, 1] - r - y[0]) / dy + 0.5)), 0)
+        j1 = min(int(np.floor((pos[p, 1] + r - y[0]) / dy + 0.5)), ny - 1)
+        for j in range(j0, j1 + 1):
+            for i in range(i0, i1 + 1):
+                for a in range(sub):
+                    px = x[i] + ((a + 0.5) / sub - 0.5) * dx
+                    for b in range(sub):
+                        py = y[j] + ((b + 0.5) / sub - 0.5) * dy
+                        d2 = (px - pos[p, 0]) ** 2 + (py - pos[p, 1]) ** 2
+                        if d2 < r * r:
+                            half = np.sqrt(r * r - d2)
+                            zt = pos[p, 2] + half
+                            if zt > top[j, i]:
+                                top[j, i] = zt
+                            # chord below the top, above the bed
+                            lo = max(pos[p, 2] - half, bed[j, i])
+                            c = max(zt - lo, 0.0)
+                            solid[j, i] += w * c
+                            dsum[j, i] += w * c * 2.0 * r
+
+
+def porous_pile(x, y, bed, pos, radius, resting, law: str = "ergun", sub: int = 4, min_porosity: float = 0.2):
+    """The :class:`~breachflow.hydro.swe.porous.PorousPile` of the resting spheres (see the module docstring);
+    the porosity is clipped to ``[min_porosity, 0.95]`` (a cell filled by one sphere's middle is nearly
+    solid, and Forchheimer's ``n^3`` would make it impervious in one cell)."""
+    from ..hydro.swe.porous import PorousPile
+
+    x = np.ascontiguousarray(x, dtype=float)
+    y = np.ascontiguousarray(y, dtype=float)
+    bed = np.ascontiguousarray(bed, dtype=float)
+    top = np.full(bed.shape, -np.inf)
+    solid = np.zeros(bed.shape)
+    dsum = np.zeros(bed.shape)
+    pile_columns(x, y, bed, np.ascontiguousarray(pos, dtype=float).reshape(-1, 3),
+                 np.ascontiguousarray(radius, dtype=float), np.ascontiguousarray(resting, dtype=np.bool_), int(sub),
+                 top, solid, dsum)
+    height = np.where(np.isfinite(top), np.maximum(top - bed, 0.0), 0.0)
+    has = (height > 0) & (solid > 0)
+    porosity = np.where(has, 1.0 - solid / np.where(has, height, 1.0), 1.0)
+    diameter = np.where(has, dsum / np.where(has, solid, 1.0), 1.0)
+    return PorousPile.build(np.where(has, height, 0.0), porosity, diameter, law=law, min_porosity=min_porosity)

@@ -34,7 +34,10 @@ class ClosureRunner:
         run_dir = Path(run_dir)
         table = dict(member.table)
         closure = dict(table.get("closure", {}))
-        closure.setdefault("seed", int(seed) % (2**31))
+        if member.replicate is not None:
+            closure["seed"] = int(seed) % (2**31)  # replicates: the placement randomness varies
+        else:
+            closure.setdefault("seed", int(seed) % (2**31))
         table["closure"] = closure
         member.table = table
         path = member.write(run_dir / "closure_scenario.toml")
@@ -58,6 +61,7 @@ class ClosureRunner:
             peak_velocity=Q_(m["metadata"]["initial"]["max_speed"], "m/s"),
             initial_breach_discharge=Q_(m["metadata"]["initial"]["breach_discharge"], "m**3/s"),
             final_breach_discharge=Q_(last.get("breach_discharge", float("nan")), "m**3/s"),
+            final_seepage_discharge=Q_(last.get("seepage_discharge", 0.0), "m**3/s"),
             feasible=bool(res.closed and window is not None and res.operation_time <= window),
         )
         return results

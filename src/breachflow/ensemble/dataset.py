@@ -4,6 +4,12 @@ Result variables come from the member runner (declared ``outputs`` and whatever 
 status variables say what happened to each member: ``member_status`` (0 ok, 1 failed, 2 not run),
 ``member_error_type``, ``member_error``, ``member_seed``, ``member_elapsed_time``, ``member_cpu_time``,
 ``member_run_dir``.
+With ``replicates = N`` (N > 1) the last dimension is ``replicate`` (N placement seeds per parameter
+combination, common random numbers) and :func:`replicate_reductions` adds, over the replicates of each
+combination (members that ran): ``closure_probability`` (fraction closed inside the window, ``feasible``)
+with its 95 % Wilson interval ``closure_probability_lower/upper`` and ``replicates_ok``, and the median
+and 10 / 90 % quantiles of ``tonnage`` and ``closure_duration`` (``*_median``, ``*_p10``, ``*_p90``).
+These variables carry ``ensemble_reduction = "replicate"`` and span the other dimensions.
 Missing values (failed members): NaN for floats, the netCDF default fill value for integers and flags.
 """
 from __future__ import annotations
@@ -55,6 +61,10 @@ def parameter_coordinates(spec: EnsembleSpec) -> dict[str, xr.DataArray]:
         coords["member"] = xr.DataArray(np.arange(spec.shape[0]), dims=("member",),
                                         attrs={"long_name": "ensemble member number (order of [[ensemble.members]])",
                                                "units": "1"})
+    if spec.replicates > 1:
+        coords["replicate"] = xr.DataArray(np.arange(spec.replicates), dims=("replicate",), attrs={
+            "long_name": "replicate number (placement seed; the same seeds in every parameter combination)",
+            "units": "1"})
     return coords
 
 
@@ -163,6 +173,64 @@ def build_dataset(spec: EnsembleSpec, records: list[dict], runner_cls, *, out_di
     }
     if spec.description:
         ds.attrs["comment"] = spec.description
+    if spec.replicates > 1:
+        ds.attrs["ensemble_replicates"] = spec.replicates
+        ds = replicate_reductions(ds)
+    return ds
+
+
+#: quantities summarised over the replicates by their median and 10 / 90 % quantiles
+REPLICATE_QUANTILES = ("tonnage", "closure_duration")
+
+
+def wilson_interval(k, n, confidence: float = 0.95):
+    """Wilson score interval of a binomial proportion ``k / n`` (arrays; NaN where n = 0), by
+    ``scipy.stats.binomtest(k, n).proportion_ci(method="wilson")``."""
+    from scipy.stats import binomtest
+
+    k = np.asarray(k, int)
+    n = np.asarray(n, int)
+    lo = np.full(k.shape, np.nan)
+    hi = np.full(k.shape, np.nan)
+    for idx in np.ndindex(k.shape):
+        if n[idx] > 0:
+            ci = binomtest(int(k[idx]), int(n[idx])).proportion_ci(confidence_level=confidence, method="wilson")
+            lo[idx], hi[idx] = ci.low, ci.high
+    return lo, hi
+
+
+def replicate_reductions(ds: xr.Dataset) -> xr.Dataset:
+    """Add the reductions over ``replicate`` (see the module docstring) to a result Dataset."""
+    def fresh(da, **attrs):  # a reduction's own attributes only (none inherited from its operands)
+        da = da.copy()
+        da.attrs = {**attrs, "ensemble_reduction": "replicate"}
+        da.encoding = {}
+        return da
+
+    ok = ds["member_status"] == STATUS_OK
+    n = ok.sum("replicate")
+    ds["replicates_ok"] = fresh(n.astype("i8"), long_name="replicates that ran (member_status ok)", units="1")
+    flag = "feasible" if "feasible" in ds else ("closure_achieved" if "closure_achieved" in ds else None)
+    if flag is not None:
+        closed = ((ds[flag] == 1) & ok).sum("replicate")
+        p = xr.where(n > 0, closed / n.where(n > 0), np.nan)
+        what = "inside the closure window" if flag == "feasible" else "within the cycle limit"
+        ds["closure_probability"] = fresh(p.astype(float), long_name=f"probability of closure {what} (over replicates)",
+                                          units="1", cell_methods="replicate: mean")
+        lo, hi = wilson_interval(closed.values, n.values)
+        for name, arr, side in (("closure_probability_lower", lo, "lower"), ("closure_probability_upper", hi, "upper")):
+            ds[name] = fresh(xr.DataArray(arr, dims=p.dims),
+                             long_name=f"{side} bound of the 95 % Wilson interval of closure_probability", units="1")
+    for name in REPLICATE_QUANTILES:
+        if name not in ds:
+            continue
+        v = ds[name].where(ok)
+        units = ds[name].attrs.get("units", "1")
+        ds[f"{name}_median"] = fresh(v.median("replicate"), long_name=f"median over replicates of {name}", units=units,
+                                     cell_methods="replicate: median")
+        for q in (10, 90):
+            ds[f"{name}_p{q}"] = fresh(v.quantile(q / 100, "replicate").drop_vars("quantile"),
+                                       long_name=f"{q} % quantile over replicates of {name}", units=units)
     return ds
 
 
@@ -199,8 +267,11 @@ def validate_result(ds: xr.Dataset, *, source: str | None = None) -> xr.Dataset:
     dims = tuple(str(ds.attrs["ensemble_dimensions"]).split())
     problems = []
     for name, var in ds.data_vars.items():
-        if tuple(var.dims) != dims:
-            problems.append(f"{name}: dims {tuple(var.dims)}, expected the ensemble dimensions {dims}")
+        want = dims
+        if var.attrs.get("ensemble_reduction") == "replicate":
+            want = tuple(d for d in dims if d != "replicate")
+        if tuple(var.dims) != want:
+            problems.append(f"{name}: dims {tuple(var.dims)}, expected the ensemble dimensions {want}")
         if np.issubdtype(var.dtype, np.number) and "units" not in var.attrs and "flag_values" not in var.attrs:
             problems.append(f"{name}: numeric variable without 'units' or flag attributes")
         if "long_name" not in var.attrs:

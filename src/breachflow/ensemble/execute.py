@@ -128,7 +128,8 @@ def plan(spec, out=None) -> tuple[EnsembleSpec, Path, list[Member], list[MemberT
     for m in members:
         run_dir = out_dir / "members" / m.key
         sc = MemberScenario(key=m.key, number=m.number, table=spec.member_table(m), values=m.values,
-                            values_si=m.values_si, paths=paths, path=run_dir / "scenario.toml")
+                            values_si=m.values_si, paths=paths, path=run_dir / "scenario.toml",
+                            replicate=m.replicate)
         tasks.append(MemberTask(runner_cls, spec.runner, dict(spec.options), sc, str(run_dir), m.seed, m.index, fp))
     return spec, out_dir, members, tasks
 

@@ -89,6 +89,8 @@ CLOSURE_OUTPUTS: dict[str, dict] = {
     "initial_breach_discharge": {"units": "m^3/s", "dtype": "f8", "long_name": "discharge through the open breach"},
     "final_breach_discharge": {"units": "m^3/s", "dtype": "f8",
                                "long_name": "discharge through the breach after the last cycle"},
+    "final_seepage_discharge": {"units": "m^3/s", "dtype": "f8",
+                                "long_name": "part of final_breach_discharge seeping through a porous pile"},
     "feasible": {"dtype": "bool", "long_name": "closure achieved before the closure window ends"},
 }
 
@@ -119,6 +121,9 @@ class MemberScenario:
     values_si: dict[str, Any]
     paths: dict[str, str]
     path: Path | None = None
+    #: replicate number when the spec has ``replicates > 1`` (the seed then differs per replicate and a
+    #: runner must use it even where the scenario fixes a seed), else None
+    replicate: int | None = None
     _cache: dict = field(default_factory=dict, repr=False)
 
     def text(self, sections=None) -> str:

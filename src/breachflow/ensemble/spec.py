@@ -8,6 +8,9 @@ base scenario (inline), optionally on top of a scenario file named by ``base``::
     runner = "window"               # a name in the registry ``breachflow.member_runners``
     base = "site.toml"              # optional; this file's scenario tables override the file's
     seed = 2026                     # optional base seed of the per-member seeds (default 0)
+    replicates = 10                 # optional: N placement seeds per parameter combination (dimension
+                                    # "replicate"; the same N seeds for every combination: common
+                                    # random numbers)
     output = "runs/feasibility"     # optional output directory, relative to this file
     workers = 2                     # optional defaults for the executor
     scheduler = "tcp://10.0.0.5:8786"
@@ -53,7 +56,7 @@ _NUMBER_START = re.compile(r"^\s*[-+]?(\d|\.\d)")
 _BARE_KEY = re.compile(r"^[A-Za-z0-9_-]+$")
 _DIM_NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 ENSEMBLE_KEYS = {"name", "description", "runner", "base", "design", "seed", "output", "workers", "scheduler",
-                 "vary", "members", "options"}
+                 "vary", "members", "options", "replicates"}
 
 
 def looks_like_quantity(value) -> bool:
@@ -123,6 +126,7 @@ class Member:
     values_si: dict[str, Any]     # dimension name -> SI magnitude / word
     key: str = ""                 # run-directory name: hash of runner, options, base scenario, values
     seed: int = 0                 # hash of the member's parameter values (and the spec seed)
+    replicate: int | None = None  # replicate number (spec.replicates > 1), else None
 
 
 @dataclass
@@ -143,6 +147,8 @@ class EnsembleSpec:
     scheduler: str | None = None
     path: Path | None = None
     text: str = ""
+    #: placement seeds per parameter combination (> 1 adds the ``replicate`` dimension)
+    replicates: int = 1
 
     # ------------------------------------------------------------------ construction
     @classmethod
@@ -220,6 +226,11 @@ class EnsembleSpec:
         workers = table.get("workers")
         if workers is not None and (not isinstance(workers, int) or workers < 1):
             raise err("expected a positive integer", "workers")
+        replicates = table.get("replicates", 1)
+        if not isinstance(replicates, int) or isinstance(replicates, bool) or replicates < 1:
+            raise err(f"expected a positive integer, got {replicates!r}", "replicates")
+        if replicates > 1 and "replicate" in names:
+            raise err("a varied parameter is named 'replicate', the dimension of replicates", "replicates")
         options = table.get("options", {})
         if not isinstance(options, dict):
             raise err("expected a table of runner options", "options")
@@ -229,18 +240,21 @@ class EnsembleSpec:
         return cls(base=base, parameters=params, runner=runner, design=design, member_values=member_values,
                    options=options, name=str(name), description=str(table.get("description", "")), seed=seed,
                    output=output, workers=workers, scheduler=table.get("scheduler"), path=Path(path) if path else None,
-                   text=text)
+                   text=text, replicates=replicates)
 
     # ------------------------------------------------------------------ members
     @property
     def dims(self) -> tuple[str, ...]:
-        return tuple(p.name for p in self.parameters) if self.design == "factorial" else ("member",)
+        base = tuple(p.name for p in self.parameters) if self.design == "factorial" else ("member",)
+        return base + (("replicate",) if self.replicates > 1 else ())
 
     @property
     def shape(self) -> tuple[int, ...]:
         if self.design == "factorial":
-            return tuple(len(p.values) for p in self.parameters)
-        return (len(self.member_values),)
+            base = tuple(len(p.values) for p in self.parameters)
+        else:
+            base = (len(self.member_values),)
+        return base + ((self.replicates,) if self.replicates > 1 else ())
 
     def members(self) -> list[Member]:
         """Every member, in C order of the result grid (factorial) or in file order (members)."""
@@ -262,6 +276,15 @@ class EnsembleSpec:
             canon = _canonical(m.values_si)
             m.seed = member_seed(m.values_si, self.seed)
             m.key = "m-" + hashlib.sha256(f"{context}|{canon}".encode()).hexdigest()[:16]
+        if self.replicates > 1:
+            # common random numbers: replicate r has the same seed in every parameter combination, so a
+            # parameter the closure does not depend on gives identical members along its dimension
+            reps = []
+            for m in out:
+                for r in range(self.replicates):
+                    reps.append(Member(len(reps), m.index + (r,), m.values, m.values_si,
+                                       key=f"{m.key}-r{r}", seed=replicate_seed(r, self.seed), replicate=r))
+            out = reps
         return out
 
     def member_table(self, member: Member) -> dict:
@@ -285,6 +308,8 @@ class EnsembleSpec:
     def to_toml(self) -> str:
         """The spec as self-contained TOML (base inlined), for the record in the output directory."""
         ens: dict = {"name": self.name, "runner": self.runner, "design": self.design, "seed": self.seed}
+        if self.replicates > 1:
+            ens["replicates"] = self.replicates
         if self.description:
             ens["description"] = self.description
         if self.options:
@@ -295,6 +320,13 @@ class EnsembleSpec:
         else:
             ens["members"] = [{p.dotted: mv[p.name] for p in self.parameters} for mv in self.member_values]
         return dump_toml({"ensemble": ens, **self.base})
+
+
+def replicate_seed(replicate: int, base_seed: int = 0) -> int:
+    """Seed of replicate *replicate* (63 bits, SHA-256 of the spec seed and the replicate number): the same
+    in every parameter combination (common random numbers across the varied parameters)."""
+    digest = hashlib.sha256(f"{int(base_seed)}|replicate|{int(replicate)}".encode()).digest()
+    return int.from_bytes(digest[:8], "little") >> 1
 
 
 def member_seed(values_si: dict, base_seed: int = 0) -> int:

@@ -10,6 +10,11 @@ Per particle, with ``V_sub`` the submerged volume (spherical cap while straddlin
   integrators add to ``m``; :meth:`FluidForces.accumulate` adds the convective part ``xi rho_W V_sub (u(x_pred) - u(x)) / dt``
   with ``x_pred = x + v dt`` in the frozen field (Fig 4.3 Step 7H);
 * fluid torque from the gridpoints in the particle's neighbourhood (Step 7E, Fig 4.4);
+* the water velocity at a particle is the depth-averaged one times the vertical profile factor at the
+  particle's centre height (``velocity_profile``: ``uniform`` (default, the report), ``log``, ``power``;
+  :mod:`breachflow.fluid.profile`; the drag, the Basset history and the convective apparent-mass term use
+  it; buoyancy and apparent mass do not depend on it, and the gridpoint torque still uses the
+  depth-averaged gridpoint velocities);
 * optional (``basset=True``) Basset history force ``-phi 6 a^2 sqrt(pi rho_W mu_W) int r_W' / sqrt(t - tau)``
   (eq 3.13, :mod:`breachflow.fluid.basset`); the history advances through :meth:`FluidForces.commit`, which
   the DEM and the free-flight integrators call once per accepted step, and is saved with the DEM state
@@ -42,6 +47,8 @@ from . import kernels as K
 from .basset import BassetHistory, basset_coefficient
 from .drag import DragLaw, get_drag_law
 from .field import as_field
+from .profile import factors as profile_factors_np
+from .profile import profile_code, roughness_from_manning
 
 #: standard gravity (m/s^2); the DEM's ``breachflow.dem.forces.G`` is the same value
 G = 9.80665
@@ -97,6 +104,12 @@ class FluidForces:
         ``"error"`` or ``"air"``, what a particle outside the field sees.
     gravity
         ``g`` (m/s^2) for buoyancy.
+    velocity_profile
+        ``uniform`` | ``log`` | ``power`` (:mod:`breachflow.fluid.profile`): the water velocity a particle
+        feels at its centre height ``z - z_bed`` is ``U * profile_factor(...)``.
+    roughness, manning
+        Roughness height ``k_s`` (m) of the log law; ``None`` derives it from Manning's *manning*
+        (Manning–Strickler, :func:`~breachflow.fluid.profile.roughness_from_manning`).
     basset
         Add the Basset history force (off by default; SPEC §6); ``basset_range`` ``(s_min, s_max)`` (s)
         is where its kernel quadrature is accurate (relative ~3e-7).
@@ -109,7 +122,13 @@ class FluidForces:
                  water: Fluid = WATER, air: Fluid | None = AIR, xi: float = 0.5, torque: bool = True,
                  time_step: float | None = None, wind=(0.0, 0.0, 0.0), outside: str = "error",
                  gravity: float = G, torque_points: int = 5, basset: bool = False,
-                 basset_range=(1e-8, 1e5), compiled: bool = True):
+                 basset_range=(1e-8, 1e5), velocity_profile: str = "uniform", roughness: float | None = None,
+                 manning: float = 0.025, compiled: bool = True):
+        self.velocity_profile = str(velocity_profile)
+        self.profile_code = profile_code(self.velocity_profile)
+        self.roughness = float(roughness_from_manning(manning) if roughness is None else roughness)
+        if not (np.isfinite(self.roughness) and self.roughness > 0):
+            raise InputError(f"FluidForces: roughness height must be > 0 m, got {roughness!r} (manning {manning!r})")
         self.field = as_field(field, sampling)
         self.drag_law = get_drag_law(drag_law)
         self.water = water
@@ -135,7 +154,9 @@ class FluidForces:
         from . import compiled as C
 
         sampler = getattr(self.field, "sampler", None)
-        if self.basset is not None or sampler is None or sampler.kind != "grid" or self.field.uniform:
+        # the fused kernel reads the depth-averaged velocity only: a vertical profile takes the step-by-step path
+        if (self.basset is not None or self.profile_code != 0 or sampler is None or sampler.kind != "grid"
+                or self.field.uniform):
             return None
         method = {"bilinear": C.BILINEAR, "linear": C.BILINEAR, "barycentric": C.BILINEAR,
                   "neighbourhood": C.NEIGHBOURHOOD, "neighborhood": C.NEIGHBOURHOOD}.get(sampler.method)
@@ -186,7 +207,16 @@ class FluidForces:
             bed = np.where(inside, bed, -np.inf)
             u = np.where(inside, u, 0.0)
             v = np.where(inside, v, 0.0)
+        if self.profile_code != 0:
+            u, v = self._profiled(pos, surface, bed, u, v)
         return surface, bed, u, v, inside
+
+    def _profiled(self, pos, surface, bed, u, v):
+        """``(u, v)`` times the vertical profile factor at the particles' centre heights."""
+        depth = np.where(np.isfinite(surface) & np.isfinite(bed), surface - bed, 0.0)
+        z = np.where(np.isfinite(bed), pos[:, 2] - bed, 0.0)
+        f = profile_factors_np(self.profile_code, z, depth, self.roughness)
+        return u * f, v * f
 
     def submerged_fraction(self, pos, radius) -> np.ndarray:
         """``V_sub / V`` of spheres at *pos* (N,3) with *radius* (N,)."""
@@ -313,8 +343,11 @@ class FluidForces:
         ahead = p + w * horizon
         s1 = self.field.sample(ahead[:, 0], ahead[:, 1], rad)
         ok = np.asarray(s1.inside, bool) & inside
-        u1 = np.where(ok, s1.u, u)
-        v1 = np.where(ok, s1.v, v)
+        su, sv = np.asarray(s1.u, float), np.asarray(s1.v, float)
+        if self.profile_code != 0:
+            su, sv = self._profiled(ahead, np.asarray(s1.surface, float), np.asarray(s1.bed, float), su, sv)
+        u1 = np.where(ok, su, u)
+        v1 = np.where(ok, sv, v)
         K.convective_added_mass(rad, phi, u, v, u1, v1, horizon, self.water.rho, self.xi, f)
 
     def _torque(self, p, w, om, rad, phi, u, v, tq):
@@ -332,4 +365,4 @@ class FluidForces:
 
     def __repr__(self):
         return (f"FluidForces(field={self.field!r}, drag_law={self.drag_law.name!r}, xi={self.xi}, "
-                f"air={'on' if self.air else 'off'}, torque={self.torque}, basset={self.basset is not None})")
+                f"air={'on' if self.air else 'off'}, profile={self.velocity_profile!r}, torque={self.torque}, basset={self.basset is not None})")

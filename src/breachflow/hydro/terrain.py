@@ -130,6 +130,9 @@ class Domain:
     initial_surface: np.ndarray | None = None
     name: str = ""
     crs_wkt: str | None = None
+    #: a porous rock pile (:class:`breachflow.hydro.swe.porous.PorousPile`) flowed through with
+    #: Forchheimer resistance by the ``swe`` solver; None = none
+    porous: object | None = None
 
     def __post_init__(self):
         self.x = np.asarray(self.x, dtype=float)
@@ -188,6 +191,14 @@ class Domain:
         target = np.broadcast_to(np.asarray(elevation, dtype=float), bed.shape)
         bed[mask] = np.maximum(bed[mask], target[mask])
         d = replace(self, bed=bed)
+        _copy_spacing(self, d)
+        return d
+
+    def with_porous(self, pile) -> "Domain":
+        """A copy with the porous pile *pile* (a ``PorousPile`` of this shape, or None)."""
+        if pile is not None and np.shape(pile.height) != self.shape:
+            raise InputError(f"Domain: porous pile shape {np.shape(pile.height)} differs from {self.shape}")
+        d = replace(self, porous=pile)
         _copy_spacing(self, d)
         return d
 

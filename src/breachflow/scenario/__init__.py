@@ -17,6 +17,7 @@ from .geometry import BreachGeometry, BreachScene, LeveeGeometry, typical_breach
 from .growth import breach_length, growth_equations, max_breach_length, max_length_equations
 from .hydrograph import LinearHydrograph, MeasuredHydrograph, first_crossing
 from .presets import FloodPreset, flood_preset, flood_presets
+from .stone import StoneEstimate, stone_size
 from .wind import CRANE_WIND_LIMITS, WindRecord
 from .window import closure_window
 
@@ -26,5 +27,5 @@ __all__ = [
     "flood_preset", "flood_presets", "FloodPreset", "load_scenario", "parse_scenario", "register_section",
     "Scenario", "run_scenario", "model_problem", "typical_breach_growth", "ScenarioResult",
     "LinearHydrograph", "MeasuredHydrograph", "first_crossing", "WindRecord", "CRANE_WIND_LIMITS",
-    "BreachGeometry", "BreachScene", "LeveeGeometry", "typical_breach",
+    "BreachGeometry", "BreachScene", "LeveeGeometry", "typical_breach", "stone_size", "StoneEstimate",
 ]

@@ -96,6 +96,7 @@ class SWESimulation:
         self.manning[P:-P, P:-P] = d.manning
         self.obst = np.zeros(shape, np.int8)
         self.obst[P:-P, P:-P] = d.obstacle
+        self._set_porous(d, shape)
         # wall sides: ghost cells flagged as obstacles make their faces reflective
         # discharge inlets: code 2 makes their faces take the prescribed (ghost) state's flux
         wall = np.where(self.kinds == K.BC_WALL, 1, np.where(self.kinds == K.BC_DISCHARGE, 2, 0))
@@ -116,6 +117,21 @@ class SWESimulation:
         self.history = ConvergenceHistory()
         self._set_initial(initial)
         self.outer_velocity = self._initial_outer_velocity()
+
+    # ------------------------------------------------------------------ porous pile (swe/porous.py)
+    def _set_porous(self, d, shape):
+        """Padded pile arrays; Manning friction is replaced by the pile's law in pile cells."""
+        pile = getattr(d, "porous", None)
+        self.porous = pile if pile is not None and pile.any else None
+        if self.porous is None:
+            return
+        P = K.G
+        self.pile = {k: np.zeros(shape) for k in ("height", "A", "B", "n_free")}
+        for k in ("height", "A", "B"):
+            self.pile[k][P:-P, P:-P] = getattr(pile, k)
+        self.pile["n_free"][P:-P, P:-P] = d.manning
+        self.pile["height"][self.obst != 0] = 0.0
+        self.manning[self.pile["height"] > 0] = 0.0
 
     # ------------------------------------------------------------------ state
     def _set_initial(self, initial):
@@ -198,12 +214,15 @@ class SWESimulation:
         if o.threads:
             numba.set_num_threads(max(1, min(int(o.threads), numba.config.NUMBA_NUM_THREADS)))
         try:
-            t, steps, status = K.advance(
-                self.h, self.hu, self.hv, self.z, self.obst, self.manning, self.bed_dz,
-                self.kinds, self.times, self.levels, self.discharges, self.outer_velocity, self.relaxation,
-                self.dx, self.dy, o.gravity, o.order == 2, K.LIMITERS[o.limiter], K.RIEMANN[o.riemann],
-                o.courant, o.h_dry, float(self.t), float(t_end), int(max_steps), o.dt_min,
-                w[0], w[1], w[2], w[3], w[4], w[5], w[6], w[7], w[8], self._faces, self.stats)
+            if self.porous is not None:
+                t, steps, status = self._advance_porous(t_end, max_steps)
+            else:
+                t, steps, status = K.advance(
+                    self.h, self.hu, self.hv, self.z, self.obst, self.manning, self.bed_dz,
+                    self.kinds, self.times, self.levels, self.discharges, self.outer_velocity, self.relaxation,
+                    self.dx, self.dy, o.gravity, o.order == 2, K.LIMITERS[o.limiter], K.RIEMANN[o.riemann],
+                    o.courant, o.h_dry, float(self.t), float(t_end), int(max_steps), o.dt_min,
+                    w[0], w[1], w[2], w[3], w[4], w[5], w[6], w[7], w[8], self._faces, self.stats)
         finally:
             numba.set_num_threads(previous_threads)
         self.t = t
@@ -234,6 +253,28 @@ class SWESimulation:
         if not ((d.x >= x0) & (d.x <= x1)).any():
             raise InputError(f"section {section!r} holds no cell of the domain")
         return j, cols
+
+    def _advance_porous(self, t_end, max_steps):
+        """March step by step, applying the pile's implicit Forchheimer term after each step (Lie splitting)."""
+        from .porous import porous_resistance
+
+        o = self.options
+        w = self._work
+        pl = self.pile
+        t, steps, status = float(self.t), 0, 1
+        while t < t_end and steps < max_steps:
+            t1, n, status = K.advance(
+                self.h, self.hu, self.hv, self.z, self.obst, self.manning, self.bed_dz,
+                self.kinds, self.times, self.levels, self.discharges, self.outer_velocity, self.relaxation,
+                self.dx, self.dy, o.gravity, o.order == 2, K.LIMITERS[o.limiter], K.RIEMANN[o.riemann],
+                o.courant, o.h_dry, t, float(t_end), 1, o.dt_min,
+                w[0], w[1], w[2], w[3], w[4], w[5], w[6], w[7], w[8], self._faces, self.stats)
+            if status == 2 or n == 0:
+                return t1, steps + n, 2 if status == 2 else status
+            porous_resistance(self.h, self.hu, self.hv, pl["height"], pl["A"], pl["B"], pl["n_free"], t1 - t,
+                              o.gravity, o.h_dry)
+            t, steps = t1, steps + n
+        return t, steps, 0 if t >= t_end else 1
 
     def run_to_steady(self, tolerance: float = 1e-4, t_max: float = 3600.0, check_interval: float | None = None,
                       min_time: float = 0.0, region=None, progress=None, section=None) -> ConvergenceHistory:
