@@ -43,3 +43,18 @@ def test_outcome_warnings_count():
     assert "2 of 30 masses were still moving" in w[1]
     assert "smaller than Izbash" in w[2]
     assert outcome_warnings(0, 0, 30, 2.0, 1.7) == []
+
+
+def test_summary_shows_warnings_verbatim():
+    """A warning starting with its scenario section, ``[placement] ...``, is printed as written (rich would
+    otherwise take ``[placement]`` for a markup tag and drop it)."""
+    from rich.console import Console
+
+    from breachflow.cli.run import summary_table
+
+    w = _setup('diameter = "2 m"\nbatch = 8\nstart = ["-5 m", "0 m"]\nstop = ["5 m", "0 m"]').warnings
+    con = Console(width=400, record=True, file=open("/dev/null", "w"))
+    con.print(summary_table([("warning", w[0]), ("[bold]", "[/x]")]))
+    text = con.export_text()
+    assert "[placement] a batch of 8 masses" in text
+    assert "[bold]" in text and "[/x]" in text

@@ -182,12 +182,7 @@ def run_closure_cli(scenario: Path | None, out: Path, resume: bool, overwrite: b
     try:
         res = run_closure(scenario, out, resume=resume, overwrite=overwrite, progress=progress, plots=plots,
                           on_start=on_start)
-        summary = Table(title="closure summary", show_header=False)
-        summary.add_column("quantity")
-        summary.add_column("value")
-        for k, v in res.table_rows():
-            summary.add_row(k, v)
-        console.print(summary)
+        console.print(summary_table(res.table_rows()))
         for p in res.plots:
             console.print(f"wrote {p}", highlight=False)
     except BaseException as exc:
@@ -252,3 +247,16 @@ def register(app: typer.Typer) -> None:
         if problems:
             raise typer.BadParameter("; ".join(problems))
         console().print(f"wrote {rd.combine(out)} ({len(rd.completed_cycles())} cycles)", highlight=False)
+
+
+def summary_table(rows):
+    """The closure summary as a rich Table; *rows* are plain text (a warning's ``[placement]`` is no markup)."""
+    from rich.markup import escape
+    from rich.table import Table
+
+    summary = Table(title="closure summary", show_header=False)
+    summary.add_column("quantity")
+    summary.add_column("value")
+    for k, v in rows:
+        summary.add_row(escape(k), escape(v))
+    return summary
