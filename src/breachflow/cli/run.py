@@ -140,8 +140,6 @@ def check_run_target(scenario: Path | None, out: Path, resume: bool, overwrite: 
 def run_closure_cli(scenario: Path | None, out: Path, resume: bool, overwrite: bool, plots: bool, console) -> None:
     """The closure run with a live progress line per cycle and a summary table; the console output (and
     warnings) also go to ``OUT/run.log``."""
-    from rich.table import Table
-
     from ..cycle.main import run_closure
     from ._common import VERBOSE, fmt
 
