@@ -46,6 +46,9 @@ def test_piped_output_is_not_wrapped_and_floats_are_rounded():
     p = _bf("growth", "--levee-height", "10 ft")
     assert p.returncode == 0, p.stderr
     assert "h_W = 3.048 m" in p.stdout and "3.0479999" not in p.stdout
+    # table titles are not broken over lines either (they wrapped at the table's own width)
+    title = next(l for l in p.stdout.splitlines() if l.startswith("Breach length B (m) vs development time"))
+    assert title.rstrip().endswith("h_W = 3.048 m"), title
 
 
 def test_quiet_and_verbose():

@@ -46,7 +46,7 @@ def _text(ds: xr.Dataset, var: str, si: str, unit: str) -> str:
 
 def window_table(datasets, names, title="Breach closure window") -> Table:
     """One column per scalar closure-window Dataset (as the report's Table 2.5)."""
-    table = Table(title=title, title_justify="left")
+    table = Table(title=title, title_justify="left", min_width=len(title))
     table.add_column("variable")
     for n in names:
         table.add_column(n, justify="right")
@@ -65,7 +65,7 @@ def window_grid_table(ds: xr.Dataset, title="Breach closure window") -> Table:
     """One row per combination of the swept inputs of a vectorised closure-window Dataset."""
     dims = list(ds["closure_window"].dims)
     frame = ds[["balance_time", "inundation_time", "closure_window", "depth_at_window_end", "governing"]].to_dataframe()
-    table = Table(title=title, title_justify="left")
+    table = Table(title=title, title_justify="left", min_width=len(title))
     units = {"surge_height": ("m", "m"), "fall_rate": ("m/s", "cm/h"), "rise_rate": ("m/s", "cm/h"),
              "polder_area": ("m^2", "ha"), "inundation_depth": ("m", "m"), "breach_length": ("m", "m"),
              "breach_discharge": ("m^3/s", "m^3/s"), "pump_capacity": ("m^3/s", "m^3/s"), "breach_time": ("s", "h")}
@@ -96,7 +96,7 @@ def growth_table(growth: xr.DataArray, title="Breach length B (m) vs development
     """Rows: equations (number, short title); columns: B at each development time [, t_D to reach a length]."""
     from .growth import growth_equations
 
-    table = Table(title=title, title_justify="left")
+    table = Table(title=title, title_justify="left", min_width=len(title))
     table.add_column("eq")
     table.add_column("equation")
     times = np.atleast_1d(growth["development_time"].values) if "development_time" in growth.dims else []
@@ -122,7 +122,7 @@ def growth_table(growth: xr.DataArray, title="Breach length B (m) vs development
 def max_length_table(max_len: xr.DataArray, title="Maximum breach length") -> Table:
     from .growth import max_length_equations
 
-    table = Table(title=title, title_justify="left")
+    table = Table(title=title, title_justify="left", min_width=len(title))
     for col in ("eq", "source", "formula", "B_max"):
         table.add_column(col, justify="right" if col == "B_max" else "left")
     for eq in np.atleast_1d(max_len["equation"].values):
