@@ -51,6 +51,27 @@ def contact_window(u, w, lo, hi):
 
 
 @numba.njit(cache=True, inline="always", error_model="numpy")
+def history_in_plane(hist, p, nx, ny, nz):
+    """Row *p* of a contact history (shear or rolling) rotated into the plane normal to ``n``, its
+    length kept (the contact plane turns as the partners move); also returns that length."""
+    h0x = hist[p, 0]
+    h0y = hist[p, 1]
+    h0z = hist[p, 2]
+    h0 = math.sqrt(h0x * h0x + h0y * h0y + h0z * h0z)
+    hn = h0x * nx + h0y * ny + h0z * nz
+    hx = h0x - hn * nx
+    hy = h0y - hn * ny
+    hz = h0z - hn * nz
+    h1 = math.sqrt(hx * hx + hy * hy + hz * hz)
+    if h1 > 0.0:
+        sc = h0 / h1
+        hx *= sc
+        hy *= sc
+        hz *= sc
+    return hx, hy, hz, h0
+
+
+@numba.njit(cache=True, inline="always", error_model="numpy")
 def contact_law(nx, ny, nz, overlap, vx, vy, vz, gx, gy, gz, hist, p, kn, ks, c_cn, c_cs, c_cf, alpha, beta, dt, lo,
                 hi, out):
     """Force on particle i from one contact (SPEC §5), averaged over the integrator's force window;
@@ -94,20 +115,7 @@ def contact_law(nx, ny, nz, overlap, vx, vy, vz, gx, gy, gz, hist, p, kn, ks, c_
     ty = vy - vn * ny
     tz = vz - vn * nz
     # rotate the history into the current tangent plane, keeping its length
-    h0x = hist[p, 0]
-    h0y = hist[p, 1]
-    h0z = hist[p, 2]
-    h0 = math.sqrt(h0x * h0x + h0y * h0y + h0z * h0z)
-    hn = h0x * nx + h0y * ny + h0z * nz
-    hx = h0x - hn * nx
-    hy = h0y - hn * ny
-    hz = h0z - hn * nz
-    h1 = math.sqrt(hx * hx + hy * hy + hz * hz)
-    if h1 > 0.0:
-        sc = h0 / h1
-        hx *= sc
-        hy *= sc
-        hz *= sc
+    hx, hy, hz, h0 = history_in_plane(hist, p, nx, ny, nz)
     slipping = False
     gn = gx * nx + gy * ny + gz * nz
     if overlap > 0.0:  # in contact at the evaluation time: advance the stored history
@@ -217,20 +225,7 @@ def rolling_law(nx, ny, nz, wx, wy, wz, fn, r_eff, mu_r, kn, i_eff, rhist, p, dt
     tx = wx - wn * nx
     ty = wy - wn * ny
     tz = wz - wn * nz
-    h0x = rhist[p, 0]
-    h0y = rhist[p, 1]
-    h0z = rhist[p, 2]
-    h0 = math.sqrt(h0x * h0x + h0y * h0y + h0z * h0z)
-    hn = h0x * nx + h0y * ny + h0z * nz
-    hx = h0x - hn * nx
-    hy = h0y - hn * ny
-    hz = h0z - hn * nz
-    h1 = math.sqrt(hx * hx + hy * hy + hz * hz)
-    if h1 > 0.0:
-        sc = h0 / h1
-        hx *= sc
-        hy *= sc
-        hz *= sc
+    hx, hy, hz, _ = history_in_plane(rhist, p, nx, ny, nz)
     kr = ROLLING_STIFFNESS * kn * mu_r * mu_r * r_eff * r_eff
     hx -= kr * tx * dt
     hy -= kr * ty * dt
