@@ -30,6 +30,23 @@ def _pyproject_hash() -> str:
     return hashlib.sha256((ROOT / "pyproject.toml").read_bytes()).hexdigest()
 
 
+def _numba_cache_dir() -> str:
+    """numba's on-disk cache (``cache=True``), one folder per state of the sources. numba checks only the
+    file of the function it caches, so a kernel that inlines a helper from another module (the DEM contact
+    law into the contact kernels) would keep a stale build after that helper changes; keying the folder on
+    every source file avoids that. Folders of earlier source states are removed."""
+    h = hashlib.sha256()
+    for f in sorted((ROOT / "src" / "breachflow").rglob("*.py")):
+        h.update(f.relative_to(ROOT).as_posix().encode() + b"\0" + f.read_bytes())
+    base = ROOT / ".numba_cache"
+    here = base / h.hexdigest()[:16]
+    if base.is_dir() and not here.is_dir():
+        for old in base.iterdir():
+            if old.is_dir():
+                shutil.rmtree(old, ignore_errors=True)
+    return str(here)
+
+
 def ensure_env() -> None:
     if not PY.exists():
         print(f"[tasks] creating virtual environment in {VENV}", flush=True)
@@ -45,7 +62,7 @@ def ensure_env() -> None:
     # compile the numba kernels once now, so that the first run does not spend most of its time compiling
     print("[tasks] compiling the numba kernels into the cache (once per install, about 30 CPU s)", flush=True)
     env = dict(os.environ)
-    env.setdefault("NUMBA_CACHE_DIR", str(ROOT / ".numba_cache"))
+    env.setdefault("NUMBA_CACHE_DIR", _numba_cache_dir())
     if subprocess.run([str(PY), "-m", "breachflow.warmup"], env=env).returncode:
         print("[tasks] warning: the numba warm-up failed; kernels compile on first use", file=sys.stderr, flush=True)
     STAMP.write_text(want)
@@ -81,8 +98,8 @@ def main(argv: list[str]) -> int:
     task, rest = argv[0], argv[1:]
     ensure_env()
     env = dict(os.environ)
-    # numba's on-disk cache lives next to the sources (cache=True); keep it out of the way of read-only trees
-    env.setdefault("NUMBA_CACHE_DIR", str(ROOT / ".numba_cache"))
+    # numba's on-disk cache lives next to the sources (cache=True), keyed on their state (_numba_cache_dir)
+    env.setdefault("NUMBA_CACHE_DIR", _numba_cache_dir())
     if task == "run":
         cmd = [str(BIN / "breachflow"), "run", *rest]
     elif task == "test":
