@@ -17,9 +17,10 @@ runner = CliRunner()
 DATA = os.path.join(os.path.dirname(__file__), "hydro_io", "data")
 
 
-def _bf(*args, **kw):
+def _bf(*args, extra_env=None, **kw):
     """`python -m breachflow ARGS` in a subprocess with stdout/stderr piped (not a terminal), no COLUMNS."""
-    env = {k: v for k, v in os.environ.items() if k not in ("COLUMNS", "LINES")}
+    env = {k: v for k, v in os.environ.items() if k not in ("COLUMNS", "LINES", "TERMINAL_WIDTH")}
+    env.update(extra_env or {})
     return subprocess.run([sys.executable, "-m", "breachflow", *args], capture_output=True, text=True, env=env,
                           timeout=300, **kw)
 
@@ -142,3 +143,18 @@ def test_run_to_steady_reports_progress():
     assert not hist.converged and len(seen) == 5
     assert [n for _, n in seen] == list(range(1, len(hist.time) + 1))
     assert np.all(np.diff([t for t, _ in seen]) > 0) and seen[-1][0] == pytest.approx(5.0)
+
+
+@pytest.mark.parametrize("command", ["run", "ingest", "ensemble", "export", "stone-size"])
+def test_piped_help_is_not_squeezed_to_80_columns(command):
+    """Piped, rich drew --help at 80 columns: each option's description became a narrow column broken
+    every few words. Piped help is 120 wide (or $COLUMNS)."""
+    p = _bf(command, "--help")
+    assert p.returncode == 0, p.stderr
+    lines = p.stdout.splitlines()
+    assert max(len(l) for l in lines) == 120, max(len(l) for l in lines)
+    narrow = _bf(command, "--help", extra_env={"COLUMNS": "70"})
+    assert max(len(l) for l in narrow.stdout.splitlines()) == 70
+    if command == "ingest":
+        row = next(l for l in lines if "--crs" in l)
+        assert "(overrides the files); in the" in row, row

@@ -416,3 +416,60 @@ def test_replicates_give_probabilities_with_wilson_intervals(client, tmp_path):
 
     seeds = {m.replicate: m.seed for m in load_spec(spec).members()}
     np.testing.assert_array_equal(ds["member_seed"].values[0], [seeds[r] for r in range(40)])
+
+
+class StampingRunner:
+    """Writes a NetCDF file through the package's provenance helper, as the closure runner's cycle files do."""
+
+    sections = None
+    outputs = {}
+
+    def run(self, member, run_dir, seed):
+        from breachflow.output.provenance import stamp
+
+        stamp(xr.Dataset({"x": ((), 1.0)})).to_netcdf(Path(run_dir) / "member.nc")
+        return {"one": (1.0, "m")}
+
+
+member_runners.register("stamping_test_runner", StampingRunner, overwrite=True)
+
+
+def test_member_files_record_the_ensemble_command_not_the_workers(client, tmp_path):
+    from breachflow.output import provenance
+
+    spec = write_spec(tmp_path, '"breach.length" = ["20 m", "40 m"]', runner="stamping_test_runner")
+    provenance.set_command(["ensemble", str(spec), "--out", str(tmp_path / "o")])
+    try:
+        run(spec, out=tmp_path / "o", client=client, progress=False)
+    finally:
+        provenance.set_command(None)
+    files = sorted((tmp_path / "o" / "members").glob("*/member.nc"))
+    assert len(files) == 2
+    want = f"breachflow ensemble {spec} --out {tmp_path / 'o'}"
+    for f in files:
+        with xr.open_dataset(f) as ds:
+            assert ds.attrs["breachflow_command"] == want, f
+            assert ds.attrs["history"].endswith(want)
+        rec = json.loads((f.parent / "result.json").read_text())
+        assert rec["command"] == want
+
+
+CLOSURE_BASE = BASE + """
+[placement]
+diameter = "2.0 m"
+batch = 2
+"""
+
+
+def test_closure_ensemble_refuses_impossible_members_before_anything_runs(tmp_path):
+    path = tmp_path / "spec.toml"
+    path.write_text('[ensemble]\nname = "t"\nrunner = "closure"\n[ensemble.vary]\n'
+                    '"placement.density" = ["2650 kg/m^3", "900 kg/m^3", "1000 kg/m^3"]\n' + CLOSURE_BASE)
+    out = tmp_path / "out"
+    with pytest.raises(InputError) as err:
+        run(path, out=out, progress=False)  # no client needed: nothing may start
+    msg = str(err.value)
+    assert "2 of 3 ensemble members cannot run" in msg
+    assert "placement_density = 900" in msg and "placement_density = 1000" in msg
+    assert "not heavier than water" in msg and "= 2650" not in msg
+    assert not out.exists()

@@ -132,3 +132,55 @@ def test_default_crs_cycle_grid_lands_at_the_documented_local_crs(checker, tmp_p
     assert mod.crs_problems(grid) == []
     rep = mod.cf_check(grid, table)
     assert (rep.errors, rep.warnings) == (0, 0), "\n".join(rep.messages or [rep.output])
+
+
+DATA = ROOT / "tests" / "hydro_io" / "data"
+INGESTS = {
+    "hecras_sdf": [DATA / "RASExport.sdf"],
+    "adh_mesh": [DATA / "adh_demo.3dm", DATA / "adh_demo_dep.dat", DATA / "adh_demo_vel.dat", DATA / "adh_demo.bc"],
+    "hecras_hdf_muncie": [DATA / "hecras" / "Muncie2DOnly_SI.p01.steps_0_25_48.hdf"],  # real HEC-RAS 6 results
+}
+
+
+@pytest.mark.parametrize("name", sorted(INGESTS))
+def test_ingested_mesh_snapshots_pass_the_cf_checker(checker, tmp_path, name):
+    """UGRID mesh snapshots as `breachflow ingest` writes them: no vlen strings (HEC-RAS profile names are
+    CF char arrays), and the UGRID variables pass the UGRID-1.0 rules that replace cfchecker's CF-§9.5-only
+    cf_role check."""
+    from breachflow.hydro.io import open_snapshot
+    from breachflow.hydro.snapshot import read_snapshot, write_snapshot
+
+    if name.startswith("hecras_hdf"):
+        pytest.importorskip("rashdf")
+    mod, table = checker
+    path = write_snapshot(open_snapshot(INGESTS[name]), tmp_path / f"{name}.nc")
+    rep = mod.cf_check(path, table)
+    assert (rep.errors, rep.warnings) == (0, 0), rep.messages
+    roles, problems = mod.ugrid_problems(path)
+    assert roles == {"mesh2d": "mesh_topology", "mesh2d_face_nodes": "face_node_connectivity"} and problems == []
+    back = read_snapshot(path)
+    if "profile_name" in back:
+        assert [str(p) for p in back["profile_name"].values] == ["PF 1", "PF 2"]
+
+
+def test_the_ugrid_check_catches_broken_meshes(checker, tmp_path):
+    """The replacement check is not a blanket pass: bad connectivity and missing attributes are errors."""
+    import netCDF4
+
+    from breachflow.hydro.io import open_snapshot
+    from breachflow.hydro.snapshot import write_snapshot
+
+    mod, table = checker
+    good = write_snapshot(open_snapshot(INGESTS["adh_mesh"]), tmp_path / "good.nc")
+    cases = {
+        "index": lambda d: d["mesh2d_face_nodes"].__setitem__((0, 0), 10**6),
+        "coords": lambda d: d["mesh2d"].delncattr("node_coordinates"),
+        "faces": lambda d: d["mesh2d"].setncattr("face_node_connectivity", "no_such_variable"),
+    }
+    for what, edit in cases.items():
+        bad = tmp_path / f"bad_{what}.nc"
+        bad.write_bytes(good.read_bytes())
+        with netCDF4.Dataset(bad, "a") as d:
+            edit(d)
+        rep = mod.cf_check(bad, table)
+        assert rep.errors >= 1 and any("UGRID-1.0" in m for m in rep.messages), (what, rep.messages)

@@ -9,6 +9,12 @@ import importlib
 import pkgutil
 
 import typer
+import typer.rich_utils
+
+from ._common import help_width
+
+if help_width() is not None and typer.rich_utils.MAX_WIDTH is None:  # TERMINAL_WIDTH, if set, wins
+    typer.rich_utils.MAX_WIDTH = help_width()
 
 app = typer.Typer(
     name="breachflow",

@@ -35,6 +35,18 @@ def _width(stream) -> int | None:
     return int(cols) if cols.isdigit() and int(cols) > 0 else PIPE_WIDTH
 
 
+#: width of ``--help`` when piped or redirected and ``$COLUMNS`` is not set: rich would assume 80 columns
+#: and squeeze each option's description into a narrow column of the help panels
+PIPE_HELP_WIDTH = 120
+
+
+def help_width() -> int | None:
+    """Width of ``--help`` output: None on a terminal (rich asks it), else ``$COLUMNS`` when set, else
+    :data:`PIPE_HELP_WIDTH` (help panels are boxes as wide as the console, so not :data:`PIPE_WIDTH`)."""
+    w = _width(sys.stdout)
+    return None if w is None else (PIPE_HELP_WIDTH if w == PIPE_WIDTH else w)
+
+
 class UIConsole(Console):
     """A rich Console that honours the verbosity level and copies what it prints into a log file."""
 

@@ -22,14 +22,12 @@ def register(app: typer.Typer) -> None:
         time_index: int = typer.Option(-1, "--time-index", help="esri: time step to write (default: the last)."),
     ) -> None:
         """Write a snapshot as ADH/SMS (.3dm, _dep.dat, _vel.dat, .bc), ESRI ASCII grids or a HEC-RAS RASExport.sdf."""
-        from rich.console import Console
-
         from ..errors import InputError
         from ..hydro.io.meshing import to_unaligned_mesh
         from ..hydro.io.sdf_writer import write_sdf
         from ..hydro.io.writers import write_adh, write_esri
         from ..hydro.snapshot import is_mesh, read_snapshot
-        from ._common import pick_out
+        from ._common import console, pick_out
 
         output = pick_out(out, output)
         if output is None:
@@ -50,6 +48,6 @@ def register(app: typer.Typer) -> None:
         else:
             sdf = output if output.suffix.lower() == ".sdf" else output.with_name(output.name + ".sdf")
             paths = [write_sdf(ds, sdf, n_sections=sections, points=points, units=units)]
-        con = Console()
+        con = console()
         for p in paths:
             con.print(f"wrote {p}")

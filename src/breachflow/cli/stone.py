@@ -19,10 +19,10 @@ def register(app: typer.Typer) -> None:
         theta_c: float = typer.Option(0.047, help="critical Shields parameter"),
     ) -> None:
         """Stone diameter by Izbash (exposed 0.86 / embedded 1.2) and Shields, rock volume and tonnage."""
-        from rich.console import Console
         from rich.table import Table
 
         from ..scenario.stone import stone_size
+        from ._common import console
 
         e = stone_size(velocity, depth, breach_length, breach_depth=breach_depth, density=density,
                        porosity=porosity, side_slope=side_slope, crest_width=crest_width, wall_slope=wall_slope,
@@ -40,4 +40,4 @@ def register(app: typer.Typer) -> None:
                           (f"rock volume, porosity {e.porosity:g} (m^3)", f"{e.rock_volume:.1f}"),
                           ("tonnage (t)", f"{e.tonnage:.1f}")):
             t.add_row(name, val)
-        Console().print(t)
+        console().print(t)

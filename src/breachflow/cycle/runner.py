@@ -27,6 +27,16 @@ class ClosureRunner:
             raise InputError(f"member runner 'closure' takes only 'plots', got {sorted(options)}")
         self.plots = bool(plots)
 
+    def check(self, member: MemberScenario) -> list[str]:
+        """Refuse a member whose closure scenario cannot work (``InputError`` from
+        :func:`breachflow.cycle.sanity.check_setup`: masses lighter than water, wider than the breach,
+        released outside the domain) before any member runs; return its warnings."""
+        from ..scenario import parse_scenario
+        from .config import closure_setup
+
+        # parsed afresh (not member.scenario(): its cache would travel to the worker with the task)
+        return list(closure_setup(parse_scenario(member.text(), path=member.path)).warnings)
+
     def run(self, member: MemberScenario, run_dir: Path, seed: int) -> dict[str, Any]:
         from ..scenario import closure_window
         from .main import run_closure

@@ -46,11 +46,16 @@ class MemberTask:
     seed: int
     index: tuple
     fingerprint: str
+    #: the command that planned the ensemble (recorded in the member's files instead of the worker's)
+    command: str | None = None
 
 
 def execute_member(task: MemberTask) -> dict:
     """Run one member in its directory and write ``result.json`` atomically; never raises for member
-    errors (they are recorded with their type and message)."""
+    errors (they are recorded with their type and message). The member's files record the ensemble's
+    command (``task.command``), not the worker process's command line."""
+    from ..output.provenance import using_command
+
     run_dir = Path(task.run_dir)
     run_dir.mkdir(parents=True, exist_ok=True)
     (run_dir / RESULT_FILE).unlink(missing_ok=True)
@@ -58,11 +63,12 @@ def execute_member(task: MemberTask) -> dict:
     record["started"] = time.time()
     t0, c0 = time.perf_counter(), time.thread_time()
     try:
-        sections = getattr(task.runner_cls, "sections", None)
-        task.scenario.write(run_dir / "scenario.toml", sections=sections)
-        runner = task.runner_cls(**task.options)
-        raw = runner.run(task.scenario, run_dir, task.seed)
-        results = normalise_results(raw, getattr(task.runner_cls, "outputs", {}) or {})
+        with using_command(task.command):
+            sections = getattr(task.runner_cls, "sections", None)
+            task.scenario.write(run_dir / "scenario.toml", sections=sections)
+            runner = task.runner_cls(**task.options)
+            raw = runner.run(task.scenario, run_dir, task.seed)
+            results = normalise_results(raw, getattr(task.runner_cls, "outputs", {}) or {})
         record.update(status="ok", results={k: v.to_json() for k, v in results.items()})
     except Exception as exc:  # failure isolation: any member error is data, not a crash
         record.update(status="failed", error_type=type(exc).__name__, error_message=str(exc),
@@ -79,7 +85,7 @@ def _record_head(task: MemberTask) -> dict:
     return {"format": RECORD_FORMAT, "key": sc.key, "number": sc.number, "index": list(task.index),
             "values": sc.values, "values_si": sc.values_si, "parameters": sc.paths, "seed": task.seed,
             "runner": task.runner_name, "options": task.options, "fingerprint": task.fingerprint,
-            "run_dir": task.run_dir}
+            "run_dir": task.run_dir, "command": task.command}
 
 
 def _worker_name() -> str:
@@ -123,6 +129,9 @@ def plan(spec, out=None) -> tuple[EnsembleSpec, Path, list[Member], list[MemberT
         raise InputError(f"[ensemble.options]: member runner {spec.runner!r} does not accept them ({exc})") from None
     members = spec.members()
     fp = spec.fingerprint()
+    from ..output.provenance import command
+
+    cmd = command()
     paths = {p.name: p.dotted for p in spec.parameters}
     tasks = []
     for m in members:
@@ -130,8 +139,31 @@ def plan(spec, out=None) -> tuple[EnsembleSpec, Path, list[Member], list[MemberT
         sc = MemberScenario(key=m.key, number=m.number, table=spec.member_table(m), values=m.values,
                             values_si=m.values_si, paths=paths, path=run_dir / "scenario.toml",
                             replicate=m.replicate)
-        tasks.append(MemberTask(runner_cls, spec.runner, dict(spec.options), sc, str(run_dir), m.seed, m.index, fp))
+        tasks.append(MemberTask(runner_cls, spec.runner, dict(spec.options), sc, str(run_dir), m.seed, m.index, fp,
+                                cmd))
     return spec, out_dir, members, tasks
+
+
+def check_members(tasks: list[MemberTask]) -> list[str]:
+    """Ask the runner to check every member before anything runs (runners with a ``check(member)``
+    method, e.g. ``closure``: physically impossible scenarios). Raises one :class:`InputError` naming
+    each refused member and its varied values; returns the distinct warnings with member counts."""
+    if not tasks or not hasattr(tasks[0].runner_cls, "check"):
+        return []
+    runner = tasks[0].runner_cls(**tasks[0].options)
+    refused, warned = [], {}
+    for t in tasks:
+        values = ", ".join(f"{k} = {v}" for k, v in t.scenario.values.items())
+        try:
+            for w in runner.check(t.scenario) or []:
+                warned[w] = warned.get(w, 0) + 1
+        except InputError as exc:
+            refused.append(f"member {t.scenario.number} ({values}): {exc}")
+    if refused:
+        shown = refused[:10] + ([f"... and {len(refused) - 10} more"] if len(refused) > 10 else [])
+        raise InputError(f"{len(refused)} of {len(tasks)} ensemble members cannot run (nothing was run):\n  "
+                         + "\n  ".join(shown))
+    return [f"{w} ({n} of {len(tasks)} members)" for w, n in warned.items()]
 
 
 def run(spec, *, out=None, scheduler: str | None = None, workers: int | None = None, client=None,
@@ -150,10 +182,13 @@ def run(spec, *, out=None, scheduler: str | None = None, workers: int | None = N
 
     spec, out_dir, members, tasks = plan(spec, out)
     console = console or Console(stderr=True)
+    member_warnings = check_members(tasks)  # before the output directory exists
     out_dir.mkdir(parents=True, exist_ok=True)
     atomic_write_text(out_dir / "spec.toml", spec.to_toml())
     for note in unused_parameters(spec, tasks[0].runner_cls if tasks else None):
         console.print(f"note: {note}", highlight=False, markup=False)
+    for w in member_warnings:
+        console.print(f"warning: {w}", highlight=False, markup=False)
 
     records: list[dict | None] = [None] * len(tasks)
     if resume:

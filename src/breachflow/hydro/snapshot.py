@@ -448,6 +448,10 @@ def write_snapshot(ds: xr.Dataset, path, *, compress: bool = True) -> Path:
             enc["_FillValue"] = None
         if var.dtype.kind == "f" and name in ("x", "y", "time", "mesh2d_node_x", "mesh2d_node_y"):
             enc["_FillValue"] = None
+        if var.dtype.kind in "OUS":
+            # text as a CF char array (CF §2.2), not a NetCDF-4 vlen string: older CF tools and
+            # cfchecker read only char; xarray decodes it back to str through _Encoding
+            enc.update(dtype="S1", char_dim_name=f"{name}_strlen", _Encoding="utf-8")
         if enc:
             encoding[name] = enc
     from ..output.atomic import atomic_write_netcdf

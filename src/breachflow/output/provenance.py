@@ -11,6 +11,8 @@ also prepends a line to the CF ``history`` attribute (CF §2.6.2: an audit trail
 """
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import shlex
 import subprocess
 import sys
@@ -19,6 +21,9 @@ from functools import lru_cache
 from pathlib import Path
 
 _COMMAND: str | None = None
+#: a command set for the current thread / task only (ensemble members run on workers: their files record
+#: the ``breachflow ensemble ...`` command that planned them, not the worker process's command line)
+_TASK_COMMAND: contextvars.ContextVar[str | None] = contextvars.ContextVar("breachflow_command", default=None)
 
 
 def set_command(argv: list[str] | None) -> None:
@@ -27,8 +32,22 @@ def set_command(argv: list[str] | None) -> None:
     _COMMAND = None if argv is None else shlex.join(["breachflow", *argv])
 
 
+@contextlib.contextmanager
+def using_command(cmd: str | None):
+    """Within this block (this thread only), files record *cmd* as the command that wrote them."""
+    token = _TASK_COMMAND.set(cmd)
+    try:
+        yield
+    finally:
+        _TASK_COMMAND.reset(token)
+
+
 def command() -> str:
-    """The recorded CLI command, else the Python command line (``python script.py args``)."""
+    """The command of the current task (:func:`using_command`), else the recorded CLI command, else the
+    Python command line (``python script.py args``)."""
+    task = _TASK_COMMAND.get()
+    if task is not None:
+        return task
     if _COMMAND is not None:
         return _COMMAND
     argv = list(sys.argv) or ["python"]
