@@ -91,6 +91,10 @@ mode = "any"
 max_cycles = 8
 max_speed = "1 m/s"
 blocked_fraction = 0.5
+
+# a quick screening with an impervious pile (the default, a porous pile, needs the overflow / seepage criteria)
+[closure]
+remap = "raised_bed"
 """
 
 

@@ -7,6 +7,8 @@ import xarray as xr
 from breachflow.cycle.config import closure_setup
 from breachflow.cycle.criteria import CycleContext, criteria, section_discharge
 from breachflow.cycle.driver import ClosureRun
+from breachflow.cycle.main import ClosureResult
+from breachflow.errors import InputError
 from breachflow.output import RunDirectory
 from breachflow.scenario.config import parse_scenario
 
@@ -75,3 +77,47 @@ def test_porous_run_resumes_identically(tmp_path):
     _run(tmp_path / "res", cycles=2, resume=True)
     for g in (1, 2):
         _same(full.rundir.cycle_path(g), RunDirectory(tmp_path / "res").cycle_path(g))
+
+
+def _sheet_flow_snapshot():
+    """Still water in the breach area (|y| <= 5 m), a 0.25 m sheet at 3 m/s on the polder 18 m behind it."""
+    x = np.arange(-10.0, 11.0)
+    y = np.arange(-10.0, 31.0)
+    h = np.full((y.size, x.size), 2.0)
+    v = np.zeros_like(h)
+    v[y > 15] = 3.0
+    h[y > 15] = 0.25
+    v[np.abs(y) <= 5] = 0.3
+    return xr.Dataset({"depth": (("y", "x"), h), "u": (("y", "x"), 0 * v), "v": (("y", "x"), v),
+                       "wet": (("y", "x"), h > 0)}, coords={"x": x, "y": y})
+
+
+def test_max_speed_judges_the_breach_area_not_the_polder_sheet_flow():
+    ds = _sheet_flow_snapshot()
+    ctx = CycleContext(cycle=1, snapshot=ds, breach_x=(-6.0, 6.0), levee_y=0.0, area=(-8.0, 8.0, -5.0, 5.0))
+    gap = criteria.get("max_speed")("0.5 m/s").evaluate(ctx)
+    assert gap.value == pytest.approx(0.3) and gap.satisfied
+    anywhere = criteria.get("max_speed")(threshold="0.5 m/s", region="domain").evaluate(ctx)
+    assert anywhere.value == pytest.approx(3.0) and not anywhere.satisfied
+    # without a breach area (a context that has none) the whole domain is judged, as before
+    assert criteria.get("max_speed")("0.5 m/s").value(CycleContext(cycle=1, snapshot=ds)) == pytest.approx(3.0)
+    with pytest.raises(InputError, match="region"):
+        criteria.get("max_speed")(threshold="0.5 m/s", region="polder")
+
+
+def test_seepage_fraction_and_the_closure_statement():
+    ds = _sheet_flow_snapshot()
+    ctx = CycleContext(cycle=1, snapshot=ds, seepage_discharge=-12.0, open_breach_discharge=80.0)
+    r = criteria.get("seepage_fraction")(0.2).evaluate(ctx)
+    assert r.value == pytest.approx(0.15) and r.satisfied
+    # unknown open-breach discharge: never met
+    assert not criteria.get("seepage_fraction")(0.2).evaluate(CycleContext(cycle=1, snapshot=ds)).satisfied
+    res = ClosureResult(run_dir=None, reports=[], closed=True, governing="overflow_discharge+seepage_fraction",
+                        cycles=9, masses=45, tonnage=500.0, operation_time=3600.0, closure_window=None,
+                        feasible=None, wall_time=1.0, peak_speed=6.0, final_discharge=12.1, final_seepage=12.0,
+                        open_breach_discharge=80.0)
+    assert res.statement == ("closed (overflow stopped: 0.10 m³/s over the crest); seepage 12.00 m³/s through the "
+                             "pile (15% of the open breach's 80.0 m³/s) to be sealed with finer fill")
+    assert dict(res.table_rows())["closure achieved"] == "yes: " + res.statement
+    res.final_seepage = 0.0
+    assert res.statement == "closed" and dict(res.table_rows())["closure achieved"] == "yes"

@@ -335,13 +335,13 @@ class CriteriaSection:
 @register_section("closure")
 @dataclass
 class ClosureSection:
-    """``[closure]``: ``remap`` (``raised_bed`` | ``no_flow`` | ``porous``), ``seed``, ``porous_law``
+    """``[closure]``: ``remap`` (``porous``, the default: a leaky rock-fill pile | ``raised_bed`` | ``no_flow``), ``seed``, ``porous_law``
     (``ergun`` | ``van_gent``: Forchheimer coefficients of a porous pile), ``area`` (the breach area
     ``[x0, x1, y0, y1]`` outside which masses count as carried away; default from the scene, see
     :mod:`~breachflow.cycle.losses`), ``loss_limit`` (fraction of a cycle's tonnage whose loss ends the run with a
     "not closable" verdict, default 0.5)."""
 
-    remap: str = "raised_bed"
+    remap: str = "porous"
     seed: int = 0
     area: tuple | None = None
     loss_limit: float = 0.5
@@ -359,7 +359,7 @@ class ClosureSection:
             if not (area[0] < area[1] and area[2] < area[3]):
                 raise ctx.error(f"area must be [x0, x1, y0, y1] with x0 < x1 and y0 < y1, got {val!r}", "area")
         loss = ctx.quantity(table, "loss_limit", "dimensionless", default=0.5, default_unit="", positive=True)
-        out = cls(ctx.raw(table, "remap", default="raised_bed"), ctx.raw(table, "seed", types=(int,), default=0),
+        out = cls(ctx.raw(table, "remap", default="porous"), ctx.raw(table, "seed", types=(int,), default=0),
                   area, float(loss), ctx.raw(table, "porous_law", default="ergun"))
         from ..hydro.swe.porous import FORCHHEIMER_LAWS
         from .remap import REMAP_MODES
@@ -463,9 +463,12 @@ def closure_setup(scenario, *, overrides: dict | None = None):
         # no line given: across the breach along the levee centreline, one radius in from the walls
         r = 0.5 * placement.diameter[1]
         placement.start, placement.stop = (xc - half + r, yc), (xc + half - r, yc)
-    criteria = scenario["criteria"].criteria if "criteria" in scenario else EndCriteria.from_config(
-        {"mode": "any", "max_cycles": 20, "max_speed": "0.5 m/s"})
     closure = scenario.get("closure") or ClosureSection()
+    # without [criteria]: a porous pile is closed when the overflow has stopped and the seepage is below 30 %
+    # of the open breach's discharge (its toe stays fast); an impervious one when the flow in the breach is slow
+    criteria = scenario["criteria"].criteria if "criteria" in scenario else EndCriteria.from_config(
+        {"mode": "all", "max_cycles": 20, "overflow_discharge": "0.5 m^3/s", "seepage_fraction": 0.3}
+        if closure.remap == "porous" else {"mode": "any", "max_cycles": 20, "max_speed": "0.5 m/s"})
     if isinstance(solver, _StageSolver):
         solver.plan = placement
     setup = ClosureSetup(domain=dom, solver=solver, placement=placement, criteria=criteria, dem=dem,

@@ -9,7 +9,7 @@ SPEC   name                    satisfied when
 =====  ======================  ===============================================================
 1      ``blocked_fraction``    resting masses block ≥ threshold of the breach cross-section
 1      ``placed_volume``       solid volume of resting masses ≥ threshold (m³)
-2      ``max_speed``           maximum fluid speed anywhere < threshold (m/s)
+2      ``max_speed``           maximum fluid speed in the breach area (or anywhere) < threshold (m/s)
 3      ``discharge_proxy``     max over subdomains of (max speed × open flow area) < threshold (m³/s)
 3      ``breach_discharge``    absolute discharge through the breach section at the levee line < threshold (m³/s)
 4      ``head_gradient``       max total-head gradient between neighbouring wet cells < threshold
@@ -17,7 +17,14 @@ SPEC   name                    satisfied when
 6      ``speed_change``        change of the maximum speed since the previous cycle < threshold (m/s)
 3      ``seepage_discharge``   its part through a porous pile (``remap = "porous"``) < threshold (m³/s)
 3      ``overflow_discharge``  its part over the pile's crest < threshold (m³/s)
+3      ``seepage_fraction``    seepage / open-breach discharge (before the first mass) < threshold
 =====  ======================  ===============================================================
+
+A porous rock-fill dam is closed when the overflow has stopped — its crest is above the water all across
+the gap — and the seepage through it is small enough for the sealing with finer fill that follows (as at
+the 2004 Jones Tract closure, where the rock-fill was sealed with finer underwater fill afterwards; Harder
+2012, ASDSO Dam Safety 2012): ``mode = "all"`` with ``overflow_discharge`` and ``seepage_discharge`` (m³/s)
+or ``seepage_fraction``; the run reports the remaining seepage as what the sealing must handle.
 """
 from __future__ import annotations
 
@@ -58,6 +65,10 @@ class CycleContext:
     stability_displacement: float | None = None
     #: discharge through the porous pile across the breach section (m³/s; 0 without a porous pile)
     seepage_discharge: float = 0.0
+    #: the breach area ``(x0, x1, y0, y1)`` (m) where ``max_speed`` judges the flow (None: the whole domain)
+    area: tuple | None = None
+    #: breach discharge of the open breach, before the first mass (m³/s; NaN when unknown)
+    open_breach_discharge: float = float("nan")
 
 
 @dataclass(frozen=True)
@@ -152,13 +163,33 @@ class PlacedVolume(Criterion):
 
 @criteria.register("max_speed")
 class MaxSpeed(Criterion):
-    """SPEC §7 criterion 2: max over wet open cells of ``|u|`` (m/s); e.g. 0.2 m/s for fine sands/silts."""
+    """SPEC §7 criterion 2: max over wet open cells of ``|u|`` (m/s); e.g. 0.2 m/s for fine sands/silts.
+
+    ``region = "breach"`` (default) judges the cells in the breach area (``CycleContext.area``: the levee
+    footprint over the breach plus one mass diameter, :mod:`~breachflow.cycle.losses`), where the closure
+    and its scour are; ``"domain"`` every cell, as the report's "anywhere". Far from the breach the speed
+    says nothing about the closure: water a porous pile lets through runs off over the polder as a shallow
+    sheet at metres per second (3.0 m/s 18.5 m behind the levee in the default scene), and a polder still
+    draining keeps moving after an impervious closure. Without an area the whole domain is judged.
+    """
 
     name, kind, units = "max_speed", "speed", "m s-1"
-    description = "maximum depth-averaged fluid speed"
+    description = "maximum depth-averaged fluid speed in the breach area ({ threshold = ..., region = \"domain\" }: anywhere)"
+
+    def __init__(self, threshold, region: str = "breach"):
+        super().__init__(threshold)
+        if region not in ("breach", "domain"):
+            raise InputError(f"criteria.max_speed: region must be 'breach' or 'domain', got {region!r}")
+        self.region = region
 
     def value(self, ctx):
-        s = _speed(ctx.snapshot)[_open_wet(ctx.snapshot)]
+        sel = _open_wet(ctx.snapshot)
+        if self.region == "breach" and ctx.area is not None:
+            x = np.asarray(ctx.snapshot["x"].values, float)
+            y = np.asarray(ctx.snapshot["y"].values, float)
+            x0, x1, y0, y1 = ctx.area
+            sel = sel & ((y >= y0) & (y <= y1))[:, None] & ((x >= x0) & (x <= x1))[None, :]
+        s = _speed(ctx.snapshot)[sel]
         return float(s.max()) if s.size else 0.0
 
 
@@ -329,6 +360,19 @@ class SeepageDischarge(Criterion):
 
     def value(self, ctx):
         return abs(ctx.seepage_discharge)
+
+
+@criteria.register("seepage_fraction")
+class SeepageFraction(Criterion):
+    """The seepage through the porous pile as a fraction of the open breach's discharge (before the first
+    mass; dimensionless). Not met while the open-breach discharge is unknown."""
+
+    name, kind, units = "seepage_fraction", "dimensionless", "1"
+    description = "seepage through the pile / discharge of the open breach"
+
+    def value(self, ctx):
+        q0 = abs(ctx.open_breach_discharge)
+        return abs(ctx.seepage_discharge) / q0 if q0 > 0 else np.inf
 
 
 @criteria.register("overflow_discharge")

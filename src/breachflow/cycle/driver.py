@@ -202,6 +202,7 @@ class ClosureRun:
         self._live = None  # (cycle, DemSimulation) of the last cycle, continued by the next one
         self._pile = IncrementalPileTop(setup.domain.x, setup.domain.y, setup.domain.bed)
         self._pile_height = None  # porous remap: the pile heights of the last solve
+        self._q_open = float("nan")  # breach discharge of the open breach (the initial solve), m³/s
 
     # ------------------------------------------------------------------ restart record
     def _initial_record(self) -> dict:
@@ -222,6 +223,8 @@ class ClosureRun:
             if "pile_height" in rec:
                 self._pile_height = np.asarray(rec["pile_height"], float)
             snapshot = self._grid_only(self.rundir.open_cycle(g0))
+            self._q_open = float(self.rundir.manifest().get("metadata", {}).get("initial", {}).get(
+                "breach_discharge", float("nan")))
             closed = bool(self.rundir.manifest()["cycles"][-1]["summary"].get("closed"))
             if closed or self.rundir.manifest().get("finished"):
                 return self.reports
@@ -235,9 +238,11 @@ class ClosureRun:
             from .criteria import DischargeProxy, MaxSpeed
 
             ctx0 = CycleContext(cycle=0, snapshot=snapshot, breach_x=s.breach_x, levee_y=s.levee_y)
+            self._q_open = section_discharge(snapshot, s.breach_x, s.levee_y)
             self.rundir.update_metadata(initial={
-                "max_speed": MaxSpeed("0 m/s").value(ctx0), "discharge_proxy": DischargeProxy("0 m^3/s").value(ctx0),
-                "breach_discharge": section_discharge(snapshot, s.breach_x, s.levee_y),
+                "max_speed": MaxSpeed("0 m/s", region="domain").value(ctx0),
+                "discharge_proxy": DischargeProxy("0 m^3/s").value(ctx0),
+                "breach_discharge": self._q_open,
                 "gap_speed": gap_speed(snapshot, s.area if s.area is not None else (-np.inf, np.inf, -np.inf, np.inf)),
                 "solve_wall_time": self.initial_solve_time, "solve_cpu_time": initial_solve_cpu}, warnings=list(s.warnings))
         for g in range(g0 + 1, s.criteria.max_cycles + 1):
@@ -431,11 +436,12 @@ class ClosureRun:
         ctx = CycleContext(cycle=g, snapshot=new_snapshot, previous=snapshot, pos=st.pos, radius=st.radius,
                            resting=resting, breach_x=s.breach_x, levee_y=s.levee_y, flood_level=s.flood_level,
                            bottom=s.bottom, stability_displacement=stab,
-                           seepage_discharge=self._seepage(new_snapshot, pile))
+                           seepage_discharge=self._seepage(new_snapshot, pile), area=s.area,
+                           open_breach_discharge=self._q_open)
         closed, results, governing = s.criteria.evaluate(ctx)
         from .criteria import DischargeProxy, MaxSpeed
 
-        max_speed = MaxSpeed("0 m/s").value(ctx)
+        max_speed = MaxSpeed("0 m/s", region="domain").value(ctx)
         proxy = DischargeProxy("0 m^3/s").value(ctx)
         q_breach = section_discharge(new_snapshot, s.breach_x, s.levee_y)
         # 6. write the cycle

@@ -49,14 +49,32 @@ class ClosureResult:
     #: breach discharge and its seepage part after the last cycle (m³/s)
     final_discharge: float = float("nan")
     final_seepage: float = 0.0
+    #: breach discharge of the open breach, before the first mass (m³/s)
+    open_breach_discharge: float = float("nan")
     #: sanity warnings: the scenario's (before the run) and the outcome's (masses lost or never at rest)
     warnings: list = field(default_factory=list)
+
+    @property
+    def statement(self) -> str:
+        """The outcome in one phrase: for a porous pile, "closed (overflow stopped); seepage X m³/s ... to be
+        sealed with finer fill" — a rock-fill dam leaks, and the sealing must take that seepage."""
+        if not self.closed:
+            return "not closed"
+        seep = abs(self.final_seepage)
+        if not seep > 0:
+            return "closed"
+        over = max(abs(self.final_discharge) - seep, 0.0)
+        q0 = abs(self.open_breach_discharge)
+        share = f" ({seep / q0:.0%} of the open breach's {q0:.1f} m³/s)" if q0 > 0 else ""
+        return (f"closed (overflow stopped: {over:.2f} m³/s over the crest); seepage {seep:.2f} m³/s through the "
+                f"pile{share} to be sealed with finer fill")
 
     def table_rows(self) -> list[tuple[str, str]]:
         hrs = lambda s: f"{s / 3600:.2f} h"
         rows = [("cycles", str(self.cycles)), ("masses placed", str(self.masses)),
                 ("tonnage", f"{self.tonnage:.1f} t"), ("closure operation time", hrs(self.operation_time)),
-                ("closure achieved", "yes" if self.closed else "no"),
+                ("closure achieved", ("yes: " + self.statement if self.statement != "closed" else "yes")
+                 if self.closed else "no"),
                 ("governing criterion", self.governing or "-"),
                 ("masses lost (carried out of the breach area)",
                  f"{self.lost_masses} ({self.lost_tonnage:.1f} t){' — FLAGGED' if self.losses_flagged else ''}")]
@@ -137,6 +155,8 @@ def run_closure(scenario=None, out="runs/default", *, resume: bool = False, over
                         losses_flagged=bool(last.get("losses_flagged", False)),
                         final_discharge=float(last.get("breach_discharge", float("nan"))),
                         final_seepage=float(last.get("seepage_discharge", 0.0)),
+                        open_breach_discharge=float(man.get("metadata", {}).get("initial", {}).get(
+                            "breach_discharge", float("nan"))),
                         estimate=_estimate(setup, man))
     from .sanity import outcome_warnings
 

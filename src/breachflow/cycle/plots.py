@@ -28,6 +28,8 @@ def closure_reason(rundir) -> str:
     met = [f"{k} {v['value']:.3g} {v['units']} (threshold {v['threshold']:.3g})" for k, v in crit.items()
            if v.get("satisfied")]
     q = f"breach discharge {summ.get('breach_discharge', float('nan')):.2f} m³/s"
+    if summ.get("seepage_discharge", 0.0):  # a porous pile: what passes is seepage, left to the sealing
+        q += f" (seepage {abs(summ['seepage_discharge']):.2f} m³/s through the pile, to be sealed with finer fill)"
     if summ.get("closed"):
         return f"closed at cycle {last['cycle']}: {', '.join(met) or summ.get('governing', '')} met; {q}"
     return (f"not closed after {last['cycle']} cycles" + (f" ({', '.join(met)} met, not enough)" if met else "")

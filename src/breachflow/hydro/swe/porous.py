@@ -18,8 +18,15 @@ momentum equation is applied implicitly after each time step (Lie splitting, lik
 ``q' + dt g h S' = q*`` with ``q' = Q(S')`` — a monotone scalar equation solved by bisection on ``S'`` —
 so the term only reduces ``|q|``, never reverses it, and a lake at rest (``q = 0``) stays at rest. Mass
 is untouched by the term (conserved by the finite-volume fluxes); wet/dry is the solver's. Limitation:
-the storage of the pile (``n h`` instead of ``h`` in the pile part) is not modelled, which changes
-transients but not steady states, and the over-crest flow keeps the full column's momentum flux.
+the over-crest flow keeps the full column's momentum flux.
+
+Pile storage: the pores of the pile hold ``n a`` of water per unit area where the depth is ``a`` in the
+pile part; the model stores ``a`` there, i.e. it treats the pore water as free water and conserves
+``sum h dx dy`` exactly (round-off; ``tests/swe/test_porous.py``), the volume the column would hold
+without the solids. The remap puts a pile into a warm start without changing ``h``, so a pile neither
+creates nor removes water in the model; the real water held in a pile cell is smaller by ``(1 - n) a dx dy``.
+This changes how fast a transient fills or drains the pile (by up to ``1/n``), not a steady state — the
+only thing the closure cycle uses.
 
 A cell with no pile (``pile_height <= 0``) is left to the solver's Manning friction; in a pile cell that
 friction is replaced by this law (the solver sets its Manning n to 0 there).
