@@ -335,9 +335,10 @@ class CriteriaSection:
 @register_section("closure")
 @dataclass
 class ClosureSection:
-    """``[closure]``: ``remap`` (``porous``, the default: a leaky rock-fill pile | ``raised_bed`` | ``no_flow``), ``seed``, ``porous_law``
-    (``ergun`` | ``van_gent``: Forchheimer coefficients of a porous pile), ``area`` (the breach area
-    ``[x0, x1, y0, y1]`` outside which masses count as carried away; default from the scene, see
+    """``[closure]``: ``remap`` (``porous``, the default: a leaky rock-fill pile | ``raised_bed`` |
+    ``no_flow``), ``seed``, ``porous_law`` (``ergun`` | ``van_gent``: Forchheimer coefficients of a porous
+    pile), ``area`` (the breach area ``[x0, x1, y0, y1]`` outside which masses count as carried away
+    and where ``max_speed`` judges the flow; default from the scene, see
     :mod:`~breachflow.cycle.losses`), ``loss_limit`` (fraction of a cycle's tonnage whose loss ends the run with a
     "not closable" verdict, default 0.5)."""
 

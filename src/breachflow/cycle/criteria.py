@@ -174,7 +174,8 @@ class MaxSpeed(Criterion):
     """
 
     name, kind, units = "max_speed", "speed", "m s-1"
-    description = "maximum depth-averaged fluid speed in the breach area ({ threshold = ..., region = \"domain\" }: anywhere)"
+    description = ("maximum depth-averaged fluid speed in the breach area "
+                   "({ threshold = ..., region = \"domain\" }: anywhere)")
 
     def __init__(self, threshold, region: str = "breach"):
         super().__init__(threshold)
