@@ -146,7 +146,7 @@ def plan(spec, out=None) -> tuple[EnsembleSpec, Path, list[Member], list[MemberT
 
 def check_members(tasks: list[MemberTask]) -> list[str]:
     """Ask the runner to check every member before anything runs (runners with a ``check(member)``
-    method, e.g. ``closure``: physically impossible scenarios). Raises one :class:`InputError` naming
+    method, e.g. ``closure``: physically impossible scenarios). Raises one :class:`~breachflow.errors.InputError` naming
     each refused member and its varied values; returns the distinct warnings with member counts."""
     if not tasks or not hasattr(tasks[0].runner_cls, "check"):
         return []
