@@ -148,7 +148,8 @@ def run_closure_cli(scenario: Path | None, out: Path, resume: bool, overwrite: b
 
         crit = escape("[" + ", ".join(f"{c.name} {c.value:.3g}{' met' if c.satisfied else ''}" for c in rep.criteria) + "]")
         console.print(f"[bold]cycle {rep.cycle:3d}[/]  masses {rep.masses:4d}  max speed {rep.max_speed:5.2f} m/s  "
-                      f"breach Q {rep.breach_discharge:7.2f} m³/s (seepage {rep.seepage_discharge:.2f})  DEM {rep.dem_steps} steps"
+                      f"breach Q {rep.breach_discharge:7.2f} m³/s (seepage {rep.seepage_discharge:.2f})  "
+                      f"gap speed {rep.gap_mean_speed:.2f} mean / {rep.gap_max_speed:.2f} max m/s  DEM {rep.dem_steps} steps"
                       f"{'' if rep.dem_converged else ' (cycle time limit)'}  {rep.hydro}  {crit}  "
                       f"{f'lost {rep.lost_cycle} ({rep.lost_cycle_tonnage:.1f} t)  ' if rep.lost_cycle else ''}"
                       f"{rep.wall_time:.1f} s", highlight=False)

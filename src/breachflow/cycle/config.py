@@ -255,7 +255,8 @@ class FluidSection:
 @dataclass
 class PlacementSection:
     """``[placement]``: see :class:`~.placement.PlacementPlan` (``diameter``, ``density``, ``batch``,
-    ``positions``, ``start``/``stop``/``zone``/``points``, ``release_height``, ``rate``)."""
+    ``positions`` (``line`` | ``zone`` | ``list`` | ``vertical`` | ``horizontal``, :mod:`~.strategies`),
+    ``start``/``stop``/``zone``/``points``, ``release_height``, ``rate``)."""
 
     plan: PlacementPlan
 
@@ -460,8 +461,9 @@ def closure_setup(scenario, *, overrides: dict | None = None):
                       **dem_vals, **dem_kw)
     placement = scenario["placement"].plan if "placement" in scenario else PlacementPlan(
         diameter=(1.4, 1.6), batch=4, positions="line", start=(xc - half + 0.5, yc), stop=(xc + half - 0.5, yc))
-    if placement.positions == "line" and placement.start == placement.stop == (0.0, 0.0):
-        # no line given: across the breach along the levee centreline, one radius in from the walls
+    if placement.positions not in ("zone", "list") and placement.start == placement.stop == (0.0, 0.0):
+        # no line given (line, vertical, horizontal): across the breach along the levee centreline, one
+        # radius in from the walls (the breach heads)
         r = 0.5 * placement.diameter[1]
         placement.start, placement.stop = (xc - half + r, yc), (xc + half - r, yc)
     closure = scenario.get("closure") or ClosureSection()

@@ -124,6 +124,23 @@ def section_discharge(ds, x_range, y: float) -> float:
     return float(np.sum(np.asarray(ds["depth"].values, float)[j, sel] * np.asarray(ds["v"].values, float)[j, sel]) * dx)
 
 
+def gap_section_speeds(ds, x_range, y: float) -> tuple[float, float]:
+    """Flow speed in the gap: ``(max, mean)`` (m/s) over the open wet cells of the grid row nearest *y*
+    between ``x_range`` (the section :func:`section_discharge` integrates over). The mean is
+    depth-weighted, ``Σ h |u| Δx / Σ h Δx`` — the mean velocity through the gap's wet flow area that
+    closure design compares with the stones' critical speed (Izbash & Khaldre 1970); (0, 0) when no cell
+    of the section is open."""
+    x = np.asarray(ds["x"].values, float)
+    j = int(np.argmin(np.abs(np.asarray(ds["y"].values, float) - y)))
+    sel = (x >= x_range[0]) & (x <= x_range[1]) & _open_wet(ds)[j]
+    if not sel.any():
+        return 0.0, 0.0
+    h = np.asarray(ds["depth"].values, float)[j, sel]
+    speed = np.hypot(np.asarray(ds["u"].values, float)[j, sel], np.asarray(ds["v"].values, float)[j, sel])
+    mean = float(np.sum(h * speed) / np.sum(h)) if np.sum(h) > 0 else 0.0
+    return float(speed.max()), mean
+
+
 @criteria.register("blocked_fraction")
 class BlockedFraction(Criterion):
     """SPEC §7 criterion 1: fraction of the breach cross-section (the trapezoid between the breach

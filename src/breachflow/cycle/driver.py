@@ -32,9 +32,11 @@ from ..hydro.snapshot import DRY_DEPTH
 from ..schemas import validate
 from ..output import RunDirectory, particles_dataset, trajectories_dataset
 from ..output.cf import pad_particles
-from .criteria import CycleContext, EndCriteria, section_discharge
+from .criteria import CycleContext, EndCriteria, gap_section_speeds, section_discharge
 from .losses import LOSS_LIMIT, gap_speed, losses_flagged, not_closable_verdict
 from .placement import PlacementPlan
+from .strategies import PileView
+from .strategies import band as strategy_band
 from .remap import IncrementalPileTop, porous_pile, remap_top
 
 
@@ -145,6 +147,10 @@ class CycleReport:
     seepage_discharge: float = 0.0
     #: masses in the domain still moving at the end of the cycle's DEM (not at rest)
     not_at_rest: int = 0
+    #: flow speed in the gap section (the breach at the levee line, where breach_discharge is taken):
+    #: largest, and depth-weighted mean (:func:`~breachflow.cycle.criteria.gap_section_speeds`), m/s
+    gap_max_speed: float = 0.0
+    gap_mean_speed: float = 0.0
 
     def as_dict(self) -> dict:
         d = dict(self.__dict__)
@@ -239,11 +245,13 @@ class ClosureRun:
 
             ctx0 = CycleContext(cycle=0, snapshot=snapshot, breach_x=s.breach_x, levee_y=s.levee_y)
             self._q_open = section_discharge(snapshot, s.breach_x, s.levee_y)
+            gmax, gmean = gap_section_speeds(snapshot, s.breach_x, s.levee_y)
             self.rundir.update_metadata(initial={
                 "max_speed": MaxSpeed("0 m/s", region="domain").value(ctx0),
                 "discharge_proxy": DischargeProxy("0 m^3/s").value(ctx0),
                 "breach_discharge": self._q_open,
                 "gap_speed": gap_speed(snapshot, s.area if s.area is not None else (-np.inf, np.inf, -np.inf, np.inf)),
+                "gap_max_speed": gmax, "gap_mean_speed": gmean,
                 "solve_wall_time": self.initial_solve_time, "solve_cpu_time": initial_solve_cpu}, warnings=list(s.warnings))
         for g in range(g0 + 1, s.criteria.max_cycles + 1):
             rep, rec, snapshot = self._cycle(g, rec, snapshot)
@@ -378,7 +386,8 @@ class ClosureRun:
             smp = sampler.sample(np.asarray(x, float), np.asarray(y, float))
             return np.where(smp.inside, np.maximum(smp.surface, smp.bed), np.nan)
 
-        rel = s.placement.release(g, s.seed, surface_at)
+        pile = self._pile_view(sim, rec) if s.placement.uses_pile else None
+        rel = s.placement.release(g, s.seed, surface_at, pile=pile)
         new_ids = self._add(sim, rel.pos, rel.radius, rel.density)
         placed_cycle = np.concatenate([rec["placed_cycle"], np.full(len(new_ids), g, np.int32)])
         # 3. settle in the frozen field, recording the moving masses
@@ -444,6 +453,7 @@ class ClosureRun:
         max_speed = MaxSpeed("0 m/s", region="domain").value(ctx)
         proxy = DischargeProxy("0 m^3/s").value(ctx)
         q_breach = section_discharge(new_snapshot, s.breach_x, s.levee_y)
+        gap_max, gap_mean = gap_section_speeds(new_snapshot, s.breach_x, s.levee_y)
         # 6. write the cycle
         masses = int(st.n)
         tonnage = float(st.mass[st.active].sum()) / 1000.0
@@ -466,7 +476,8 @@ class ClosureRun:
                           losses_flagged=losses_flagged(lost_total_t, tonnage + lost_total_t, s.loss_limit),
                           time_solve=t_solve, time_dem=t_dem, cpu_solve=c_solve, cpu_dem=c_dem,
                           seepage_discharge=ctx.seepage_discharge,
-                          not_at_rest=int((st.active[:st.n] & ~resting[:st.n]).sum()))
+                          not_at_rest=int((st.active[:st.n] & ~resting[:st.n]).sum()),
+                          gap_max_speed=gap_max, gap_mean_speed=gap_mean)
         t_out = _time.perf_counter()
         field_ds = validate(self._field_dataset(new_snapshot, st, placed_cycle, resting, rep), "closure_cycle")
         traj = None
@@ -478,6 +489,21 @@ class ClosureRun:
         self.rundir.write_cycle(g, field_ds, traj, new_rec, _summary(rep))
         self._live = (g, sim)
         return rep, new_rec, new_snapshot
+
+    def _pile_view(self, sim, rec) -> PileView:
+        """The sill along the placement's gap line before this cycle's release, for the strategies that
+        read it: terrain and the masses that rest after the previous cycle (its restart record, so an
+        uninterrupted and a resumed run see the same), within the dam section
+        (:func:`~breachflow.cycle.strategies.band`) of the line; the level to reach is the flood level."""
+        s, p, st = self.setup, self.setup.placement, sim.state
+        resting = np.zeros(len(st.radius), bool)
+        prev = np.asarray(rec["resting"], bool)
+        m = min(prev.size, resting.size)
+        resting[:m] = prev[:m]
+        top = self._pile.update(st.pos, st.radius, resting)  # a no-op when the last cycle's update is current
+        dom = s.domain
+        return PileView.from_grid(dom.x, dom.y, dom.bed, top, p.start, p.stop, band=strategy_band(p),
+                                  level=float(s.flood_level))
 
     def _stability(self, rec, resting, snapshot) -> float:
         """Criterion 5: the assembly, every mass awake, re-run in the new flow for ``stability_time``;
@@ -526,7 +552,10 @@ class ClosureRun:
                         dem_converged=np.int32(rep.dem_converged), dem_steps=np.int64(rep.dem_steps),
                         operation_time_s=float(rep.operation_time), masses_lost=np.int32(rep.left_domain),
                         masses_lost_cycle=np.int32(rep.lost_cycle), tonnage_lost_t=float(rep.lost_tonnage),
-                        gap_speed_m_s=float(rep.gap_speed), verdict=rep.verdict)
+                        gap_speed_m_s=float(rep.gap_speed), verdict=rep.verdict,
+                        breach_discharge_m3_s=float(rep.breach_discharge),
+                        gap_max_speed_m_s=float(rep.gap_max_speed), gap_mean_speed_m_s=float(rep.gap_mean_speed),
+                        placement_strategy=self.setup.placement.positions)
         for r in rep.criteria:
             ds.attrs[f"criterion_{r.name}"] = f"{r.value:.6g} {r.units} (threshold {r.threshold:.6g}, {'met' if r.satisfied else 'not met'})"
         return with_cycle_dimension(ds, rep.cycle)

@@ -53,6 +53,12 @@ class ClosureResult:
     open_breach_discharge: float = float("nan")
     #: sanity warnings: the scenario's (before the run) and the outcome's (masses lost or never at rest)
     warnings: list = field(default_factory=list)
+    #: placement strategy (``[placement] positions``)
+    strategy: str = ""
+    #: the highest gap speeds over the run, the open breach included (depth-weighted mean and max in the
+    #: gap section, :func:`~breachflow.cycle.criteria.gap_section_speeds`), m/s
+    peak_gap_mean_speed: float = float("nan")
+    peak_gap_max_speed: float = float("nan")
 
     @property
     def statement(self) -> str:
@@ -71,7 +77,8 @@ class ClosureResult:
 
     def table_rows(self) -> list[tuple[str, str]]:
         hrs = lambda s: f"{s / 3600:.2f} h"
-        rows = [("cycles", str(self.cycles)), ("masses placed", str(self.masses)),
+        rows = [("placement strategy", self.strategy or "-"), ("cycles", str(self.cycles)),
+                ("masses placed", str(self.masses)),
                 ("tonnage", f"{self.tonnage:.1f} t"), ("closure operation time", hrs(self.operation_time)),
                 ("closure achieved", ("yes: " + self.statement if self.statement != "closed" else "yes")
                  if self.closed else "no"),
@@ -85,6 +92,8 @@ class ClosureResult:
         if self.closure_window is not None:
             rows.append(("closure window", hrs(self.closure_window)))
             rows.append(("closed inside the window", "yes" if self.feasible else "no"))
+        rows.append(("peak gap speed over the run (mean / max in the gap section)",
+                     f"{self.peak_gap_mean_speed:.2f} / {self.peak_gap_max_speed:.2f} m/s"))
         rows.append(("breach discharge at the end (seepage)",
                      f"{self.final_discharge:.2f} m³/s ({self.final_seepage:.2f} m³/s)"))
         if self.estimate is not None:
@@ -157,7 +166,9 @@ def run_closure(scenario=None, out="runs/default", *, resume: bool = False, over
                         final_seepage=float(last.get("seepage_discharge", 0.0)),
                         open_breach_discharge=float(man.get("metadata", {}).get("initial", {}).get(
                             "breach_discharge", float("nan"))),
-                        estimate=_estimate(setup, man))
+                        estimate=_estimate(setup, man), strategy=setup.placement.positions,
+                        peak_gap_mean_speed=peak_gap_speed(man, "gap_mean_speed"),
+                        peak_gap_max_speed=peak_gap_speed(man, "gap_max_speed"))
     from .sanity import outcome_warnings
 
     res.warnings = list(setup.warnings) + outcome_warnings(
@@ -170,6 +181,15 @@ def run_closure(scenario=None, out="runs/default", *, resume: bool = False, over
         res.plots = [plot_plan_view(run.rundir, Path(out) / "plan_view.png"),
                      plot_closure_progress(run.rundir, Path(out) / "closure_progress.png")]
     return res
+
+
+def peak_gap_speed(manifest, key: str = "gap_mean_speed") -> float:
+    """The highest per-cycle *key* (``gap_mean_speed`` | ``gap_max_speed``, m/s) of a run, the open
+    breach (initial solve) included; NaN when the run recorded none."""
+    vals = [manifest.get("metadata", {}).get("initial", {}).get(key)]
+    vals += [c["summary"].get(key) for c in manifest.get("cycles", [])]
+    vals = [float(v) for v in vals if v is not None]
+    return max(vals) if vals else float("nan")
 
 
 def _estimate(setup, manifest):

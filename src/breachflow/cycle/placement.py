@@ -1,9 +1,12 @@
 """Placement plan: which masses are released where and when in each cycle (SPEC §7 step 3).
 
 One mass per cycle (the report) or batches (a truck or skip dumps several at once). Release positions
-along a line across the breach, random within a zone, or a user list; release height above the water
-surface (crane) or at the surface; size and density from distributions; a placement rate
-(masses per hour) maps cycles to the wall-clock time of the closure operation.
+from a placement strategy chosen by name (:mod:`~breachflow.cycle.strategies`): along a line across the
+breach, random within a zone, a user list, or the closure strategies ``vertical`` (a sill raised over
+the whole gap in layers) and ``horizontal`` (advancing from both breach heads), which read the current
+pile; release height above the water surface (crane) or at the surface; size and density from
+distributions; a placement rate (masses per hour) maps cycles to the wall-clock time of the closure
+operation.
 
 Randomness is drawn from ``numpy.random.default_rng([seed, g])``: cycle ``g``'s masses depend only
 on the seed and ``g``, so a resumed run places exactly what an uninterrupted one would.
@@ -16,8 +19,10 @@ import numpy as np
 
 from ..errors import InputError
 from ..units import to_si
+from .strategies import PileView, placement_strategies
 
-POSITION_MODES = ("line", "zone", "list")
+#: the built-in placement strategies (``placement_strategies.available()`` adds plug-ins)
+POSITION_MODES = ("line", "zone", "list", "vertical", "horizontal")
 
 
 @dataclass
@@ -33,9 +38,12 @@ class Release:
 @dataclass
 class PlacementPlan:
     """Parameters (SI). ``diameter``: ``(low, high)`` for a uniform distribution, or a single value;
-    ``density`` likewise. ``positions``: ``"line"`` from ``start`` to ``stop`` (x, y) m, masses spread
-    along it cycle after cycle; ``"zone"`` uniform in the box ``zone = (x0, x1, y0, y1)``; ``"list"``
-    the user's ``points`` (x, y) in order, cycling. ``release_height`` above the local water surface
+    ``density`` likewise. ``positions``: the placement strategy's name
+    (:data:`~breachflow.cycle.strategies.placement_strategies`): ``"line"`` from ``start`` to ``stop``
+    (x, y) m, masses spread along it cycle after cycle; ``"zone"`` uniform in the box
+    ``zone = (x0, x1, y0, y1)``; ``"list"`` the user's ``points`` (x, y) in order, cycling;
+    ``"vertical"`` / ``"horizontal"`` the closure strategies on the gap line ``start``→``stop`` (default
+    the breach between its heads). ``release_height`` above the local water surface
     (m, 0 = at the surface: the sphere's bottom touches it); ``rate`` masses per hour of operation.
     """
 
@@ -66,8 +74,9 @@ class PlacementPlan:
         if int(self.batch) < 1:
             raise InputError(f"placement.batch must be >= 1, got {self.batch}")
         self.batch = int(self.batch)
-        if not isinstance(self.positions, str) or self.positions not in POSITION_MODES:
-            raise InputError(f"placement.positions {self.positions!r} unknown; use one of {POSITION_MODES}")
+        if not isinstance(self.positions, str) or self.positions not in placement_strategies:
+            raise InputError(f"placement.positions {self.positions!r} unknown; use one of "
+                             f"{tuple(placement_strategies.available())}")
         if self.positions == "list" and not self.points:
             raise InputError("placement.positions = 'list' needs placement.points")
         if self.release_height < 0:
@@ -110,7 +119,10 @@ class PlacementPlan:
     def check_inside(self, x_range, y_range) -> None:
         """Raise :class:`~breachflow.errors.InputError` naming the key when the release line, zone or points leave the
         horizontal extent ``x_range`` x ``y_range`` (m) of the field, before any run starts."""
-        keys = {"line": ("start", "stop"), "zone": ("zone",), "list": ("points",)}[self.positions]
+        if self.uses_pile and self.start == self.stop:
+            raise InputError(f"placement.start/stop: the gap line of positions = {self.positions!r} has zero length "
+                             f"({self.start})")
+        keys = {"zone": ("zone",), "list": ("points",)}.get(self.positions, ("start", "stop"))
         for key in keys:
             v = getattr(self, key)
             pts = ([(v[0], v[2]), (v[0], v[3]), (v[1], v[2]), (v[1], v[3])] if key == "zone" else
@@ -121,31 +133,46 @@ class PlacementPlan:
                         f"placement.{key}: release point ({px:.6g} m, {py:.6g} m) lies outside the field "
                         f"(x {x_range[0]:.6g} .. {x_range[1]:.6g} m, y {y_range[0]:.6g} .. {y_range[1]:.6g} m)")
 
+    @property
+    def strategy(self):
+        """The placement strategy object named by ``positions``."""
+        return placement_strategies.get(self.positions)()
+
+    @property
+    def uses_pile(self) -> bool:
+        """Whether the strategy reads the current pile (:class:`~breachflow.cycle.strategies.PileView`)."""
+        return bool(getattr(placement_strategies.get(self.positions), "uses_pile", False))
+
+    def along_gap_line(self, xy) -> np.ndarray:
+        """Distance (m) of the points *xy* (n, 2) along ``start``→``stop``, projected and kept on the segment."""
+        start = np.asarray(self.start, float)
+        seg = np.asarray(self.stop, float) - start
+        length = float(np.hypot(*seg))
+        if length == 0.0:
+            return np.zeros(len(xy))
+        return np.clip((np.asarray(xy, float) - start) @ (seg / length), 0.0, length)
+
     def operation_time(self, masses_placed: int) -> float:
         """Wall-clock time of the closure operation after *masses_placed* masses (s)."""
         return masses_placed / self.rate
 
-    def release(self, g: int, seed: int, surface_at) -> Release:
+    def release(self, g: int, seed: int, surface_at, pile: PileView | None = None) -> Release:
         """The masses released in cycle *g* (1-based). *surface_at(x, y)* gives the water-surface
-        elevation (m) at release points (vectorised)."""
+        elevation (m) at release points (vectorised); *pile* the sill along the gap line before the
+        release, for the strategies that read it (``uses_pile``)."""
         rng = np.random.default_rng([int(seed), int(g)])
         n = self.batch
         d = rng.uniform(self.diameter[0], self.diameter[1], n) if self.diameter[1] > self.diameter[0] else np.full(n, self.diameter[0])
         rho = rng.uniform(self.density[0], self.density[1], n) if self.density[1] > self.density[0] else np.full(n, self.density[0])
         k = (g - 1) * n + np.arange(n)  # running index of the masses
-        if self.positions == "line":
-            # golden-ratio sequence along the line: successive masses fill it evenly, never repeating a slot
-            f = np.mod(0.5 + k * 0.6180339887498949, 1.0)
-            xy = np.asarray(self.start)[None, :] + f[:, None] * (np.asarray(self.stop) - np.asarray(self.start))[None, :]
-            xy = xy + rng.normal(0.0, 0.05 * d.mean(), (n, 2))  # a little scatter: no two drops identical
-        elif self.positions == "zone":
-            x0, x1, y0, y1 = self.zone
-            xy = np.column_stack([rng.uniform(x0, x1, n), rng.uniform(y0, y1, n)])
-        else:
-            pts = np.asarray(self.points, float)
-            xy = pts[k % len(pts)]
+        xy = np.asarray(self.strategy.positions(self, k, d, rng, pile), float).reshape(n, 2)
         r = 0.5 * d
-        z = np.asarray(surface_at(xy[:, 0], xy[:, 1]), float) + self.release_height + r
+        base = np.asarray(surface_at(xy[:, 0], xy[:, 1]), float)
+        if pile is not None:
+            # a strategy that drops onto the pile: where the pile stands out of the water (a breach head
+            # drawn down below the flood level), release above its crest, never inside a resting mass
+            base = np.maximum(base, pile.crest_at(self.along_gap_line(xy)))
+        z = base + self.release_height + r
         if not np.all(np.isfinite(z)):
             raise InputError(f"placement: release point(s) {xy[~np.isfinite(z)].tolist()} lie outside the field")
         # masses of one batch must not be spawned overlapping: stack them vertically if they would

@@ -45,7 +45,7 @@ def check_setup(setup) -> list[str]:
         pts = np.atleast_2d(np.asarray(pts, float))
         return pts[(pts[:, 0] < x0) | (pts[:, 0] > x1) | (pts[:, 1] < y0) | (pts[:, 1] > y1)]
 
-    if pl.positions == "line":
+    if pl.positions not in ("zone", "list"):  # line, vertical, horizontal: the line start→stop
         for key, pt in (("start", pl.start), ("stop", pl.stop)):
             if outside([pt]).size:
                 raise InputError(f"placement.{key}: release point {list(pt)} lies outside the domain "
@@ -54,7 +54,7 @@ def check_setup(setup) -> list[str]:
         if length < pl.diameter[1]:
             warnings.append(f"[placement] the release line ({length:g} m) is shorter than the masses "
                             f"(up to {pl.diameter[1]:g} m): every mass is dropped at about the same spot")
-        if pl.batch > 1 and pl.batch * pl.diameter[0] > length + pl.diameter[1]:
+        if pl.positions == "line" and pl.batch > 1 and pl.batch * pl.diameter[0] > length + pl.diameter[1]:
             warnings.append(f"[placement] a batch of {pl.batch} masses of {pl.diameter[0]:g}-{pl.diameter[1]:g} m "
                             f"does not fit side by side on the {length:g} m release line: the batch is stacked "
                             "vertically on release")
