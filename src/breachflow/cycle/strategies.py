@@ -92,14 +92,14 @@ class PileView:
         return np.interp(s, self.s, self.crest)
 
 
-class _Fixed:
-    """Strategies that do not look at the pile."""
+class FixedStrategy:
+    """Base of the strategies that do not look at the pile (``uses_pile = False``)."""
 
     uses_pile = False
 
 
 @placement_strategies.register("line")
-class Line(_Fixed):
+class Line(FixedStrategy):
     """Golden-ratio sequence along ``start``→``stop`` with a scatter of 5 % of the batch's mean diameter."""
 
     def positions(self, plan, k, d, rng, pile=None):
@@ -110,7 +110,7 @@ class Line(_Fixed):
 
 
 @placement_strategies.register("zone")
-class Zone(_Fixed):
+class Zone(FixedStrategy):
     """Uniform in the box ``zone = (x0, x1, y0, y1)``."""
 
     def positions(self, plan, k, d, rng, pile=None):
@@ -119,7 +119,7 @@ class Zone(_Fixed):
 
 
 @placement_strategies.register("list")
-class PointList(_Fixed):
+class PointList(FixedStrategy):
     """The user's ``points`` in order, cycling."""
 
     def positions(self, plan, k, d, rng, pile=None):
@@ -134,8 +134,8 @@ def band(plan) -> float:
     return (SPACING + 0.5) * float(plan.diameter[1])
 
 
-class _OnGapLine:
-    """Strategies that read the pile along the gap line ``start``→``stop``."""
+class GapLineStrategy:
+    """Base of the strategies that read the pile along the gap line ``start``→``stop`` (``uses_pile = True``)."""
 
     uses_pile = True
 
@@ -163,7 +163,7 @@ class _OnGapLine:
 
 
 @placement_strategies.register("vertical")
-class Vertical(_OnGapLine):
+class Vertical(GapLineStrategy):
     """Layers over the whole gap: each mass to the lowest slot of the sill (see the module text)."""
 
     def positions(self, plan, k, d, rng, pile=None):
@@ -202,7 +202,7 @@ def _golden_rank(n: int) -> np.ndarray:
 
 
 @placement_strategies.register("horizontal")
-class Horizontal(_OnGapLine):
+class Horizontal(GapLineStrategy):
     """Advance from both breach heads, narrowing the gap (see the module text)."""
 
     def positions(self, plan, k, d, rng, pile=None):
