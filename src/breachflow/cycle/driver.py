@@ -386,8 +386,8 @@ class ClosureRun:
             smp = sampler.sample(np.asarray(x, float), np.asarray(y, float))
             return np.where(smp.inside, np.maximum(smp.surface, smp.bed), np.nan)
 
-        pile = self._pile_view(sim, rec) if s.placement.uses_pile else None
-        rel = s.placement.release(g, s.seed, surface_at, pile=pile)
+        sill = self._pile_view(sim, rec) if s.placement.uses_pile else None
+        rel = s.placement.release(g, s.seed, surface_at, pile=sill)
         new_ids = self._add(sim, rel.pos, rel.radius, rel.density)
         placed_cycle = np.concatenate([rec["placed_cycle"], np.full(len(new_ids), g, np.int32)])
         # 3. settle in the frozen field, recording the moving masses
