@@ -54,7 +54,8 @@ def main(argv=None):
     sim, L = bench_dem.settled_bed(a.n)
     bed = tmp / "bed.npz"
     np.savez(bed, pos=sim.state.pos, vel=sim.state.vel, L=L)
-    trees = {"old": (Path(a.old).resolve(), tmp / "cache_old"), "new": (ROOT / "src", ROOT / ".numba_cache")}
+    # a fresh numba cache per tree (a cached kernel is not rebuilt when an inlined helper changes)
+    trees = {"old": (Path(a.old).resolve(), tmp / "cache_old"), "new": (ROOT / "src", tmp / "cache_new")}
     rates = {}
     for _ in range(a.reps):
         for integ in ("predicted_verlet", "velocity_verlet"):

@@ -134,6 +134,44 @@ def _scan(i, lo, hi, pos, radius, margin, geom, periodic, ncell, start, ent_p, e
 
 
 @numba.njit(cache=True, error_model="numpy")
+def _find_pairs_half(search_idx, pos, radius, margin, geom, periodic, ncell, start, ent_p, ent_c, mask, out_a, out_b):
+    """:func:`find_pairs` for one cell per particle (cells >= the largest reach) and no sleeping grid: each
+    particle scans its own cell (partners j > i) and the 13 cells of the forward half of its 27-cell
+    neighbourhood (all partners), so each pair is met once, from one side (a half stencil, as LAMMPS'
+    half neighbour lists; periodic ranges hold >= 4 cells, so forward and backward cells differ)."""
+    cap = out_a.shape[0]
+    n_out = 0
+    for k in range(search_idx.shape[0]):
+        i = search_idx[k]
+        hx = int(math.floor((pos[i, 0] - geom[0]) / geom[3]))
+        hy = int(math.floor((pos[i, 1] - geom[1]) / geom[4]))
+        hz = int(math.floor((pos[i, 2] - geom[2]) / geom[5]))
+        for oz in range(0, 2):
+            for oy in range(-1 if oz else 0, 2):
+                for ox in range(-1 if (oz or oy) else 0, 2):
+                    own = ox == 0 and oy == 0 and oz == 0
+                    code = _pack(_wrap_cell(hx + ox, ncell[0], periodic[0]), _wrap_cell(hy + oy, ncell[1], periodic[1]),
+                                 hz + oz)
+                    b = _hash(code, mask)
+                    for s in range(start[b], start[b + 1]):
+                        if ent_c[s] != code:
+                            continue
+                        j = ent_p[s]
+                        if own and j <= i:
+                            continue
+                        dx = min_image(pos[j, 0] - pos[i, 0], geom[6], periodic[0])
+                        dy = min_image(pos[j, 1] - pos[i, 1], geom[7], periodic[1])
+                        dz = pos[j, 2] - pos[i, 2]
+                        reach = radius[i] + radius[j] + 2.0 * margin
+                        if dx * dx + dy * dy + dz * dz < reach * reach:
+                            if n_out < cap:
+                                out_a[n_out] = min(i, j)
+                                out_b[n_out] = max(i, j)
+                            n_out += 1
+    return n_out
+
+
+@numba.njit(cache=True, error_model="numpy")
 def find_pairs(search_idx, pos, radius, margin, geom, periodic, ncell,
                start_a, ent_p_a, ent_c_a, bits_a, start_s, ent_p_s, ent_c_s, bits_s, single, out_a, out_b):
     """Pairs (a < b) with gap < 2*margin, searched from awake particles *search_idx*.
@@ -146,6 +184,9 @@ def find_pairs(search_idx, pos, radius, margin, geom, periodic, ncell,
     lo = np.empty(3, np.int64)
     hi = np.empty(3, np.int64)
     n_out = 0
+    if single and ent_p_s.shape[0] == 0:  # awake grid only: half stencil
+        return _find_pairs_half(search_idx, pos, radius, margin, geom, periodic, ncell, start_a, ent_p_a, ent_c_a,
+                                mask_a, out_a, out_b)
     for k in range(search_idx.shape[0]):
         i = search_idx[k]
         r = radius[i] + margin

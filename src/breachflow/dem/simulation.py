@@ -367,8 +367,11 @@ class DemSimulation:
         self._agrid = self._grid(self.idx)
         pa, pb = self._find(self.idx, self._agrid, self._sgrid)
         n = pa.size
-        # unique: a woken particle may still sit in the (stale) sleeping grid as well as in the awake one
-        keys = np.unique((pa[:n] << 32) | pb[:n])
+        keys = (pa[:n] << 32) | pb[:n]
+        if self.single_bin and self._sgrid[1].size == 0:
+            keys = np.sort(keys)  # one cell per particle, one grid: each pair is found once
+        else:  # a woken particle may still sit in the (stale) sleeping grid as well as in the awake one
+            keys = np.unique(keys)
         n = keys.size
         new_hist = np.zeros((n, 6))
         old_keys = (self._pa << 32) | self._pb
