@@ -51,15 +51,18 @@ def test_grid_pairs_equal_brute_force_with_size_ratio_10(periodic):
 
 @pytest.mark.parametrize("periodic", [False, True])
 @pytest.mark.parametrize("cells", [4, 7])
-def test_half_stencil_pairs_equal_brute_force(periodic, cells):
+@pytest.mark.parametrize("z_top", [3.0, 3000.0])
+def test_half_stencil_pairs_equal_brute_force(periodic, cells, z_top):
     """Nearly uniform sizes, all awake: one cell per particle and the half (14-cell) stencil, each pair
-    listed once; periodic ranges down to the smallest allowed (4 cells per period)."""
+    listed once; periodic ranges down to the smallest allowed (4 cells per period); a compact cloud (dense
+    cell array) and one spread over 3 km in z (hashed grid)."""
     rng = np.random.default_rng(7)
     radius_max, skin = 0.5, 0.1
     L = cells * (2 * radius_max + skin) + 1e-9
     n = int(3.0 * L * L * 4)
     radius = rng.uniform(0.8, 1.0, n) * radius_max
     pos = np.column_stack([rng.uniform(-0.3, L + 0.3, (n, 2)), rng.uniform(-1.0, 3.0, n)])
+    pos[: n // 4, 2] = rng.uniform(-1.0, z_top, n // 4)
     kw = dict(periodic_x=(0.0, L), periodic_y=(0.0, L)) if periodic else {}
     sim = DemSimulation(ParticleState.spheres(pos, radius), gravity=(0, 0, 0), skin=skin, sleeping=False, **kw)
     assert sim.single_bin and (not periodic or sim.ncell[0] == cells)
