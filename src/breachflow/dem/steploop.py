@@ -3,7 +3,7 @@
 :func:`verlet_steps` runs the steps of the two Verlet integrators (``velocity_verlet``,
 ``predicted_verlet``, :mod:`.integrators`) for a scene of spheres, fixed planes, gravity and global damping
 (no force models) in one numba loop: the same kernels in the same order as the step-by-step path of
-:meth:`~breachflow.dem.simulation.DemSimulation._one_step`, so the results are bit-identical
+``DemSimulation._one_step``, so the results are bit-identical
 (tests/dem/test_steploop.py), without a Python round trip per step. It stops, handing back to Python,
 before a step that needs a neighbour-list rebuild (some awake particle moved more than ``skin/2`` since
 the last build, as LAMMPS' ``neigh_modify check yes``), and after a step with an event the driver handles
