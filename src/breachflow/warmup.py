@@ -47,7 +47,20 @@ def warm_up() -> float:
     text = warm_up_scenario()
     with tempfile.TemporaryDirectory(prefix="breachflow-warmup-") as tmp:
         ClosureRun(closure_setup(parse_scenario(text)), tmp + "/run", text).run()
+    warm_up_dem()
     return time.process_time() - c0
+
+
+def warm_up_dem() -> None:
+    """Two spheres on a plane without force models: the many-steps-per-call DEM kernel
+    (:mod:`breachflow.dem.steploop`), which a closure run (fluid forces) does not use."""
+    from .dem import DemSimulation, Material, Plane
+
+    rock = Material(density=2650, kn=1e7, friction=0.5, c_cn=4e4)
+    sim = DemSimulation(boundaries=[Plane((0, 0, 0), (0, 0, 1), rock)])
+    sim.add_particles([[0.0, 0.0, 0.6], [0.0, 0.0, 1.8]], 0.5, rock)
+    sim.run_to_equilibrium(1e-6, max_steps=200)
+    sim.step(10)
 
 
 def main() -> int:

@@ -49,6 +49,30 @@ def test_grid_pairs_equal_brute_force_with_size_ratio_10(periodic):
     assert len(want) > 50
 
 
+@pytest.mark.parametrize("periodic", [False, True])
+@pytest.mark.parametrize("cells", [4, 7])
+@pytest.mark.parametrize("z_top", [3.0, 3000.0])
+def test_half_stencil_pairs_equal_brute_force(periodic, cells, z_top):
+    """Nearly uniform sizes, all awake: one cell per particle and the half (14-cell) stencil, each pair
+    listed once; periodic ranges down to the smallest allowed (4 cells per period); a compact cloud (dense
+    cell array) and one spread over 3 km in z (hashed grid)."""
+    rng = np.random.default_rng(7)
+    radius_max, skin = 0.5, 0.1
+    L = cells * (2 * radius_max + skin) + 1e-9
+    n = int(3.0 * L * L * 4)
+    radius = rng.uniform(0.8, 1.0, n) * radius_max
+    pos = np.column_stack([rng.uniform(-0.3, L + 0.3, (n, 2)), rng.uniform(-1.0, 3.0, n)])
+    pos[: n // 4, 2] = rng.uniform(-1.0, z_top, n // 4)
+    kw = dict(periodic_x=(0.0, L), periodic_y=(0.0, L)) if periodic else {}
+    sim = DemSimulation(ParticleState.spheres(pos, radius), gravity=(0, 0, 0), skin=skin, sleeping=False, **kw)
+    assert sim.single_bin and (not periodic or sim.ncell[0] == cells)
+    got = sim_pairs(sim)
+    assert sim._pa.size == len(got)  # no duplicates
+    want = brute_pairs(pos, radius, skin, (L, L) if periodic else (None, None))
+    assert got == want
+    assert len(want) > 100
+
+
 def test_pair_search_work_follows_awake_particles():
     """With all but a few particles asleep, only pairs touching awake particles are listed."""
     rng = np.random.default_rng(2)

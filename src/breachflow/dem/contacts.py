@@ -134,6 +134,123 @@ def _scan(i, lo, hi, pos, radius, margin, geom, periodic, ncell, start, ent_p, e
 
 
 @numba.njit(cache=True, error_model="numpy")
+def _find_pairs_dense(search_idx, pos, radius, margin, geom, periodic, ncell, out_a, out_b):
+    """:func:`_find_pairs_half` on a dense cell array over the particles' bounding box (counting sort, as
+    LAMMPS' bins); returns -1 when that box holds more than 27 cells per particle (sparse: use the hash)."""
+    n = search_idx.shape[0]
+    cell = np.empty((n, 3), np.int64)
+    lo = np.zeros(3, np.int64)
+    dim = np.zeros(3, np.int64)
+    for k in range(n):
+        i = search_idx[k]
+        for d in range(3):
+            c = int(math.floor((pos[i, d] - geom[d]) / geom[3 + d]))
+            if d < 2 and periodic[d]:
+                c = _wrap_cell(c, ncell[d], 1)
+            cell[k, d] = c
+            if k == 0 or c < lo[d]:
+                lo[d] = c
+            if k == 0 or c > dim[d]:
+                dim[d] = c  # the largest cell for now
+    for d in range(3):
+        dim[d] = dim[d] - lo[d] + 1
+    for d in range(2):
+        if periodic[d]:
+            lo[d] = 0
+            dim[d] = ncell[d]
+    total = dim[0] * dim[1] * dim[2]
+    if n == 0 or total > 27 * n + 4096:
+        return 0 if n == 0 else -1
+    start = np.zeros(total + 1, np.int64)
+    home = np.empty(n, np.int64)
+    for k in range(n):
+        c = ((cell[k, 2] - lo[2]) * dim[1] + (cell[k, 1] - lo[1])) * dim[0] + (cell[k, 0] - lo[0])
+        home[k] = c
+        start[c + 1] += 1
+    for c in range(total):
+        start[c + 1] += start[c]
+    fill = start[:total].copy()
+    order = np.empty(n, np.int64)
+    for k in range(n):
+        order[fill[home[k]]] = search_idx[k]
+        fill[home[k]] += 1
+    cap = out_a.shape[0]
+    n_out = 0
+    for k in range(n):
+        i = search_idx[k]
+        for oz in range(0, 2):
+            z = cell[k, 2] - lo[2] + oz
+            if z >= dim[2]:
+                continue
+            for oy in range(-1 if oz else 0, 2):
+                y = cell[k, 1] - lo[1] + oy
+                if periodic[1]:
+                    y = _wrap_cell(y, dim[1], 1)
+                elif y < 0 or y >= dim[1]:
+                    continue
+                for ox in range(-1 if (oz or oy) else 0, 2):
+                    x = cell[k, 0] - lo[0] + ox
+                    if periodic[0]:
+                        x = _wrap_cell(x, dim[0], 1)
+                    elif x < 0 or x >= dim[0]:
+                        continue
+                    own = ox == 0 and oy == 0 and oz == 0
+                    c = (z * dim[1] + y) * dim[0] + x
+                    for e in range(start[c], start[c + 1]):
+                        j = order[e]
+                        if own and j <= i:
+                            continue
+                        dx = min_image(pos[j, 0] - pos[i, 0], geom[6], periodic[0])
+                        dy = min_image(pos[j, 1] - pos[i, 1], geom[7], periodic[1])
+                        dz = pos[j, 2] - pos[i, 2]
+                        reach = radius[i] + radius[j] + 2.0 * margin
+                        if dx * dx + dy * dy + dz * dz < reach * reach:
+                            if n_out < cap:
+                                out_a[n_out] = min(i, j)
+                                out_b[n_out] = max(i, j)
+                            n_out += 1
+    return n_out
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _find_pairs_half(search_idx, pos, radius, margin, geom, periodic, ncell, start, ent_p, ent_c, mask, out_a, out_b):
+    """:func:`find_pairs` for one cell per particle (cells >= the largest reach) and no sleeping grid: each
+    particle scans its own cell (partners j > i) and the 13 cells of the forward half of its 27-cell
+    neighbourhood (all partners), so each pair is met once, from one side (a half stencil, as LAMMPS'
+    half neighbour lists; periodic ranges hold >= 4 cells, so forward and backward cells differ)."""
+    cap = out_a.shape[0]
+    n_out = 0
+    for k in range(search_idx.shape[0]):
+        i = search_idx[k]
+        hx = int(math.floor((pos[i, 0] - geom[0]) / geom[3]))
+        hy = int(math.floor((pos[i, 1] - geom[1]) / geom[4]))
+        hz = int(math.floor((pos[i, 2] - geom[2]) / geom[5]))
+        for oz in range(0, 2):
+            for oy in range(-1 if oz else 0, 2):
+                for ox in range(-1 if (oz or oy) else 0, 2):
+                    own = ox == 0 and oy == 0 and oz == 0
+                    code = _pack(_wrap_cell(hx + ox, ncell[0], periodic[0]), _wrap_cell(hy + oy, ncell[1], periodic[1]),
+                                 hz + oz)
+                    b = _hash(code, mask)
+                    for s in range(start[b], start[b + 1]):
+                        if ent_c[s] != code:
+                            continue
+                        j = ent_p[s]
+                        if own and j <= i:
+                            continue
+                        dx = min_image(pos[j, 0] - pos[i, 0], geom[6], periodic[0])
+                        dy = min_image(pos[j, 1] - pos[i, 1], geom[7], periodic[1])
+                        dz = pos[j, 2] - pos[i, 2]
+                        reach = radius[i] + radius[j] + 2.0 * margin
+                        if dx * dx + dy * dy + dz * dz < reach * reach:
+                            if n_out < cap:
+                                out_a[n_out] = min(i, j)
+                                out_b[n_out] = max(i, j)
+                            n_out += 1
+    return n_out
+
+
+@numba.njit(cache=True, error_model="numpy")
 def find_pairs(search_idx, pos, radius, margin, geom, periodic, ncell,
                start_a, ent_p_a, ent_c_a, bits_a, start_s, ent_p_s, ent_c_s, bits_s, single, out_a, out_b):
     """Pairs (a < b) with gap < 2*margin, searched from awake particles *search_idx*.
@@ -146,6 +263,12 @@ def find_pairs(search_idx, pos, radius, margin, geom, periodic, ncell,
     lo = np.empty(3, np.int64)
     hi = np.empty(3, np.int64)
     n_out = 0
+    if single and ent_p_s.shape[0] == 0:  # awake grid only: half stencil, on a dense grid if compact
+        n_out = _find_pairs_dense(search_idx, pos, radius, margin, geom, periodic, ncell, out_a, out_b)
+        if n_out >= 0:
+            return n_out
+        return _find_pairs_half(search_idx, pos, radius, margin, geom, periodic, ncell, start_a, ent_p_a, ent_c_a,
+                                mask_a, out_a, out_b)
     for k in range(search_idx.shape[0]):
         i = search_idx[k]
         r = radius[i] + margin

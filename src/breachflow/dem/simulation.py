@@ -36,7 +36,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from ..errors import InputError, PhysicsError
-from . import contacts, memory
+from . import contacts, memory, steploop
 from .boundaries import Boundary, Plane
 from .forces import G, ForceModel, Gravity, add_global_damping, zero_rows
 from .integrators import integrators
@@ -110,6 +110,9 @@ class DemSimulation:
         self._inv_m_added = np.zeros(0)
         self.lmask = np.array([1.0, 0.0, 1.0]) if plane_2d else np.ones(3)
         self.rmask = np.array([0.0, 1.0, 0.0]) if plane_2d else np.ones(3)
+        #: run fixed-step Verlet scenes without force models many steps per compiled call (:mod:`.steploop`,
+        #: bit-identical to stepping in Python, which ``compiled = False`` forces)
+        self.compiled = True
         self.t = 0.0
         self.steps = 0
         self.particle_steps = 0
@@ -364,8 +367,11 @@ class DemSimulation:
         self._agrid = self._grid(self.idx)
         pa, pb = self._find(self.idx, self._agrid, self._sgrid)
         n = pa.size
-        # unique: a woken particle may still sit in the (stale) sleeping grid as well as in the awake one
-        keys = np.unique((pa[:n] << 32) | pb[:n])
+        keys = (pa[:n] << 32) | pb[:n]
+        if self.single_bin and self._sgrid[1].size == 0:
+            keys = np.sort(keys)  # one cell per particle, one grid: each pair is found once
+        else:  # a woken particle may still sit in the (stale) sleeping grid as well as in the awake one
+            keys = np.unique(keys)
         n = keys.size
         new_hist = np.zeros((n, 6))
         old_keys = (self._pa << 32) | self._pb
@@ -478,8 +484,15 @@ class DemSimulation:
     def step(self, n: int = 1):
         """Advance *n* steps of ``dt``; returns the last (max, sum) per-step displacement (m)."""
         disp = (0.0, 0.0)
-        for _ in range(int(n)):
-            disp = self._one_step()
+        left = int(n)
+        while left > 0:
+            done = 0
+            if self.compiled and steploop.eligible(self):  # many steps in one compiled call
+                done, disp, _ = steploop.run(self, left)
+            if done == 0:
+                disp = self._one_step()
+                done = 1
+            left -= done
         return disp
 
     _n_wake = np.zeros(1, np.int64)
@@ -608,10 +621,15 @@ class DemSimulation:
                                    self.sleep_steps, self._sleep_count, s.awake, self._tmp_ids,
                                    self.steps % self.sleep_check == 0)
         if ns:
-            ids = self._tmp_ids[:ns]
-            self._fm_sleep[ids] = self._fm[ids]
-            self.idx = self.idx[s.awake[self.idx]]
-            self._on_sleep()
+            self._after_sleep(ns)
+
+    def _after_sleep(self, ns):
+        """Bookkeeping of the *ns* particles that just fell asleep (listed in ``_tmp_ids``)."""
+        s = self.state
+        ids = self._tmp_ids[:ns]
+        self._fm_sleep[ids] = self._fm[ids]
+        self.idx = self.idx[s.awake[self.idx]]
+        self._on_sleep()
 
     def _wake_by_force(self):
         """Wake sleepers whose force-model force (last evaluated into ``_fm``) moved away from the value
@@ -663,9 +681,16 @@ class DemSimulation:
         ok = 0
         ps0, st0 = self.particle_steps, self.steps
         disp = (math.inf, math.inf)
-        for _ in range(int(max_steps)):
-            disp = self._one_step()
-            ok = ok + 1 if disp[k] < e_tol else 0
+        left = int(max_steps)
+        while left > 0:
+            done = 0
+            if self.compiled and steploop.eligible(self):  # many steps in one compiled call
+                done, disp, ok = steploop.run(self, left, e_tol, k, consecutive, ok)
+            if done == 0:
+                disp = self._one_step()
+                ok = ok + 1 if disp[k] < e_tol else 0
+                done = 1
+            left -= done
             if ok >= consecutive:
                 return EquilibriumResult(True, self.steps - st0, self.t, disp[k], self.particle_steps - ps0)
         return EquilibriumResult(False, self.steps - st0, self.t, disp[k], self.particle_steps - ps0)
