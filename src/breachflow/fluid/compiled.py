@@ -9,12 +9,14 @@ moving masses, the Python and numpy overhead of that sequence costs far more tha
 from the grid arrays (:func:`~breachflow.hydro.sampling.grid_bilinear_point` or
 :func:`~breachflow.hydro.sampling.grid_neighbourhood_point`, the sampler's own point kernels), and
 buoyancy, drag, the convective apparent-mass force (Fig 4.3 Step 7H) and the gridpoint torque (Step 7E)
-use the per-term kernels of :mod:`breachflow.fluid.kernels` — the physics stays in one place, only the
-loop is fused. :func:`grid_added_masses` is the same for the apparent mass. Both reproduce the
+use the per-term kernels of :mod:`breachflow.fluid.kernels`, and the water velocity a particle feels is
+the sampled depth-averaged one times :func:`~breachflow.fluid.profile.profile_factor` at its centre
+height (the vertical profile, ``uniform`` | ``log`` | ``power``) — the physics stays in one place, only
+the loop is fused. :func:`grid_added_masses` is the same for the apparent mass. Both reproduce the
 step-by-step path to round-off (``tests/fluid/test_compiled_forces.py``).
 
 Used by ``FluidForces`` automatically for grid snapshots without the Basset term and with a non-uniform
-field (a uniform field, a mesh or ``basset=True`` take the step-by-step path).
+field, for every velocity profile (a uniform field, a mesh or ``basset=True`` take the step-by-step path).
 """
 from __future__ import annotations
 
@@ -25,6 +27,7 @@ import numpy as np
 
 from ..hydro.sampling import grid_bilinear_point, grid_neighbourhood_point
 from . import kernels as K
+from .profile import profile_factor
 
 BILINEAR, NEIGHBOURHOOD = 0, 1
 
@@ -38,13 +41,23 @@ def _sample(method, bed, depth, u, v, x0, y0, dx, dy, smax, x, y, radius):
     return ins, b, h, uu, vv
 
 
+@numba.njit(cache=True, inline="always")
+def _profiled(code, k_s, z, b, h, uu, vv):
+    """``(u, v)`` times the vertical profile factor at height ``z - b`` in water ``h`` (as ``FluidForces._profiled``)."""
+    if code == 0:
+        return uu, vv
+    f = profile_factor(code, z - b, (b + h) - b, k_s)
+    return uu * f, vv * f
+
+
 @numba.njit(cache=True)
 def grid_added_masses(rows, pos, radius, method, bed, depth, u, v, x0, y0, dx, dy, smax, outside_air,
-                      rho_w, rho_a, xi, out):
+                      profile, k_s, rho_w, rho_a, xi, out):
     """Apparent mass ``xi (rho_W V_sub + rho_A (V - V_sub))`` of particles *rows* at *pos* into ``out[k]``.
 
     Returns -1, or (``outside_air`` False) the position ``k`` in *rows* of the first particle outside the
-    field (nothing is meaningful in *out* then).
+    field (nothing is meaningful in *out* then). *profile*, *k_s* are not used (the apparent mass does not
+    depend on the velocity); they are taken so that both kernels share the field arguments.
     """
     for k in range(rows.size):
         i = rows[k]
@@ -62,15 +75,18 @@ def grid_added_masses(rows, pos, radius, method, bed, depth, u, v, x0, y0, dx, d
 
 @numba.njit(cache=True)
 def grid_fluid_forces(idx, pos, vel, omega, state_pos, awake, radius, method, bed, depth, u, v, x0, y0, dx, dy,
-                      smax, outside_air, wind, rho_w, nu_w, rho_a, nu_a, with_air, g, law, params, xi, time_step,
-                      do_torque, force, torque):
+                      smax, outside_air, profile, k_s, wind, rho_w, nu_w, rho_a, nu_a, with_air, g, law, params, xi,
+                      time_step, do_torque, force, torque):
     """Add buoyancy, drag, convective apparent mass and gridpoint torque on particles *idx* to *force*/*torque*.
 
     The kinematics are rows of *pos*/*vel*/*omega*; a sleeping particle (``awake`` False) is taken at rest
     at ``state_pos`` (as ``FluidForces._kinematics``). Same terms and arithmetic as
     ``FluidForces.accumulate`` with ``basset=False`` on a non-uniform grid field: outside the field a
     particle sees air (``outside_air``) or the call returns the position in *idx* of the first one outside
-    before anything is added. ``time_step`` 0 means the default horizon of the convective term,
+    before anything is added. The water velocity is the depth-averaged one times the vertical profile
+    factor (*profile* code of :data:`~breachflow.fluid.profile.PROFILES`, roughness *k_s*) at the
+    particle's centre height, here and at the predicted position of the convective term (the gridpoint
+    torque uses the depth-averaged gridpoint velocities, as the step path). ``time_step`` 0 means the default horizon of the convective term,
     ``0.125 max(s_max, 1e-3) / max |v_h|``. Returns -1 on success.
     """
     n = idx.size
@@ -99,8 +115,7 @@ def grid_fluid_forces(idx, pos, vel, omega, state_pos, awake, radius, method, be
         ins_[k] = ins
         if ins:
             phi[k] = K.submerged_fraction(px[k, 2], radius[i], b + h, b)
-            su[k] = uu
-            sv[k] = vv
+            su[k], sv[k] = _profiled(profile, k_s, px[k, 2], b, h, uu, vv)
         else:
             if not outside_air:
                 return k
@@ -149,6 +164,8 @@ def grid_fluid_forces(idx, pos, vel, omega, state_pos, awake, radius, method, be
             ax = px[k, 0] + pv[k, 0] * horizon
             ay = px[k, 1] + pv[k, 1] * horizon
             ins1, b1, h1, u1, v1 = _sample(method, bed, depth, u, v, x0, y0, dx, dy, smax, ax, ay, a)
+            if ins1:
+                u1, v1 = _profiled(profile, k_s, px[k, 2] + pv[k, 2] * horizon, b1, h1, u1, v1)
             if not (ins1 and ins_[k]):
                 u1 = su[k]
                 v1 = sv[k]

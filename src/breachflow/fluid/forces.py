@@ -29,9 +29,10 @@ Sleeping particles of the DEM still get their (steady) fluid force, evaluated at
 the DEM wakes a sleeper when the force models' force on it changes.
 
 On a (non-uniform) grid snapshot without the Basset term, :meth:`FluidForces.accumulate` and
-:meth:`FluidForces.added_mass` run as one compiled call each (:mod:`breachflow.fluid.compiled`: the field
-sampled once per particle inside the kernel); ``compiled=False`` keeps the step-by-step path, which gives
-the same forces to round-off.
+:meth:`FluidForces.added_mass` run as one compiled call each, with any velocity profile
+(:mod:`breachflow.fluid.compiled`: the field sampled and the profile factor applied once per particle
+inside the kernel); ``compiled=False`` keeps the step-by-step path, which gives the same forces to
+round-off.
 
 Particles outside the hydrodynamic field: ``outside="error"`` (default) raises
 :class:`~breachflow.errors.PhysicsError` naming the particle; ``outside="air"`` treats them as in air.
@@ -154,9 +155,7 @@ class FluidForces:
         from . import compiled as C
 
         sampler = getattr(self.field, "sampler", None)
-        # the fused kernel reads the depth-averaged velocity only: a vertical profile takes the step-by-step path
-        if (self.basset is not None or self.profile_code != 0 or sampler is None or sampler.kind != "grid"
-                or self.field.uniform):
+        if self.basset is not None or sampler is None or sampler.kind != "grid" or self.field.uniform:
             return None
         method = {"bilinear": C.BILINEAR, "linear": C.BILINEAR, "barycentric": C.BILINEAR,
                   "neighbourhood": C.NEIGHBOURHOOD, "neighborhood": C.NEIGHBOURHOOD}.get(sampler.method)
@@ -164,7 +163,7 @@ class FluidForces:
             return None
         g = sampler.grid_arrays()
         return (method, g.bed, g.depth, g.u, g.v, float(g.x0), float(g.y0), float(g.dx), float(g.dy),
-                float(self.field.s_max), self.outside == "air")
+                float(self.field.s_max), self.outside == "air", self.profile_code, self.roughness)
 
     def _outside_error(self, pos, k, idx):
         raise PhysicsError(
@@ -213,8 +212,9 @@ class FluidForces:
 
     def _profiled(self, pos, surface, bed, u, v):
         """``(u, v)`` times the vertical profile factor at the particles' centre heights."""
-        depth = np.where(np.isfinite(surface) & np.isfinite(bed), surface - bed, 0.0)
-        z = np.where(np.isfinite(bed), pos[:, 2] - bed, 0.0)
+        with np.errstate(invalid="ignore"):  # outside the field: surface = bed = -inf
+            depth = np.where(np.isfinite(surface) & np.isfinite(bed), surface - bed, 0.0)
+            z = np.where(np.isfinite(bed), pos[:, 2] - bed, 0.0)
         f = profile_factors_np(self.profile_code, z, depth, self.roughness)
         return u * f, v * f
 
