@@ -136,11 +136,45 @@ def test_critical_velocity_report_drag_law(D):
 @pytest.mark.parametrize("D,h", [(0.1, 1.0), (0.1, 10.0), (0.5, 3.0), (1.0, 3.0), (2.0, 10.0)])
 def test_critical_velocity_log_profile_follows_shields(D, h):
     """Log profile (Clift–Gauvin drag): U_c / U_Shields(theta_c = 0.047, k_s = 2 D) in 1.0–1.4 for
-    D = 0.1–2 m, h = 1–10 m (measured 1.18–1.24: the model has no lift force)."""
-    from breachflow.fluid.stability import critical_velocity
+    D = 0.1–2 m, h = 1–10 m (measured 1.18–1.24: the model has no lift force).
 
-    ratio = critical_velocity(D, h, velocity_profile="log", drag_law="clift_gauvin") / shields_velocity(D, h)
+    Izbash's coefficient refers to the velocity near the stone: with u_b = u(z = D) the log profile's
+    critical u_b / sqrt(2 g Delta D) lies in 1.1–1.35 at every depth (measured 1.19–1.26, about Izbash's
+    embedded 1.2); the depth-averaged U_c / sqrt(2 g Delta D) grows with h/D and is in 1.4–1.95 where
+    h/D is in Izbash's range 5–10 (measured 1.48–1.85; 1.09–2.78 over h/D = 2–100)."""
+    from breachflow.fluid.stability import critical_velocity, near_bed_velocity
+
+    uc = critical_velocity(D, h, velocity_profile="log", drag_law="clift_gauvin")
+    ratio = uc / shields_velocity(D, h)
     assert 1.0 <= ratio <= 1.4, ratio
+    c_b = near_bed_velocity(uc, D, h, velocity_profile="log") / IZB(D)
+    assert 1.1 <= c_b <= 1.35, c_b
+    if 5.0 <= h / D <= 10.0:
+        assert 1.4 <= uc / IZB(D) <= 1.95, uc / IZB(D)
+
+
+@pytest.mark.parametrize("D,h", [(0.2, 1.0), (2.0, 10.0)])
+def test_critical_velocity_power_profile_near_bed_is_izbash(D, h):
+    """Power (1/7) profile, Clift–Gauvin drag: the velocity at z = D at the critical U_c lies between
+    Izbash's exposed and embedded coefficients, 0.86–1.2 sqrt(2 g Delta D) (measured 0.99–1.05 over
+    D = 0.1–2 m, h = 1–10 m)."""
+    from breachflow.fluid.stability import critical_velocity, near_bed_velocity
+
+    uc = critical_velocity(D, h, velocity_profile="power", drag_law="clift_gauvin")
+    c_b = near_bed_velocity(uc, D, h, velocity_profile="power") / IZB(D)
+    assert 0.86 <= c_b <= 1.2, c_b
+
+
+def test_near_bed_velocity_is_the_profile_at_one_diameter():
+    """u_b = U u(z = D)/U of the profile with k_s = 2 D: closed forms of the log and power laws."""
+    from breachflow.fluid.stability import near_bed_velocity
+
+    D, h, U = 0.5, 4.0, 3.0
+    assert near_bed_velocity(U, D, h, velocity_profile="log") == pytest.approx(
+        U * math.log(30 * D / (2 * D)) / (math.log(30 * h / (2 * D)) - 1), rel=1e-12)
+    assert near_bed_velocity(U, D, h, velocity_profile="power") == pytest.approx(U * 8 / 7 * (D / h) ** (1 / 7),
+                                                                                 rel=1e-12)
+    assert near_bed_velocity(U, D, h, velocity_profile="uniform") == U
 
 
 def test_critical_velocity_grows_with_depth_only_with_a_profile():
@@ -206,3 +240,15 @@ velocity_profile = "log"
     fluid = run._live[1].models[0]
     assert fluid.velocity_profile == "log"
     assert fluid.roughness == pytest.approx(roughness_from_manning(0.025))
+
+
+def test_default_run_uses_the_log_profile():
+    """The default velocity profile of a closure run (embedded scenario, or a file without the key) is the
+    log law."""
+    from breachflow.cycle.config import closure_setup
+    from breachflow.cycle.main import default_scenario_text
+    from breachflow.scenario.config import parse_scenario
+
+    setup = closure_setup(parse_scenario(default_scenario_text()))
+    assert setup.dem.velocity_profile == "log"
+    assert closure_setup(parse_scenario("")).dem.velocity_profile == "log"

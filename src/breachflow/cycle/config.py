@@ -222,13 +222,14 @@ class DemSection:
 @dataclass
 class FluidSection:
     """``[fluid]``: ``drag_law`` (registry name), ``sampling`` (``bilinear`` | ``neighbourhood``), ``xi``,
-    ``velocity_profile`` (``uniform`` | ``log`` | ``power``, :mod:`breachflow.fluid.profile`) and
+    ``velocity_profile`` (``log`` (default) | ``power`` | ``uniform``, :mod:`breachflow.fluid.profile`;
+    the log law follows Shields' depth dependence in the stone-stability validation, README) and
     ``roughness`` (k_s of the log law; default from the site's Manning n)."""
 
     drag_law: str = "report"
     sampling: str = "bilinear"
     xi: float = 0.5
-    velocity_profile: str = "uniform"
+    velocity_profile: str = "log"
     roughness: float | None = None
 
     @classmethod
@@ -236,7 +237,7 @@ class FluidSection:
         ctx.check_keys(table, {"drag_law", "sampling", "xi", "velocity_profile", "roughness"})
         out = cls(ctx.raw(table, "drag_law", default="report"), ctx.raw(table, "sampling", default="bilinear"),
                   ctx.quantity(table, "xi", "dimensionless", default=0.5, default_unit="", nonnegative=True),
-                  ctx.raw(table, "velocity_profile", default="uniform"),
+                  ctx.raw(table, "velocity_profile", default="log"),
                   ctx.quantity(table, "roughness", "length", default=None, default_unit="m", positive=True))
         from ..fluid.drag import get_drag_law
         from ..fluid.profile import PROFILES

@@ -11,7 +11,8 @@ Per particle, with ``V_sub`` the submerged volume (spherical cap while straddlin
   with ``x_pred = x + v dt`` in the frozen field (Fig 4.3 Step 7H);
 * fluid torque from the gridpoints in the particle's neighbourhood (Step 7E, Fig 4.4);
 * the water velocity at a particle is the depth-averaged one times the vertical profile factor at the
-  particle's centre height (``velocity_profile``: ``uniform`` (default, the report), ``log``, ``power``;
+  particle's centre height (``velocity_profile``: ``uniform`` (this class's default, the report), ``log``
+  (the closure run's default, ``[fluid] velocity_profile``), ``power``;
   :mod:`breachflow.fluid.profile`; the drag, the Basset history and the convective apparent-mass term use
   it; buoyancy and apparent mass do not depend on it, and the gridpoint torque still uses the
   depth-averaged gridpoint velocities);

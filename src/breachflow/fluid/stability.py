@@ -15,6 +15,23 @@ when its horizontal displacement exceeds ``D/4``. The contact stiffness is scale
 the closure default (2e7 N/m for 2 m stones) so that overlaps are the same fraction of ``D`` at every
 size. Results are compared with :mod:`breachflow.scenario.stone` (Izbash, Shields) in the tests and in
 the README.
+
+Which velocity Izbash's coefficient refers to: Izbash's ``u_c`` is the flow velocity *in the vicinity of
+the stone* (Izbash 1935, *Construction of dams by dumping stones into flowing water*; the riprap
+literature calls it the velocity against the stone and defines a reference velocity one stone diameter
+above the bed, e.g. USACE/FHWA riprap design, "reference velocity V_r at a distance D50 above the bed").
+Over a dam crest, where Izbash measured, the flow accelerates and its profile is nearly uniform, so
+engineers apply it to the depth-averaged velocity — a use limited to relative depths ``h/D`` of about
+5–10. With a developed log profile the depth-averaged ``U`` exceeds the velocity at the stone by
+``(ln(30 h/k_s) - 1) / ln(30 z/k_s)`` (1.2–3.1 at the stone's centre for ``h/D`` = 2–100, ``k_s = 2 D``),
+so a criterion in depth-averaged ``U`` must grow with ``h/D`` (Shields does; Izbash does not).
+:func:`near_bed_velocity` gives the velocity at ``z = D`` above the bed level, the reference the
+comparison with Izbash uses for the profiles (README table).
+
+Drag at the centre height vs over the stone's height: with the drag of the mean ``u|u|`` over the
+stone's projected area (Wiberg & Smith 1987, Water Resour. Res. 23(8)), the log-law effective velocity of
+this bed stone is 0.97 times its centre value (the lowest ~5 % of its height lies below ``z0 = k_s/30``,
+where the log law has no flow); the model keeps the centre value (:mod:`breachflow.fluid.profile`).
 """
 from __future__ import annotations
 
@@ -25,6 +42,7 @@ import numpy as np
 from ..dem import DemSimulation, Material
 from .field import UniformWater
 from .forces import FluidForces
+from .profile import factors as profile_factors
 
 G = 9.80665
 
@@ -64,6 +82,13 @@ def stone_moves(U, D, depth, *, velocity_profile="uniform", drag_law="report", d
         if np.hypot(*(sim.state.pos[k, :2] - x0)) > 0.25 * D:
             return True
     return False
+
+
+def near_bed_velocity(U, D, depth, *, velocity_profile="log", roughness_factor=2.0, height=1.0):
+    """The velocity one stone diameter above the bed level (``z = height * D``), ``U * profile_factor``
+    (log law with ``k_s = roughness_factor * D``, as :func:`stone_moves`): the near-stone reference
+    velocity of Izbash's coefficient for a depth-averaged *U* (m/s) in water *depth* (m)."""
+    return U * profile_factors(velocity_profile, height * D, depth, roughness_factor * D)
 
 
 def critical_velocity(D, depth, *, velocity_profile="uniform", drag_law="report", density=2650.0,
