@@ -159,6 +159,8 @@ def test_fused_profile_uses_the_one_profile_definition():
         scaled["u"] = snap["u"] * f
         scaled["v"] = snap["v"] * f
         kw = dict(drag_law="constant", air=None, torque=False, xi=0.0, roughness=0.066)
-        a = forces(FluidForces(snap, velocity_profile=profile, **kw), st, st.pos)[0]
+        model = FluidForces(snap, velocity_profile=profile, **kw)
+        assert model._fused is not None  # the fused kernel serves the profile
+        a = forces(model, st, st.pos)[0]
         b = forces(FluidForces(scaled, velocity_profile="uniform", **kw), st, st.pos)[0]
         np.testing.assert_allclose(a, b, rtol=1e-12)
