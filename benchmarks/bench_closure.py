@@ -144,6 +144,9 @@ def dem_ratio(n_steps: int = 1500) -> None:
             orig = run._fluid
             run._fluid = lambda s, c=compiled: FluidForces(__import__("breachflow.cycle.driver", fromlist=["x"]).dem_view(s),
                                                            drag_law=d.drag_law, sampling=d.sampling, xi=d.xi,
+                                                           velocity_profile=d.velocity_profile,
+                                                           roughness=d.roughness,
+                                                           manning=float(np.median(setup.domain.manning)),
                                                            outside="air", compiled=c)
             sim = run._make_dem(snap)
             sampler = FieldSampler(snap, method="bilinear")
