@@ -86,8 +86,8 @@ def grid_fluid_forces(idx, pos, vel, omega, state_pos, awake, radius, method, be
     before anything is added. The water velocity is the depth-averaged one times the vertical profile
     factor (*profile* code of :data:`~breachflow.fluid.profile.PROFILES`, roughness *k_s*) at the
     particle's centre height, here and at the predicted position of the convective term (the gridpoint
-    torque uses the depth-averaged gridpoint velocities, as the step path). ``time_step`` 0 means the default horizon of the convective term,
-    ``0.125 max(s_max, 1e-3) / max |v_h|``. Returns -1 on success.
+    torque uses the depth-averaged gridpoint velocities, as the step path). ``time_step`` 0 means the
+    default horizon of the convective term, ``0.125 max(s_max, 1e-3) / max |v_h|``. Returns -1 on success.
     """
     n = idx.size
     px = np.empty((n, 3))
