@@ -24,17 +24,27 @@ from .step import activity, copy_interior, primitives, stage
 
 
 @_jit
+def _range_cells(lo, hi):
+    n = 0
+    for j in range(lo.shape[0]):
+        if hi[j] >= lo[j]:
+            n += hi[j] - lo[j] + 1
+    return n
+
+
+@_jit
 def advance(h, hu, hv, z, obst, manning, bed_dz, kinds, times, levels, discharges, outer_un, relaxation,
             dx, dy, g, second_order, limiter, riemann, courant, h_dry,
             t, t_stop, max_steps, dt_min, skip_quiet, quiet_tol, blocks,
             h1, hu1, hv1, u, v, eta, stats):
     """March from *t* to *t_stop* (or *max_steps*) with adaptive CFL steps.
 
-    *skip_quiet*: quiet cells (:func:`.step.activity`, relative tolerance *quiet_tol*; 0: only cells whose
-    update is exactly zero, same results) skip the flux work; *blocks*: blocks of rows run in parallel (the numba thread count). Returns
-    ``(t, steps, status)``; status 0 = reached t_stop, 1 = step limit, 2 = non-finite state or a time
-    step below *dt_min* (runaway). ``stats[0] += clipped depth``, ``stats[1] = min dt``,
-    ``stats[2] = max dt``.
+    *skip_quiet*: quiet cells (:func:`.step.activity`, relative tolerance *quiet_tol*; 0: only cells
+    whose update is exactly zero, same results) skip the flux work; *blocks*: blocks of rows run in
+    parallel (the numba thread count). Returns ``(t, steps, status)``; status 0 = reached t_stop,
+    1 = step limit, 2 = non-finite state or a time step below *dt_min* (runaway).
+    ``stats[0] += clipped depth``, ``stats[1] = min dt``, ``stats[2] = max dt``, ``stats[3] +=``
+    cell-stages that did the flux work (the others were quiet).
     """
     nyp, nxp = h.shape
     rows = np.zeros(nyp)
@@ -68,12 +78,14 @@ def advance(h, hu, hv, z, obst, manning, bed_dz, kinds, times, levels, discharge
             chi[j] = max(hi1[j], hi2[j])
         activity(h, hu, hv, eta, obst, lo1, hi1, clo, chi, full, skip_quiet, quiet_tol, g)
         full = False
+        stats[3] += _range_cells(lo1, hi1)
         stats[0] += stage(h, hu, hv, u, v, eta, obst, lo1, hi1, h, hu, hv, manning, dx, dy, g, second_order, limiter,
                           riemann, dt, h_dry, 0.0, h1, hu1, hv1, blocks)
         if second_order:
             fill_ghosts(h1, hu1, hv1, z, bed_dz, kinds, times, levels, discharges, outer_un, t + dt, h_dry, g)
             primitives(h1, hu1, hv1, z, obst, u, v, eta, h_dry, dx, dy, g, False, rows)
             activity(h1, hu1, hv1, eta, obst, lo2, hi2, lo1, hi1, False, skip_quiet, quiet_tol, g)
+            stats[3] += _range_cells(lo2, hi2)
             stats[0] += stage(h1, hu1, hv1, u, v, eta, obst, lo2, hi2, h, hu, hv, manning, dx, dy, g, second_order,
                               limiter, riemann, dt, h_dry, 0.5, h, hu, hv, blocks)
         else:

@@ -118,7 +118,7 @@ class SWESimulation:
         self.hu = np.zeros(shape)
         self.hv = np.zeros(shape)
         self._work = [np.zeros(shape) for _ in range(6)]
-        self.stats = np.array([0.0, np.inf, 0.0])
+        self.stats = np.array([0.0, np.inf, 0.0, 0.0])  # clipped depth, min / max dt, cell-stages computed
         self.t = 0.0
         self.steps = 0
         self.history = ConvergenceHistory()
@@ -226,8 +226,8 @@ class SWESimulation:
                     self.h, self.hu, self.hv, self.z, self.obst, self.manning, self.bed_dz,
                     self.kinds, self.times, self.levels, self.discharges, self.outer_velocity, self.relaxation,
                     self.dx, self.dy, o.gravity, o.order == 2, K.LIMITERS[o.limiter], K.RIEMANN[o.riemann],
-                    o.courant, o.h_dry, float(self.t), float(t_end), int(max_steps), o.dt_min, o.skip_quiet, o.quiet_tolerance,
-                    numba.get_num_threads(), w[0], w[1], w[2], w[3], w[4], w[5], self.stats)
+                    o.courant, o.h_dry, float(self.t), float(t_end), int(max_steps), o.dt_min, o.skip_quiet,
+                    o.quiet_tolerance, numba.get_num_threads(), w[0], w[1], w[2], w[3], w[4], w[5], self.stats)
         finally:
             numba.set_num_threads(previous_threads)
         self.t = t
@@ -272,8 +272,8 @@ class SWESimulation:
                 self.h, self.hu, self.hv, self.z, self.obst, self.manning, self.bed_dz,
                 self.kinds, self.times, self.levels, self.discharges, self.outer_velocity, self.relaxation,
                 self.dx, self.dy, o.gravity, o.order == 2, K.LIMITERS[o.limiter], K.RIEMANN[o.riemann],
-                o.courant, o.h_dry, t, float(t_end), 1, o.dt_min, o.skip_quiet, o.quiet_tolerance,
-                numba.get_num_threads(), w[0], w[1], w[2], w[3], w[4], w[5], self.stats)
+                o.courant, o.h_dry, t, float(t_end), 1, o.dt_min, o.skip_quiet,
+                o.quiet_tolerance, numba.get_num_threads(), w[0], w[1], w[2], w[3], w[4], w[5], self.stats)
             if status == 2 or n == 0:
                 return t1, steps + n, 2 if status == 2 else status
             porous_resistance(self.h, self.hu, self.hv, pl["height"], pl["A"], pl["B"], pl["n_free"], t1 - t,
