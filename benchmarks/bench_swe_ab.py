@@ -5,8 +5,9 @@
 
 Cases (second order, one numba thread unless ``--threads``): ``stoker`` the Stoker dam break of
 ``bench_swe.py`` (100 m × 5 m, 0.125 m square cells = 32,000 cells, to t = 5 s; also its L1 error);
-``wet`` the throughput domain of ``bench_swe.py`` (316 × 316 cells, every cell wet and moving, 40
-steps); ``dry`` a mostly dry polder (400 × 400 cells of 1 m, a 40 m wide basin 2 m deep at the west
+``wet`` the throughput domain of ``bench_swe.py`` (316 × 316 cells, a dam break in a wet basin, 40
+steps: the wave covers a small part, the rest is at rest); ``busy`` the same grid with every cell
+moving (h 1 ± 0.2 m, u 0.5, v 0.2 m/s; no cell is quiet: the cost of the fused kernels alone); ``dry`` a mostly dry polder (400 × 400 cells of 1 m, a 40 m wide basin 2 m deep at the west
 edge flowing onto a dry bed, 60 s). Each timing runs in a fresh process (old / new interleaved,
 ``PYTHONPATH`` selecting the tree, each tree its own numba cache) and reports cell-steps per CPU second
 (``time.process_time``; a second-order step is two stages). Printed: mean ± standard deviation per
@@ -47,12 +48,20 @@ elif case == "wet":
                        initial_surface=lambda X, Y: np.where(X + 0.3 * Y < 0.6 * n, 2.0, 1.0),
                        bed=lambda X, Y: 0.1 * np.sin(X / 7.0) * np.cos(Y / 5.0))
     t_end, max_steps = 1e9, 40
+elif case == "busy":
+    n = 316
+    dom = uniform_grid(0, n, 0, n, 1.0, manning=0.02, bed=lambda X, Y: 0.1 * np.sin(X / 7.0) * np.cos(Y / 5.0))
+    X, Y = np.meshgrid(dom.x, dom.y)
+    h0 = 1.0 + 0.2 * np.sin(X / 11.0) * np.cos(Y / 13.0)
+    initial = (h0, 0.5 * h0, 0.2 * h0)
+    t_end, max_steps = 1e9, 40
 else:
     dom = uniform_grid(0, 400, 0, 400, 1.0, manning=0.03, bed=lambda X, Y: 0.02 * np.sin(X / 9.0) * np.cos(Y / 7.0),
                        initial_surface=lambda X, Y: np.where(X < 40.0, 2.0, -1.0))
     t_end, max_steps = 60.0, 10**9
-SWESimulation(dom, SWEOptions(**kw)).advance_to(1e9, max_steps=2)  # compile / load outside the timing
-sim = SWESimulation(dom, SWEOptions(**kw))
+initial = initial if case == "busy" else None
+SWESimulation(dom, SWEOptions(**kw), initial=initial).advance_to(1e9, max_steps=2)  # compile outside the timing
+sim = SWESimulation(dom, SWEOptions(**kw), initial=initial)
 c0 = time.process_time(); w0 = time.perf_counter()
 sim.advance_to(t_end, max_steps=max_steps)
 cpu = time.process_time() - c0; wall = time.perf_counter() - w0
@@ -79,7 +88,7 @@ def main(argv=None):
     ap = argparse.ArgumentParser()
     ap.add_argument("--old", required=True, help="src directory of the baseline tree")
     ap.add_argument("--reps", type=int, default=3)
-    ap.add_argument("--cases", default="stoker,wet,dry")
+    ap.add_argument("--cases", default="stoker,wet,busy,dry")
     ap.add_argument("--threads", type=int, default=1)
     ap.add_argument("--no-skip", action="store_true",
                     help="also time the new tree without quiet-cell skipping and with exact skipping (tolerance 0)")
