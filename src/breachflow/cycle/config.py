@@ -124,8 +124,8 @@ class HydroSection:
     solve), ``monitor_radius`` (steady state is judged within this distance of the breach),
     ``snapshots`` (files for the ``snapshot_frozen`` / ``nested`` solvers), ``window``
     (``[x0, x1, y0, y1]`` of the ``nested`` local model; default the breach ± (B/2 + 3 B) along the levee,
-    ± 3 B across), ``threads`` (numba threads of one solve; default 1: least CPU time, 2 on two free
-    cores cut the wall time of a solve, see README "Embedded shallow-water solver"). The default 2e-4 1/s puts the warm re-solves of the default scene within 0.37 % of
+    ± 3 B across), ``threads`` (numba threads of one solve; default 1, the least CPU time; more threads
+    can cut its wall time on free cores, README "Embedded shallow-water solver"). The default 2e-4 1/s puts the warm re-solves of the default scene within 0.37 % of
     their steady breach discharge (the former 2e-3 1/s and 60 s: 2.71 %; issue 12,
     ``python3 tasks.py bench steady``)."""
 
