@@ -35,7 +35,7 @@ class SWEOptions:
     number of numba threads (None: numba's default, all cores); ``skip_quiet`` skips the flux work of
     quiet cells — water at rest with one level, dry land — whose update is below ``quiet_tolerance``
     times their depth (0: only cells whose update is exactly zero, results identical to computing every
-    cell; :func:`breachflow.hydro.swe.step.activity`).
+    cell; ``breachflow.hydro.swe.step.activity``).
     """
 
     order: int = 2
