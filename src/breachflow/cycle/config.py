@@ -124,7 +124,8 @@ class HydroSection:
     solve), ``monitor_radius`` (steady state is judged within this distance of the breach),
     ``snapshots`` (files for the ``snapshot_frozen`` / ``nested`` solvers), ``window``
     (``[x0, x1, y0, y1]`` of the ``nested`` local model; default the breach ± (B/2 + 3 B) along the levee,
-    ± 3 B across). The default 2e-4 1/s puts the warm re-solves of the default scene within 0.37 % of
+    ± 3 B across), ``threads`` (numba threads of one solve; default 1, the least CPU time; more threads
+    can cut its wall time on free cores, README "Embedded shallow-water solver"). The default 2e-4 1/s puts the warm re-solves of the default scene within 0.37 % of
     their steady breach discharge (the former 2e-3 1/s and 60 s: 2.71 %; issue 12,
     ``python3 tasks.py bench steady``)."""
 
@@ -138,11 +139,12 @@ class HydroSection:
     monitor_radius: float = 20.0
     snapshots: list = field(default_factory=list)
     window: tuple | None = None
+    threads: int = 1
 
     @classmethod
     def from_table(cls, table, ctx):
         ctx.check_keys(table, {"solver", "resolution", "order", "courant", "tolerance", "t_max_initial", "t_max",
-                               "monitor_radius", "snapshots", "window"})
+                               "monitor_radius", "snapshots", "window", "threads"})
         out = cls(
             solver=ctx.raw(table, "solver", default="swe"),
             resolution=ctx.quantity(table, "resolution", "length", default="1 m", positive=True),
@@ -153,7 +155,10 @@ class HydroSection:
             t_max=ctx.quantity(table, "t_max", "time", default="300 s", positive=True),
             monitor_radius=ctx.quantity(table, "monitor_radius", "length", default="20 m", positive=True),
             snapshots=[ctx.base_dir / p for p in ctx.raw(table, "snapshots", types=(list,), default=[])],
+            threads=ctx.raw(table, "threads", types=(int,), default=1),
         )
+        if out.threads < 1:
+            raise ctx.error(f"threads = {out.threads}: needs at least 1", "threads")
         if "window" in table:
             w = ctx.raw(table, "window", types=(list,))
             if len(w) != 4:
@@ -498,7 +503,7 @@ class _WarmStartSWE:
         from ..hydro.solvers import get_solver
 
         kw = dict(order=hydro.order, courant=hydro.courant, tolerance=hydro.tolerance, region=region,
-                  section=section)
+                  section=section, threads=hydro.threads)
         self.cold = get_solver("swe", t_max=hydro.t_max_initial, **kw)
         self.warm = get_solver("swe", t_max=hydro.t_max, **kw)
 

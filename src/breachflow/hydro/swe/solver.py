@@ -12,6 +12,7 @@ import math
 import time as _time
 from dataclasses import dataclass, field
 
+import numba
 import numpy as np
 import xarray as xr
 
@@ -31,7 +32,10 @@ class SWEOptions:
     ``order`` 1 or 2 (MUSCL + SSP-RK2); ``courant`` the CFL number ``dt (|u|+c)/dx + dt (|v|+c)/dy``
     (0 < C <= 1; depth positivity is guaranteed for C <= 0.5); ``limiter`` minmod / mc / vanleer;
     ``riemann`` hll / hllc; ``h_dry`` depth (m) below which a cell's velocity is zero; ``threads`` the
-    number of numba threads (None: numba's default, all cores).
+    number of numba threads (None: numba's default, all cores); ``skip_quiet`` skips the flux work of
+    quiet cells — water at rest with one level, dry land — whose update is below ``quiet_tolerance``
+    times their depth (0: only cells whose update is exactly zero, results identical to computing every
+    cell; ``breachflow.hydro.swe.step.activity``).
     """
 
     order: int = 2
@@ -42,6 +46,8 @@ class SWEOptions:
     h_dry: float = 1e-8
     dt_min: float = 1e-9
     threads: int | None = 1
+    skip_quiet: bool = True
+    quiet_tolerance: float = 1e-14
 
     def __post_init__(self):
         if self.order not in (1, 2):
@@ -52,6 +58,8 @@ class SWEOptions:
             raise InputError(f"limiter {self.limiter!r} unknown; use one of {sorted(K.LIMITERS)}")
         if self.riemann not in K.RIEMANN:
             raise InputError(f"riemann {self.riemann!r} unknown; use one of {sorted(K.RIEMANN)}")
+        if not (0.0 <= self.quiet_tolerance <= 1e-6):
+            raise InputError(f"quiet_tolerance must be in [0, 1e-6], got {self.quiet_tolerance!r}")
         if not (self.gravity > 0 and self.h_dry >= 0):
             raise InputError("gravity must be > 0 and h_dry >= 0")
 
@@ -109,9 +117,8 @@ class SWESimulation:
         self.h = np.zeros(shape)
         self.hu = np.zeros(shape)
         self.hv = np.zeros(shape)
-        self._work = [np.zeros(shape) for _ in range(9)]
-        self._faces = np.zeros((5,) + shape)
-        self.stats = np.array([0.0, np.inf, 0.0])
+        self._work = [np.zeros(shape) for _ in range(6)]
+        self.stats = np.array([0.0, np.inf, 0.0, 0.0])  # clipped depth, min / max dt, cell-stages computed
         self.t = 0.0
         self.steps = 0
         self.history = ConvergenceHistory()
@@ -206,8 +213,6 @@ class SWESimulation:
     # ------------------------------------------------------------------ marching
     def advance_to(self, t_end: float, max_steps: int = 10**9) -> "SWESimulation":
         """March to time *t_end* (s). Raises :class:`~breachflow.errors.PhysicsError` on a non-finite state or runaway step."""
-        import numba
-
         o = self.options
         w = self._work
         previous_threads = numba.get_num_threads()
@@ -221,8 +226,8 @@ class SWESimulation:
                     self.h, self.hu, self.hv, self.z, self.obst, self.manning, self.bed_dz,
                     self.kinds, self.times, self.levels, self.discharges, self.outer_velocity, self.relaxation,
                     self.dx, self.dy, o.gravity, o.order == 2, K.LIMITERS[o.limiter], K.RIEMANN[o.riemann],
-                    o.courant, o.h_dry, float(self.t), float(t_end), int(max_steps), o.dt_min,
-                    w[0], w[1], w[2], w[3], w[4], w[5], w[6], w[7], w[8], self._faces, self.stats)
+                    o.courant, o.h_dry, float(self.t), float(t_end), int(max_steps), o.dt_min, o.skip_quiet,
+                    o.quiet_tolerance, numba.get_num_threads(), w[0], w[1], w[2], w[3], w[4], w[5], self.stats)
         finally:
             numba.set_num_threads(previous_threads)
         self.t = t
@@ -267,8 +272,8 @@ class SWESimulation:
                 self.h, self.hu, self.hv, self.z, self.obst, self.manning, self.bed_dz,
                 self.kinds, self.times, self.levels, self.discharges, self.outer_velocity, self.relaxation,
                 self.dx, self.dy, o.gravity, o.order == 2, K.LIMITERS[o.limiter], K.RIEMANN[o.riemann],
-                o.courant, o.h_dry, t, float(t_end), 1, o.dt_min,
-                w[0], w[1], w[2], w[3], w[4], w[5], w[6], w[7], w[8], self._faces, self.stats)
+                o.courant, o.h_dry, t, float(t_end), 1, o.dt_min, o.skip_quiet,
+                o.quiet_tolerance, numba.get_num_threads(), w[0], w[1], w[2], w[3], w[4], w[5], self.stats)
             if status == 2 or n == 0:
                 return t1, steps + n, 2 if status == 2 else status
             porous_resistance(self.h, self.hu, self.hv, pl["height"], pl["A"], pl["B"], pl["n_free"], t1 - t,
