@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import BreachflowError
+from ..errors import BreachflowError, InputError
 from ..scenario.config import register_section
 from ..scenario.geometry import BreachGeometry, BreachScene, LeveeGeometry, typical_breach
 from .criteria import EndCriteria
@@ -110,6 +110,9 @@ class SiteSection:
         return sc
 
 
+#: warm re-solve of the ``swe`` solver: whole domain, or a window around the changed cells (hydro/window.py)
+RESOLVE_MODES = ("full", "window")
+
 #: solvers that take ingested snapshot files
 SNAPSHOT_SOLVERS = ("snapshot", "snapshot_frozen", "nested")
 
@@ -127,7 +130,16 @@ class HydroSection:
     ± 3 B across), ``threads`` (numba threads of one solve; default 1, the least CPU time; more threads
     can cut its wall time on free cores, README "Embedded shallow-water solver"). The default 2e-4 1/s puts the warm re-solves of the default scene within 0.37 % of
     their steady breach discharge (the former 2e-3 1/s and 60 s: 2.71 %; issue 12,
-    ``python3 tasks.py bench steady``)."""
+    ``python3 tasks.py bench steady``).
+
+    ``resolve`` (``full`` | ``window``): a warm re-solve of the ``swe`` solver over the whole domain, or
+    only in a window around the cells the remap changed, ``resolve_margin`` (default 2 B) beyond them and
+    the breach, the rest frozen at the previous steady state, grown when the water level at its edge moves
+    by more than ``resolve_edge_level`` (:mod:`breachflow.hydro.window`). ``refine`` (a length, with
+    ``solver = "swe"``): a nested fine grid of that cell size around the breach (``window``, default the
+    breach ± (B/2 + 3 B) along the levee, ± 3 B across) inside the coarse domain at ``resolution``: the
+    coarse open-breach steady state is solved once and is the regional field of the ``nested`` local model
+    (:mod:`breachflow.hydro.nested`) the closure runs on."""
 
     solver: str = "swe"
     resolution: float = 1.0
@@ -140,11 +152,16 @@ class HydroSection:
     snapshots: list = field(default_factory=list)
     window: tuple | None = None
     threads: int = 1
+    resolve: str = "full"
+    resolve_margin: float | None = None
+    resolve_edge_level: float = 0.03
+    refine: float | None = None
 
     @classmethod
     def from_table(cls, table, ctx):
         ctx.check_keys(table, {"solver", "resolution", "order", "courant", "tolerance", "t_max_initial", "t_max",
-                               "monitor_radius", "snapshots", "window", "threads"})
+                               "monitor_radius", "snapshots", "window", "threads", "resolve", "resolve_margin",
+                               "resolve_edge_level", "refine"})
         out = cls(
             solver=ctx.raw(table, "solver", default="swe"),
             resolution=ctx.quantity(table, "resolution", "length", default="1 m", positive=True),
@@ -156,9 +173,13 @@ class HydroSection:
             monitor_radius=ctx.quantity(table, "monitor_radius", "length", default="20 m", positive=True),
             snapshots=[ctx.base_dir / p for p in ctx.raw(table, "snapshots", types=(list,), default=[])],
             threads=ctx.raw(table, "threads", types=(int,), default=1),
+            resolve=ctx.raw(table, "resolve", default="full"),
+            resolve_edge_level=ctx.quantity(table, "resolve_edge_level", "length", default="0.03 m", positive=True),
         )
         if out.threads < 1:
             raise ctx.error(f"threads = {out.threads}: needs at least 1", "threads")
+        out.refine = ctx.quantity(table, "refine", "length", positive=True)
+        out.resolve_margin = ctx.quantity(table, "resolve_margin", "length", positive=True)
         if "window" in table:
             w = ctx.raw(table, "window", types=(list,))
             if len(w) != 4:
@@ -167,6 +188,14 @@ class HydroSection:
             if not (vals[1] > vals[0] and vals[3] > vals[2]):
                 raise ctx.error(f"window {w}: needs x0 < x1 and y0 < y1", "window")
             out.window = tuple(vals)
+        if out.resolve not in RESOLVE_MODES:
+            raise ctx.error(f"resolve = {out.resolve!r}; use one of {list(RESOLVE_MODES)}", "resolve")
+        if out.refine is not None:
+            if out.solver != "swe":
+                raise ctx.error(f"refine (a nested fine grid around the breach) needs solver = 'swe', not {out.solver!r}",
+                                "refine")
+            if not out.refine < out.resolution:
+                raise ctx.error(f"refine = {out.refine:g} m must be finer than resolution = {out.resolution:g} m", "refine")
         if out.solver in SNAPSHOT_SOLVERS and not out.snapshots:
             raise ctx.error(f"solver {out.solver!r} needs snapshots = [files]", "solver")
         if out.solver == "snapshot":
@@ -415,15 +444,27 @@ def closure_setup(scenario, *, overrides: dict | None = None):
         flood_level = scene.flood_water_elevation
         bottom = scene.ground_elevation + scene.levee.height - scene.breach.depth - scene.breach.scour_depth
     nested = None
-    if hydro.solver == "nested":
+    if hydro.solver == "nested" or hydro.refine is not None:
         from ..hydro.nested import NestedSolver, breach_window
 
-        window, spacing = breach_window(xc, yc, 2.0 * half, hydro.resolution)
+        fine = hydro.resolution if hydro.refine is None else hydro.refine
+        regional = hydro.snapshots
+        if hydro.refine is not None:  # the coarse open-breach steady state is the regional field
+            if built is not None and built.stage is not None:
+                raise InputError("[hydro] refine: a stage hydrograph of the site is not supported with a nested grid")
+            Xc, Yc = np.meshgrid(dom.x, dom.y)
+            reg_c = (np.abs(Xc - xc) <= half + hydro.monitor_radius) & (np.abs(Yc - yc) <= hydro.monitor_radius + half)
+            regional = [_WarmStartSWE(hydro, reg_c, section=(xc - half, xc + half, yc)).cold.solve(dom)]
+            metadata.update(refine_coarse_resolution=hydro.resolution, refine_resolution=hydro.refine)
+        window, spacing = breach_window(xc, yc, 2.0 * half, fine)
         if hydro.window is not None:
-            window, spacing = hydro.window, hydro.resolution
-        nested = NestedSolver(hydro.snapshots, window, spacing, manning=float(np.mean(dom.manning)),
+            window, spacing = hydro.window, fine
+        nested = NestedSolver(regional, window, spacing, manning=float(np.mean(dom.manning)),
                               order=hydro.order, courant=hydro.courant, tolerance=hydro.tolerance,
                               t_max_initial=hydro.t_max_initial, t_max=hydro.t_max)
+        if hydro.refine is not None:
+            nested.source = f"breachflow swe steady state at {hydro.resolution:g} m cells (coarse domain)"
+            nested.section = (xc - half, xc + half, yc)
         dom = nested.domain
         metadata.update(hydro_mode="nested", nested_window=list(nested.window), nested_regional=nested.source,
                         nested_cells=list(dom.shape))
@@ -506,9 +547,16 @@ class _WarmStartSWE:
                   section=section, threads=hydro.threads)
         self.cold = get_solver("swe", t_max=hydro.t_max_initial, **kw)
         self.warm = get_solver("swe", t_max=hydro.t_max, **kw)
+        self.window = None
+        if hydro.resolve == "window":
+            from ..hydro.window import WindowResolver
+
+            self.window = WindowResolver(self.warm, margin=hydro.resolve_margin, edge_level=hydro.resolve_edge_level)
 
     def solve(self, domain, obstacles=None, initial=None):
-        return (self.cold if initial is None else self.warm).solve(domain, obstacles=obstacles, initial=initial)
+        if initial is None:
+            return self.cold.solve(domain, obstacles=obstacles, initial=initial)
+        return (self.window or self.warm).solve(domain, obstacles=obstacles, initial=initial)
 
 
 class _StageSolver:

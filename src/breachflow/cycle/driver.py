@@ -431,6 +431,8 @@ class ClosureRun:
         else:
             new_snapshot = s.solver.solve(solve_domain, obstacles=obstacle, initial=snapshot)
             hydro = f"solved (warm start, {changed} cells changed)"
+            if new_snapshot.attrs.get("hydro_window"):  # [hydro] resolve = "window": where it was re-solved
+                hydro = hydro[:-1] + f"; window {new_snapshot.attrs['hydro_window']})"
         t_solve, c_solve = _time.perf_counter() - t_solve, _time.process_time() - c_solve
         new_rec = {"dem." + k: v for k, v in sim.save_state().items()}
         new_rec.update(placed_cycle=placed_cycle, resting=resting.copy())

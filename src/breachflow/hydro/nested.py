@@ -133,6 +133,14 @@ def nested_domain(regional: xr.Dataset, window, resolution: float, manning=0.025
     return dom, (h, h * u, h * v)
 
 
+def edge_conditions(bed, h, u, v, inside, dom: Domain, relaxation=None, leaving_level: bool = False) -> dict:
+    """Boundary conditions per side of *dom* from a surrounding field on its edge cells (bed, depth, velocity
+    ``(ny, nx)`` arrays; *inside* False = wall): where water enters the absorbing level (supercritical: level
+    and unit discharge), where it leaves free outflow (or, *leaving_level*, the level when subcritical), dry
+    cells free outflow (module docstring). Also the edges of the window re-solve (:mod:`~breachflow.hydro.window`)."""
+    return _edge_conditions(bed, h, u, v, inside, dom, relaxation, leaving_level)
+
+
 def _edge_conditions(bed, h, u, v, inside, dom: Domain, relaxation=None, leaving_level: bool = False) -> dict:
     edges = {  # side: (cells along it, inward normal velocity, along-side coordinate)
         "west": (np.s_[:, 0], u[:, 0], dom.y), "east": (np.s_[:, -1], -u[:, -1], dom.y),
@@ -213,6 +221,8 @@ class NestedSolver:
         self.tolerance, self.t_max_initial, self.t_max, self.region = tolerance, t_max_initial, t_max, region
         self.source = self.regional.attrs.get("source", "ingested snapshot")
         self.last = None
+        #: breach section ``(x0, x1, y)`` whose discharge must settle too (run_to_steady); None: region only
+        self.section = None
 
     def solve(self, domain=None, obstacles=None, initial=None) -> xr.Dataset:
         from .swe.solver import SWESimulation
@@ -220,7 +230,8 @@ class NestedSolver:
         domain = self.domain if domain is None else domain
         cold = initial is None
         sim = SWESimulation(domain, self.options, obstacles=obstacles, initial=self.initial_state if cold else initial)
-        sim.run_to_steady(self.tolerance, self.t_max_initial if cold else self.t_max, region=self.region)
+        sim.run_to_steady(self.tolerance, self.t_max_initial if cold else self.t_max, region=self.region,
+                          section=self.section)
         self.last = sim
         ds = sim.snapshot(source=f"breachflow nested local model in {self.source}")
         ds.attrs.update(hydro_mode=self.mode, flow_responds_to_pile=1,

@@ -1,0 +1,118 @@
+"""Work–precision of the warm re-solve: window vs full domain (issue 16).
+
+    python3 tasks.py bench window [--scene typical_breach] [--resolution 4] [--tolerances 2e-3,5e-4,2e-4,5e-5]
+                                  [--reference 1e-5] [--margin M]
+
+The report's typical breach (``[site] preset``) at ``--resolution`` is solved cold to steady state, then a
+pile is placed — an asymmetric mound against the west breach wall, 40 % of the breach long, 0.24 B wide
+across the levee, raised to 60 % of the flood depth (the unfavourable case of the window: the change
+is off-centre and large) — and re-solved warm:
+
+* reference: the full domain at ``--reference`` (1/s), t_max 3000 s;
+* for each tolerance of ``--tolerances``: the full-domain re-solve (``[hydro] resolve = "full"``) and the
+  window re-solve (``resolve = "window"``, :mod:`breachflow.hydro.window`).
+
+Printed per solve: breach discharge Q (m³/s) and its difference to the reference (%), the largest speed
+within B of the breach and its difference, the largest and mean |Δ speed| against the reference over the
+cells within B of the breach wet in both (m/s), the simulated time, this process's CPU time, and the
+window (cells, growths). CPU times of one run on a shared machine: the ratios window / full at the same
+tolerance are the figure to read.
+"""
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+
+SCENARIO = """
+[scenario]
+name = "work-precision"
+[site]
+preset = "{scene}"
+[hydro]
+resolution = "{res:g} m"
+tolerance = "{tol:g} 1/s"
+t_max_initial = "600 s"
+t_max = "{tmax:g} s"
+resolve = "window"
+{margin}
+"""
+
+
+def main(argv) -> int:
+    from breachflow.cycle.config import closure_setup
+    from breachflow.cycle.criteria import section_discharge
+    from breachflow.scenario.config import parse_scenario
+
+    ap = argparse.ArgumentParser(prog="bench window")
+    ap.add_argument("--scene", default="typical_breach")
+    ap.add_argument("--resolution", type=float, default=4.0)
+    ap.add_argument("--tolerances", default="2e-3,5e-4,2e-4,5e-5")
+    ap.add_argument("--reference", type=float, default=1e-5)
+    ap.add_argument("--margin", default=None, help="resolve_margin, e.g. '120 m' (default 2 B)")
+    a = ap.parse_args(argv)
+    margin = f'resolve_margin = "{a.margin}"' if a.margin else ""
+
+    def setup_at(tol, tmax=300.0):
+        return closure_setup(parse_scenario(SCENARIO.format(scene=a.scene, res=a.resolution, tol=tol, tmax=tmax,
+                                                            margin=margin)))
+
+    base = setup_at(a.reference, 3000.0)
+    dom = base.domain
+    c0 = time.process_time()
+    snap = base.solver.solve(dom)
+    print(f"{a.scene} at {a.resolution:g} m ({dom.shape[1]} x {dom.shape[0]} cells): cold solve "
+          f"{time.process_time() - c0:.1f} CPU s, open-breach Q {section_discharge(snap, base.breach_x, base.levee_y):.0f} m3/s")
+    x0, x1 = base.breach_x
+    B = x1 - x0
+    X, Y = np.meshgrid(dom.x, dom.y)
+    low = float(dom.bed[np.abs(Y - base.levee_y) < dom.dy].min())
+    mask = (X > x0) & (X < x0 + 0.4 * B) & (np.abs(Y - base.levee_y) < 0.12 * B)
+    piled = dom.with_raised_bed(mask, low + 0.6 * (base.flood_level - low))
+    near = (np.abs(X - 0.5 * (x0 + x1)) <= B) & (np.abs(Y - base.levee_y) <= B)
+
+    def run(solver):
+        c = time.process_time()
+        ds = solver.solve(piled, initial=snap)
+        cpu = time.process_time() - c
+        info = getattr(solver, "last_info", {}) or {"mode": "full", "cells": dom.size if hasattr(dom, "size") else
+                                                    int(np.prod(dom.shape)), "grown": 0}
+        return dict(ds=ds, cpu=cpu, t=solver.last.t, q=section_discharge(ds, base.breach_x, base.levee_y),
+                    sp=np.hypot(ds.u.values, ds.v.values), h=ds.depth.values, info=info,
+                    converged=solver.last.history.converged)
+
+    ref = run(base.solver.warm)
+    rows = [("reference full", a.reference, ref)]
+    for tol in [float(t) for t in a.tolerances.split(",") if t]:
+        s = setup_at(tol)
+        rows.append(("full", tol, run(s.solver.warm)))
+        rows.append(("window", tol, run(s.solver.window)))
+    print(f"\npile: raised bed x {x0:.1f}..{x0 + 0.4 * B:.1f} m, |y| < {0.12 * B:.1f} m; speeds within B = {B:.1f} m "
+          "of the breach centre; differences against the reference")
+    hdr = ("re-solve", "tol 1/s", "Q m3/s", "dQ %", "vmax m/s", "dvmax", "max|dv|", "mean|dv|", "max|dh| m",
+           "sim s", "CPU s", "cells", "grown")
+    print("  " + " | ".join(f"{h:>9}" for h in hdr))
+    for name, tol, r in rows:
+        wet = near & (r["h"] > 0.01) & (ref["h"] > 0.01)
+        dv = np.abs(r["sp"] - ref["sp"])[wet]
+        dh = np.abs(r["h"] - ref["h"])[wet]
+        info = r["info"]
+        cells = info.get("cells", int(np.prod(dom.shape)))
+        print("  " + " | ".join(f"{v:>9}" for v in (
+            name, f"{tol:.0e}", f"{r['q']:.1f}", f"{100 * (r['q'] - ref['q']) / ref['q']:+.2f}",
+            f"{r['sp'][near].max():.3f}", f"{r['sp'][near].max() - ref['sp'][near].max():+.3f}", f"{dv.max():.3f}",
+            f"{dv.mean():.4f}", f"{dh.max():.3f}", f"{r['t']:.0f}{'' if r['converged'] else '*'}", f"{r['cpu']:.1f}",
+            cells, info.get("grown", 0) if info.get("mode") == "window" else "full")))
+    print("  (* not converged within t_max)")
+    for tol in sorted({t for _, t, _ in rows[1:]}):
+        f = next(r for n, t, r in rows if n == "full" and t == tol)
+        w = next(r for n, t, r in rows if n == "window" and t == tol)
+        print(f"  tol {tol:.0e}: CPU window / full = {w['cpu'] / max(f['cpu'], 1e-9):.2f}")
+    return 0
+
+
+if __name__ == "__main__":
+    import sys
+
+    sys.exit(main(sys.argv[1:]))
