@@ -286,3 +286,15 @@ def test_nested_closure_from_the_users_adh_and_hecras_files(demo_grid_wide, tmp_
     q0 = man["metadata"]["initial"]["breach_discharge"]
     assert q0 > 20.0 and abs(res.reports[-1].breach_discharge) < 0.05 * q0
     assert res.governing in ("breach_discharge", "max_speed")
+
+
+def test_nested_snapshot_files_bad_input(tmp_path):
+    """Model files and snapshot NetCDF mixed, or a missing file: an InputError naming them, before anything runs."""
+    from breachflow.errors import InputError
+    from breachflow.hydro.nested import load_regional
+
+    (tmp_path / "a.nc").write_bytes(b"")
+    with pytest.raises(InputError, match=r"mixes snapshot NetCDF files and model export files .*b\.3dm"):
+        load_regional([tmp_path / "a.nc", tmp_path / "b.3dm"])
+    with pytest.raises(InputError, match=r"b\.3dm. does not exist"):
+        load_regional([tmp_path / "b.3dm", tmp_path / "b_dep.dat"])
