@@ -228,3 +228,30 @@ def test_large_batches_sorted_by_bucket_give_identical_results():
     chunks = [smp.sample(q[k:k + 1000, 0], q[k:k + 1000, 1]) for k in range(0, len(q), 1000)]  # unsorted path
     np.testing.assert_array_equal(sorted_run.u, np.concatenate([c.u for c in chunks]))
     np.testing.assert_array_equal(sorted_run.inside, np.concatenate([c.inside for c in chunks]))
+
+
+@pytest.mark.parametrize("method", ["bilinear", "neighbourhood"])
+def test_fallback_field_is_sampled_outside_the_primary_field_only(method):
+    """``FieldSampler(local, fallback=regional)``: the local field where it exists, the regional one
+    (same method) outside it, nothing outside both; the regional grid and a mesh as fallback."""
+    x, y, bed, depth, u, v = _grid(nx=40, ny=30, dx=2.0, dy=2.0, x0=-40.0, y0=-30.0, seed=3)
+    regional = grid_snapshot(x, y, bed, depth, u, v)
+    local = uniform_snapshot(1.7, u=-0.3, v=0.9, bed=0.2, extent=(-6.0, 6.0, -4.0, 4.0), spacing=0.5)
+    rng = np.random.default_rng(4)
+    px, py = rng.uniform(-45.0, 45.0, 3000), rng.uniform(-35.0, 35.0, 3000)
+    r = rng.uniform(0.0, 3.0, 3000)
+    s = FieldSampler(local, method, fallback=regional).sample(px, py, r)
+    s_loc = FieldSampler(local, method).sample(px, py, r)
+    s_reg = FieldSampler(regional, method).sample(px, py, r)
+    ins = s_loc.inside
+    assert ins.any() and (~ins & s_reg.inside).any() and (~s_reg.inside).any()
+    for name in ("bed", "depth", "surface", "u", "v"):
+        got, a, b = getattr(s, name), getattr(s_loc, name), getattr(s_reg, name)
+        np.testing.assert_array_equal(got[ins], a[ins])
+        np.testing.assert_array_equal(got[~ins], b[~ins])
+    np.testing.assert_array_equal(s.inside, ins | s_reg.inside)
+    # a sampler as fallback (the nested solver's, built once) gives the same
+    s2 = FieldSampler(local, method, fallback=FieldSampler(regional, method)).sample(px, py, r)
+    np.testing.assert_array_equal(s2.u, s.u)
+    with pytest.raises(InputError, match="fallback"):
+        FieldSampler(local, method, fallback="regional.nc")

@@ -4,18 +4,22 @@ The ingested ADH-like model is the package's own steady state re-sampled onto a 
 not aligned with our grid (rotated 17°, jittered nodes, the intact levee as a hole, as the report's ADH
 mesh has it; :mod:`meshing`), written to UGRID NetCDF and read back."""
 import json
+import re
+import time
 from dataclasses import replace
 
 import numpy as np
 import pytest
 import xarray as xr
 
-from breachflow.cycle.config import demo_breach
+from breachflow.cycle.config import closure_setup, demo_breach
 from breachflow.cycle.main import run_closure
+from breachflow.hydro.io import write_adh, write_hecras_hdf
 from breachflow.hydro.nested import NestedSolver, breach_window, consistency
 from breachflow.hydro.snapshot import read_snapshot, write_snapshot
 from breachflow.hydro.solvers import get_solver
 from breachflow.hydro.terrain import breach_domain, breach_vicinity
+from breachflow.scenario.config import load_scenario
 from breachflow.scenario.geometry import typical_breach
 
 from .meshing import unaligned_mesh
@@ -58,6 +62,94 @@ def test_nested_reproduces_the_ingested_field_near_the_breach(typical_grid, tmp_
     assert c["mean_depth_diff"] <= 0.05 * c["regional_mean_depth"]
 
 
+TYPICAL_NESTED = """
+[site]
+preset = "typical_breach"
+levee_length_each_side = "250 m"
+[hydro]
+solver = "nested"
+snapshots = [{files}]
+resolution = "4 m"
+tolerance = "1e-4 1/s"
+t_max_initial = "900 s"
+monitor_radius = "91.5 m"
+"""
+
+
+def export_files(mesh, folder, fmt):
+    """*mesh* written as a user's ADH / HEC-RAS model result (the package's writers); the files a
+    scenario lists in ``snapshots``."""
+    if fmt == "adh":
+        return write_adh(mesh, folder / "typical")
+    if fmt == "adh_ft":  # in feet (the .bc's MP G tells the unit)
+        return write_adh(mesh, folder / "typical", units="ft")
+    if fmt == "hecras_hdf":  # HEC-RAS 6 writes face velocities only unless cell velocities are asked for
+        return [write_hecras_hdf(mesh, folder / "typical.p01.hdf")]
+    if fmt == "hecras_hdf_cells":
+        return [write_hecras_hdf(mesh, folder / "typical.p01.hdf", cell_velocity=True)]
+    raise ValueError(fmt)
+
+
+@pytest.mark.parametrize("fmt,reader,angle,seed", [("adh", "adh", 17.0, 1), ("hecras_hdf", "hecras_hdf", -31.0, 2),
+                                                   ("adh_ft", "adh", 45.0, 3)])
+def test_nested_from_adh_and_hecras_files_reproduces_the_field_near_the_breach(typical_grid, tmp_path, fmt, reader,
+                                                                               angle, seed):
+    """The typical breach's steady state on an unaligned triangle mesh written as ADH (.3dm + .dat + .bc,
+    metres and feet) or a HEC-RAS 6 plan HDF (face velocities), listed as they are in a scenario's
+    ``[hydro] snapshots`` (``solver = "nested"``) and set up as ``breachflow run`` does: with no masses the
+    local re-solve keeps the ingested field within 2 B of the breach (5 % of the mean speed and depth)."""
+    pytest.importorskip("h5py")
+    scene, grid = typical_grid
+    mesh = unaligned_mesh(grid, 4.0, angle_deg=angle, seed=seed)
+    files = [p for p in export_files(mesh, tmp_path, fmt) if p.suffix != ".prj"]
+    sc = tmp_path / "nested.toml"
+    sc.write_text(TYPICAL_NESTED.format(files=", ".join(f'"{p.name}"' for p in files)))  # relative to the scenario
+    ns = closure_setup(load_scenario(sc)).solver
+    assert isinstance(ns, NestedSolver) and ns.regional.attrs["breachflow_reader"] == reader
+    local = ns.solve()
+    B = scene.breach.length
+    c = consistency(local, ns.regional, (0.0, 0.0), 2 * B)
+    print("consistency", fmt, angle, seed, json.dumps({k: round(v, 4) for k, v in c.items()}),
+          f"mean speed {100 * c['mean_speed_diff'] / c['regional_mean_speed']:.2f} %",
+          f"mean depth {100 * c['mean_depth_diff'] / c['regional_mean_depth']:.2f} %",
+          "steady", local.attrs["steady_state"], local.attrs["simulated_time_s"])
+    assert local.attrs["hydro_mode"] == "nested" and local.attrs["steady_state"] == 1
+    assert c["cells"] > 500
+    assert c["mean_speed_diff"] <= 0.05 * c["regional_mean_speed"]
+    assert c["mean_depth_diff"] <= 0.05 * c["regional_mean_depth"]
+    # the ingested field is the written one (not a stand-in): its peak speed near the breach is the grid's
+    assert c["regional_peak_speed"] == pytest.approx(float(np.hypot(grid.u, grid.v).max()), rel=0.05)
+
+
+def test_nested_from_a_hecras_sdf_recovers_the_breach_discharge(typical_grid, tmp_path):
+    """A HEC-RAS GIS export (RASExport.sdf) is a 1-D model's result: one water level per cross section
+    and velocities normal to it, so it holds no breach jet (the nested model cannot "reproduce" it).
+    Cut into sections parallel to the levee every 4 m (normal to the jet), the local model re-solved in
+    it rebuilds the jet: its breach discharge is within 5 % of the 2-D steady state's."""
+    from breachflow.cycle.criteria import section_discharge
+    from breachflow.hydro.io import write_sdf
+
+    scene, grid = typical_grid
+    x0, x1 = float(grid.x[0]), float(grid.x[-1])
+    cuts = [np.array([[x0, y], [x1, y]]) for y in np.arange(-200.0, 200.0 + 1e-9, 4.0)]  # upstream -> downstream
+    sdf = write_sdf(grid, tmp_path / "RASExport.sdf", sections=cuts, points=141)
+    sc = tmp_path / "nested.toml"
+    sc.write_text(TYPICAL_NESTED.format(files=f'"{sdf.name}"'))
+    ns = closure_setup(load_scenario(sc)).solver
+    assert ns.regional.attrs["breachflow_reader"] == "sdf"
+    local = ns.solve()
+    half = 0.5 * scene.breach.length
+    q_true = section_discharge(grid, (-half, half), 0.0)
+    q = section_discharge(local, (-half, half), 0.0)
+    c = consistency(local, ns.regional, (0.0, 0.0), 4 * half)
+    c_true = consistency(local, grid, (0.0, 0.0), 4 * half)
+    print("sdf nested: breach discharge", round(q, 1), "vs", round(q_true, 1), "m3/s of the 2-D steady state;",
+          f"mean |d speed| {c['mean_speed_diff']:.3f} m/s vs the sdf field, {c_true['mean_speed_diff']:.3f} m/s "
+          f"({100 * c_true['mean_speed_diff'] / c_true['regional_mean_speed']:.1f} %) vs the 2-D field")
+    assert local.attrs["steady_state"] == 1
+    assert q == pytest.approx(q_true, rel=0.05)
+
+
 NESTED_SCENARIO = """
 [scenario]
 name = "nested demo"
@@ -68,7 +160,7 @@ flood_side_extent = "30 m"
 protected_side_extent = "24 m"
 [hydro]
 solver = "nested"
-snapshots = ["{mesh}"]
+snapshots = [{files}]
 resolution = "1 m"
 tolerance = "2e-3 1/s"
 t_max_initial = "300 s"
@@ -93,6 +185,12 @@ seed = 1
 """
 
 
+def _closure_print(label, res, cpu):
+    print("nested closure", label, "cycles", res.cycles, "closed", res.closed, "masses", res.masses,
+          f"tonnage {res.tonnage:.1f} t, operation {res.operation_time / 3600:.2f} h, lost {res.lost_masses}",
+          "CPU s (run)", round(cpu, 1), [round(r.breach_discharge, 2) for r in res.reports])
+
+
 def test_nested_in_an_ingested_adh_mesh_closes_the_breach(tmp_path):
     """The scaled breach's steady state as an ADH-like mesh file; ``solver = "nested"`` re-solves a local
     model around the breach with the pile each cycle: the breach discharge falls to nothing and it closes."""
@@ -101,8 +199,10 @@ def test_nested_in_an_ingested_adh_mesh_closes_the_breach(tmp_path):
     path = tmp_path / "regional_mesh.nc"
     write_snapshot(unaligned_mesh(grid, 1.0, angle_deg=23.0, seed=4), path)
     scen = tmp_path / "nested.toml"
-    scen.write_text(NESTED_SCENARIO.format(mesh=path))
+    scen.write_text(NESTED_SCENARIO.format(files=f'"{path}"'))
+    t0 = time.process_time()
     res = run_closure(scen, tmp_path / "run", plots=False)
+    _closure_print("ugrid", res, time.process_time() - t0)
     assert res.closed, [(r.cycle, r.breach_discharge, r.max_speed) for r in res.reports]
     q = [r.breach_discharge for r in res.reports]
     man = json.loads((tmp_path / "run" / "manifest.json").read_text())
@@ -112,3 +212,89 @@ def test_nested_in_an_ingested_adh_mesh_closes_the_breach(tmp_path):
     assert man["metadata"]["hydro_mode"] == "nested"
     with xr.open_dataset(tmp_path / "run" / f"cycle_{res.cycles:04d}.nc") as ds:
         assert ds.attrs["hydro_mode"] == "nested" and ds.attrs["flow_responds_to_pile"] == 1
+
+
+@pytest.mark.parametrize("compiled", [True, False])
+@pytest.mark.parametrize("method", ["bilinear", "neighbourhood"])
+def test_a_mass_just_outside_the_nested_window_feels_the_regional_flow(compiled, method):
+    """The DEM's field in a nested run (as the closure driver builds it): the local re-solved field inside
+    the window, the ingested regional field outside it — a mass released just outside the window feels
+    the regional velocity and buoyancy (before: air only)."""
+    from breachflow.cycle.driver import dem_view
+    from breachflow.dem.state import ParticleState
+    from breachflow.fluid.forces import FluidForces
+    from breachflow.hydro.sampling import FieldSampler, uniform_snapshot
+
+    regional = uniform_snapshot(3.0, u=1.2, v=-0.4, bed=0.0, extent=(-60.0, 60.0, -60.0, 60.0), spacing=2.0)
+    ns = NestedSolver([regional], (-20.0, 20.0, -16.0, 16.0), 1.0, t_max_initial=5.0)
+    local = ns.solve()
+    # the local model's flow differs from the regional one (a pile-stilled local field): slow it down
+    local["u"] = local["u"] * 0.25
+    field = FieldSampler(dem_view(local), method, fallback=ns.fallback_sampler(method))
+    model = FluidForces(field, sampling=method, outside="air", compiled=compiled)
+    x1 = ns.window[1]
+    pos = np.array([[x1 + 0.4, 3.0, 1.5], [x1 - 5.0, 3.0, 1.5], [x1 + 80.0, 3.0, 1.5]])  # outside, inside, beyond both
+    st = ParticleState.spheres(pos, 0.5)
+    f, t = np.zeros((3, 3)), np.zeros((3, 3))
+    model.accumulate(st, st.pos, st.vel, st.omega, 0.0, f, t)
+    m = model.added_mass(st)
+    for ref_field, k in ((regional, 0), (dem_view(local), 1)):
+        ref = FluidForces(ref_field, sampling=method, outside="air", compiled=False)
+        one = ParticleState.spheres(pos[k:k + 1], 0.5)
+        fr, tr = np.zeros((1, 3)), np.zeros((1, 3))
+        ref.accumulate(one, one.pos, one.vel, one.omega, 0.0, fr, tr)
+        np.testing.assert_allclose(f[k], fr[0], rtol=1e-12, atol=1e-9)
+        np.testing.assert_allclose(m[k], ref.added_mass(one)[0], rtol=1e-12)
+    vol = 4 / 3 * np.pi * 0.5 ** 3
+    assert f[0, 2] == pytest.approx(1000.0 * 9.81 * vol, rel=1e-3)  # fully submerged: buoyancy of water
+    assert f[0, 0] > 3 * abs(f[1, 0]) > 0  # the regional 1.2 m/s drags harder than the slowed local flow
+    assert f[0, 1] < 0 and np.arctan2(f[0, 1], f[0, 0]) == pytest.approx(np.arctan2(-0.4, 1.2), abs=1e-6)
+    # outside both fields: air (its buoyancy only, no water drag)
+    assert f[2, 0] == 0.0 and f[2, 1] == 0.0 and f[2, 2] == pytest.approx(1.23 * 9.81 * vol, rel=0.01)
+
+
+@pytest.fixture(scope="module")
+def demo_grid_wide():
+    """The scaled breach with the regional model covering the whole default local window (B/2 + 3 B along
+    the levee, 3 B across), as a user's regional model does: 36 m of levee each side, 36 m each side of it."""
+    scene = replace(demo_breach(), levee_length_each_side=36.0, flood_side_extent=36.0, protected_side_extent=36.0)
+    return _steady(scene, 1.0)
+
+
+@pytest.mark.parametrize("fmt", ["adh", "hecras_hdf"])
+def test_nested_closure_from_the_users_adh_and_hecras_files(demo_grid_wide, tmp_path, fmt):
+    """``breachflow run`` with ``solver = "nested"`` and ``snapshots`` = the regional model's own files (ADH
+    .3dm/.dat/.bc; a HEC-RAS 6 plan HDF, face velocities only) written from the scaled breach's steady
+    state on an unaligned mesh: the local model re-solved with the pile each cycle shuts the breach."""
+    if fmt == "hecras_hdf":
+        pytest.importorskip("h5py")
+    mesh = unaligned_mesh(demo_grid_wide, 1.0, angle_deg=23.0, seed=4)
+    files = [p for p in export_files(mesh, tmp_path, fmt) if p.suffix != ".prj"]
+    scen = tmp_path / "nested.toml"
+    text = NESTED_SCENARIO.format(files=", ".join(f'"{p.name}"' for p in files))
+    for key in ("levee_length_each_side", "flood_side_extent", "protected_side_extent"):
+        text = re.sub(rf'{key} = "\d+ m"', f'{key} = "36 m"', text)
+    scen.write_text(text)
+    t0 = time.process_time()
+    res = run_closure(scen, tmp_path / "run", plots=False)
+    _closure_print(fmt, res, time.process_time() - t0)
+    man = json.loads((tmp_path / "run" / "manifest.json").read_text())
+    assert man["metadata"]["hydro_mode"] == "nested"
+    default, _ = breach_window(0.0, 0.0, 12.0, 1.0)  # the default window fits in the regional model (to its edge cells)
+    assert np.allclose(man["metadata"]["nested_window"], default, atol=2.0)
+    assert res.closed, [(r.cycle, r.breach_discharge, r.max_speed) for r in res.reports]
+    q0 = man["metadata"]["initial"]["breach_discharge"]
+    assert q0 > 20.0 and abs(res.reports[-1].breach_discharge) < 0.05 * q0
+    assert res.governing in ("breach_discharge", "max_speed")
+
+
+def test_nested_snapshot_files_bad_input(tmp_path):
+    """Model files and snapshot NetCDF mixed, or a missing file: an InputError naming them, before anything runs."""
+    from breachflow.errors import InputError
+    from breachflow.hydro.nested import load_regional
+
+    (tmp_path / "a.nc").write_bytes(b"")
+    with pytest.raises(InputError, match=r"mixes snapshot NetCDF files and model export files .*b\.3dm"):
+        load_regional([tmp_path / "a.nc", tmp_path / "b.3dm"])
+    with pytest.raises(InputError, match=r"b\.3dm. does not exist"):
+        load_regional([tmp_path / "b.3dm", tmp_path / "b_dep.dat"])

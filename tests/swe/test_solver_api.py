@@ -211,3 +211,19 @@ def test_cli_solve_writes_snapshot_and_png(tmp_path):
     assert not list(tmp_path.glob(".*.tmp"))
     res = CliRunner().invoke(app, ["solve", "nowhere"])
     assert res.exit_code != 0
+
+
+def test_cli_solve_the_demo_breach(tmp_path):
+    """``breachflow solve demo_breach``: the scaled breach of the default run (the regional model the
+    README's nested workflow exports to ADH / HEC-RAS)."""
+    from typer.testing import CliRunner
+
+    from breachflow.cli import app
+
+    nc = tmp_path / "demo.nc"
+    res = CliRunner().invoke(app, ["solve", "demo_breach", "--resolution", "3 m", "--t-max", "20 s", "-o", str(nc), "--png", ""])
+    assert res.exit_code == 0, res.output
+    assert "report (ADH)" not in res.output  # the report's ADH figure belongs to the typical breach only
+    ds = xr.open_dataset(nc)
+    assert ds.sizes["x"] * 3.0 == pytest.approx(72.0, abs=3.0)  # 2 x 30 m of levee + the 12 m breach
+    assert float(ds.water_surface.max()) == pytest.approx(3.0, abs=0.05)  # flood level at the 3 m crest

@@ -16,7 +16,7 @@ import typer
 
 from ..output.atomic import atomic_write as _atomic_write
 
-SCENES = ("typical_breach",)
+SCENES = ("typical_breach", "demo_breach")  #: the presets of ``[site] preset`` (breachflow.cycle.config.SITE_PRESETS)
 
 
 
@@ -81,14 +81,15 @@ def register(app: typer.Typer) -> None:
         from ..hydro.derived import peak_speed
         from ..hydro.swe import SWEOptions, SWESimulation
         from ..hydro.terrain import breach_domain, breach_vicinity
-        from ..scenario import geometry
         from ..units import to_si
         from ._common import QUIET, console, level, pick_out
 
         output = pick_out(out, output) or Path("snapshot_swe.nc")
         if scene not in SCENES:
             raise InputError(f"scene {scene!r} unknown; available: {', '.join(SCENES)}")
-        sc = getattr(geometry, scene)()
+        from ..cycle.config import SITE_PRESETS
+
+        sc = SITE_PRESETS[scene]()
         if manning:
             sc = dataclasses.replace(sc, manning_n=to_si(manning, name="--manning", kind="manning", default_unit="s/m**(1/3)", positive=True))
         if breach_length:
@@ -133,7 +134,8 @@ def register(app: typer.Typer) -> None:
         t.add_row("wall time", f"{wall:.1f} s")
         t.add_row("peak speed (whole domain)", f"{pk['speed']:.2f} m/s at x = {pk['x']:.0f} m, y = {pk['y']:.0f} m (h {pk['depth']:.2f} m)")
         t.add_row("peak speed within 50 m of the levee centreline", f"{near['speed']:.2f} m/s at x = {near['x']:.0f} m, y = {near['y']:.0f} m")
-        t.add_row("report (ADH), near the former levee centreline", f"{sc.notes.get('adh_peak_velocity_m_s', float('nan')):.3g} m/s")
+        if "adh_peak_velocity_m_s" in sc.notes:  # the report's typical breach only
+            t.add_row("report (ADH), near the former levee centreline", f"{sc.notes['adh_peak_velocity_m_s']:.3g} m/s")
         t.add_row("Ritter 2/3 sqrt(g h_L)", f"{ritter:.2f} m/s")
         con.print(t)
         if png:

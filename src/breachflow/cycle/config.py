@@ -125,7 +125,9 @@ class HydroSection:
     ``tolerance`` (relative rate, 1/s, of depth and discharge near the breach and of the breach
     discharge), ``t_max_initial`` / ``t_max`` (simulated time of the first and of each warm-started
     solve), ``monitor_radius`` (steady state is judged within this distance of the breach),
-    ``snapshots`` (files for the ``snapshot_frozen`` / ``nested`` solvers), ``window``
+    ``snapshots`` (files for the ``snapshot_frozen`` / ``nested`` solvers: snapshot NetCDF from ``breachflow
+    ingest``; ``nested`` also takes the model's own export files forming one snapshot — ADH ``.3dm`` +
+    ``.dat`` + ``.bc``, a HEC-RAS ``.sdf`` or 6.x plan ``.hdf`` — read with ``open_snapshot``), ``window``
     (``[x0, x1, y0, y1]`` of the ``nested`` local model; default the breach ± (B/2 + 3 B) along the levee,
     ± 3 B across), ``threads`` (numba threads of one solve; default 1, the least CPU time; more threads
     can cut its wall time on free cores, README "Embedded shallow-water solver"). The default 2e-4 1/s puts the warm re-solves of the default scene within 0.37 % of

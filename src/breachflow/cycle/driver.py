@@ -279,7 +279,11 @@ class ClosureRun:
     def _fluid(self, snapshot) -> FluidForces:
         """The frozen fluid field of *snapshot* as the DEM's force model."""
         d = self.setup.dem
-        return FluidForces(dem_view(snapshot), drag_law=d.drag_law, sampling=d.sampling, xi=d.xi, outside="air",
+        field = dem_view(snapshot)
+        fallback = getattr(self.setup.solver, "fallback_sampler", None)  # nested: the ingested field outside the window
+        if fallback is not None:
+            field = FieldSampler(field, d.sampling, fallback=fallback(d.sampling))
+        return FluidForces(field, drag_law=d.drag_law, sampling=d.sampling, xi=d.xi, outside="air",
                            velocity_profile=d.velocity_profile, roughness=d.roughness,
                            manning=float(np.median(self.setup.domain.manning)))
 

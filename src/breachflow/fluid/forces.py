@@ -163,8 +163,14 @@ class FluidForces:
         if method is None:
             return None
         g = sampler.grid_arrays()
+        # with a fallback field (nested local grid in the regional model) the fused kernel stops at a particle
+        # outside the grid and the call takes the step-by-step path, which samples the fallback there
         return (method, g.bed, g.depth, g.u, g.v, float(g.x0), float(g.y0), float(g.dx), float(g.dy),
-                float(self.field.s_max), self.outside == "air", self.profile_code, self.roughness)
+                float(self.field.s_max), self.outside == "air" and getattr(sampler, "fallback", None) is None,
+                self.profile_code, self.roughness)
+
+    def _has_fallback(self) -> bool:
+        return getattr(getattr(self.field, "sampler", None), "fallback", None) is not None
 
     def _outside_error(self, pos, k, idx):
         raise PhysicsError(
@@ -243,9 +249,9 @@ class FluidForces:
             rows = np.ascontiguousarray(rows, dtype=np.int64)
             k = grid_added_masses(rows, pos, state.radius, *self._fused, self.water.rho,
                                   0.0 if self.air is None else self.air.rho, self.xi, m)
-            if k >= 0:
+            if k >= 0 and not self._has_fallback():
                 self._outside_error(pos, k, rows)
-        elif rows.size:
+        if rows.size and (self._fused is None or k >= 0):
             rad = state.radius[rows]
             phi = self.submerged_fraction(pos[rows], rad)
             K.added_masses(rad, phi, self.water.rho, 0.0 if self.air is None else self.air.rho, self.xi, m)
@@ -274,9 +280,10 @@ class FluidForces:
                                   self.water.rho, self.water.nu, air.rho, air.nu, self.air is not None, self.gravity,
                                   self.drag_law.law_id, self.drag_law.params, self.xi, self.time_step or 0.0,
                                   self.torque, force, torque)
-            if k >= 0:
+            if k < 0:
+                return
+            if not self._has_fallback():
                 self._outside_error(np.where(awake[:, None], pos, state.pos), k, ids)
-            return
         p, w, om = self._kinematics(state, idx, pos, vel, omega)
         rad = np.ascontiguousarray(state.radius[idx])
         surface, bed, u, v, inside = self._sample(p, rad, idx)

@@ -22,7 +22,9 @@ grid snapshot of our own solver). Around the breach a local structured-grid mode
 
 Each ``solve`` re-solves the local model to steady state with the pile (obstacles / raised bed) from
 the previous state; outside the local window the regional field stays as ingested. The snapshots it
-returns are the local grid (the DEM samples the local field) with ``hydro_mode = "nested"``.
+returns are the local grid with ``hydro_mode = "nested"``; the DEM samples the local field where it
+exists and the regional one outside the window (:meth:`NestedSolver.fallback_sampler`, the
+``fallback`` of :class:`~breachflow.hydro.sampling.FieldSampler`).
 """
 from __future__ import annotations
 
@@ -39,11 +41,28 @@ from .terrain import BoundaryCondition, Domain, uniform_grid
 GRAVITY = 9.81
 
 
+#: suffixes of snapshot NetCDF files (``breachflow ingest`` output); any other file is a model export
+NETCDF_SUFFIXES = (".nc", ".nc4", ".netcdf", ".cdf")
+
+
 def load_regional(snapshots) -> xr.Dataset:
-    """One regional snapshot from a Dataset / path / list of them (a time series: its last step)."""
+    """One regional snapshot from a Dataset / NetCDF path / list of them (a time series: its last step),
+    or from model export files that together form one snapshot (ADH/SMS ``.3dm`` + ``.dat`` + ``.bc``,
+    a HEC-RAS ``.sdf`` or 6.x plan ``.hdf``, ESRI grids), read with
+    :func:`~breachflow.hydro.io.open_snapshot` (format from the extensions, units from the files)."""
     items = list(snapshots) if isinstance(snapshots, (list, tuple)) else [snapshots]
     if not items:
         raise InputError("nested solver: give the ingested regional snapshot (snapshots = [file])")
+    exports = [p for p in items if isinstance(p, (str, Path)) and Path(p).suffix.lower() not in NETCDF_SUFFIXES]
+    if exports:
+        if len(exports) != len(items):
+            raise InputError("nested solver: snapshots = [...] mixes snapshot NetCDF files and model export files "
+                             f"({', '.join(map(str, exports))}); give one or the other")
+        from .io import open_snapshot
+
+        ds = open_snapshot(exports)
+        ds.attrs.setdefault("source", ", ".join(Path(p).name for p in exports))
+        items = [ds]
     item = items[-1]
     if isinstance(item, (str, Path)):
         if not Path(item).exists():
@@ -223,6 +242,14 @@ class NestedSolver:
         self.last = None
         #: breach section ``(x0, x1, y)`` whose discharge must settle too (run_to_steady); None: region only
         self.section = None
+
+    def fallback_sampler(self, method: str = "bilinear") -> FieldSampler:
+        """The regional field as ingested, sampled where a point lies outside the local window (the DEM's
+        :class:`~breachflow.hydro.sampling.FieldSampler` ``fallback``); built once per method."""
+        cache = self.__dict__.setdefault("_fallback", {})
+        if method not in cache:
+            cache[method] = FieldSampler(self.regional, method)
+        return cache[method]
 
     def solve(self, domain=None, obstacles=None, initial=None) -> xr.Dataset:
         from .swe.solver import SWESimulation

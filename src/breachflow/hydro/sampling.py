@@ -22,7 +22,11 @@ Methods (registry ``breachflow.sampling_methods``, one class per method with ``s
 
 Conventions: the water surface is ``bed + depth`` at the sampled point; where the sampled depth is
 at or below :data:`~breachflow.hydro.snapshot.DRY_DEPTH` the point is dry: depth 0 and u = v = 0.
-Points outside the field get ``inside=False`` and NaN values (never extrapolated). A grid covers its
+Points outside the field get ``inside=False`` and NaN values (never extrapolated) unless the sampler has
+a *fallback* field: ``FieldSampler(local, fallback=regional)`` samples *regional* (a snapshot or a
+sampler, same method) where a point lies outside *local* — the nested solver's local grid inside the
+ingested regional model (``solver = "nested"``, :mod:`breachflow.hydro.nested`): outside the local
+window the field is the regional one as ingested. A grid covers its
 cells' footprint, i.e. half a spacing beyond the outermost cell centres; in that border strip the
 bilinear weights are clamped to the outermost centres (the cell value, no extrapolation).
 
@@ -488,11 +492,18 @@ def _uniform_axis(c: np.ndarray, name: str) -> tuple[float, float]:
 class FieldSampler:
     """Samples one time step of a grid or mesh snapshot at arrays of positions (see module doc).
 
-    ``time_index=None`` takes the only (or, with several, the last) time step.
+    ``time_index=None`` takes the only (or, with several, the last) time step. *fallback* (a snapshot
+    Dataset or a FieldSampler): the field sampled, with the same method, at points outside this one.
     """
 
-    def __init__(self, snapshot: xr.Dataset, method: str = "bilinear", time_index: int | None = None):
+    def __init__(self, snapshot: xr.Dataset, method: str = "bilinear", time_index: int | None = None, *,
+                 fallback=None):
         self.kind = "mesh" if is_mesh(snapshot) else "grid"
+        if fallback is not None and not isinstance(fallback, FieldSampler):
+            if not isinstance(fallback, xr.Dataset):
+                raise InputError(f"FieldSampler: fallback must be a snapshot Dataset or a FieldSampler, got {type(fallback).__name__}")
+            fallback = FieldSampler(fallback, method)
+        self.fallback = fallback
         self.time_index = time_index
         if self.kind == "grid":
             self._init_grid(snapshot, time_index)
@@ -607,6 +618,11 @@ class FieldSampler:
                 raise InputError("sample(): radius must be finite and >= 0 (m)")
             fr = np.ascontiguousarray(np.broadcast_to(r, shape).ravel())
         bed, depth, u, v, inside = self._impl.sample(fx, fy, fr)
+        if self.fallback is not None and not inside.all():
+            out = np.flatnonzero(~inside)
+            f = self.fallback.sample(fx[out], fy[out], fr[out])
+            for a, b in ((bed, f.bed), (depth, f.depth), (u, f.u), (v, f.v), (inside, f.inside)):
+                a[out] = b
         surface = bed + depth
         return FieldSample(*(a.reshape(shape) for a in (bed, depth, surface, u, v, inside)))
 

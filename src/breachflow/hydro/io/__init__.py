@@ -13,7 +13,8 @@ Built-in readers (a reader is a class with one method ``open(paths, **options) -
 Third-party readers register through the ``breachflow.readers`` entry point group.
 
 Writers (the other direction, :mod:`breachflow.hydro.io.writers`, :mod:`breachflow.hydro.io.sdf_writer`):
-``write_adh(snapshot, prefix)``, ``write_esri(snapshot, prefix)``, ``write_sdf(snapshot, path)``;
+``write_adh(snapshot, prefix)``, ``write_esri(snapshot, prefix)``, ``write_sdf(snapshot, path)``,
+``write_hecras_hdf(snapshot, path)`` (:mod:`breachflow.hydro.io.hecras_hdf_writer`, a HEC-RAS 6 2-D plan HDF);
 :func:`~breachflow.hydro.io.meshing.to_unaligned_mesh` puts a grid snapshot on an unaligned triangle mesh
 (:mod:`breachflow.hydro.io.meshing`).
 
@@ -170,6 +171,10 @@ def __getattr__(name):  # writers and mesh tools import lazily
         from .sdf_writer import write_sdf
 
         return write_sdf
+    if name == "write_hecras_hdf":
+        from .hecras_hdf_writer import write_hecras_hdf
+
+        return write_hecras_hdf
     if name in ("to_unaligned_mesh", "grid_to_mesh"):
         from . import meshing
 
@@ -178,4 +183,4 @@ def __getattr__(name):  # writers and mesh tools import lazily
 
 
 __all__ = ["READERS", "open_snapshot", "guess_format", "read_prj", "write_adh", "write_esri", "write_sdf",
-           "to_unaligned_mesh", "grid_to_mesh"]
+           "write_hecras_hdf", "to_unaligned_mesh", "grid_to_mesh"]
