@@ -16,7 +16,7 @@ Cycle files of a rotated grid (:meth:`GridFrame.georeference`):
   for map coordinates); ``map_x``, ``map_y``: 2-D projection coordinates of the cell centres in the
   site CRS (CF auxiliary coordinates, named in every field's ``coordinates``);
 * ``crs``: the CRS as before plus GDAL's ``GeoTransform`` (with rotation terms; row 0 = first stored
-  row): ``gdalinfo``, rasterio, rioxarray and QGIS through GDAL place the grid on the map;
+  row): ``gdalinfo`` and rasterio (GDAL) place the grid on the map;
 * ``u``, ``v``: grid-relative components (CF ``barotropic_sea_water_x/y_velocity`` are along the grid
   axes); ``u_east``, ``v_north``: the same velocity in east/north (CRS axis) components;
 * particles: ``particle_x``/``particle_y`` (and velocities) in grid coordinates as the DEM uses them;
