@@ -194,6 +194,14 @@ def test_turned_site_closes_ci_sized_and_its_cycle_files_land_on_the_map(make_si
     assert gap.sum() >= 2
     flux = np.sum(depth[gap] * (ue[gap] * n_prot[0] + vn[gap] * n_prot[1]))
     assert flux > 0
+    # the plan view shows the breach (grid coordinates: the breach centre is the same point)
+    from breachflow.cycle.plots import plan_view_figure
+    from breachflow.output import RunDirectory
+
+    fig = plan_view_figure(RunDirectory(tmp_path / "run"))
+    for ax in fig.axes[:2]:
+        (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+        assert x0 < make_site.PIVOT[0] < x1 and y0 < make_site.PIVOT[1] < y1 and x1 - x0 <= 50.0
 
 
 def test_turned_site_cycle_file_passes_the_cf_checker(make_site, tmp_path):

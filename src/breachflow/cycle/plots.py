@@ -73,11 +73,16 @@ def plan_view_figure(rundir, cycle: int | None = None):
                                    ds.particle_diameter.values[act], ds.particle_resting.values[act]):
             ax.add_patch(plt.Circle((px, py), d / 2, fill=False, color="white" if rest > 0 else "red", lw=0.8))
         pad = 25.0
-        ax.set_xlim(max(x[0], -pad), min(x[-1], pad))
-        ax.set_ylim(max(y[0], -pad), min(y[-1], pad))
+        # a terrain site: around its breach centre (grid coordinates, the same point on the map)
+        site = "site_breach_centre" in ds.attrs
+        xc, yc = (float(v) for v in ds.attrs["site_breach_centre"].split()) if site else (0.0, 0.0)
+        ax.set_xlim(max(x[0], xc - pad), min(x[-1], xc + pad))
+        ax.set_ylim(max(y[0], yc - pad), min(y[-1], yc + pad))
         ax.set_aspect("equal")
-        ax.set_xlabel("x along the levee (m)")
-        ax.set_ylabel("y across the levee (m), flood side < 0")
+        turned = "grid_rotation_deg" in ds.attrs
+        ax.set_xlabel("x along the levee (m" + (", breach-aligned grid)" if turned else ")"))
+        ax.set_ylabel("y across the levee (m" + (", breach-aligned grid)" if turned else ")")
+                      + ("" if site else ", flood side < 0"))
         ax.set_title(f"cycle {g}: {int(act.sum())} masses, max speed {float(speed.max()):.2f} m/s")
     fig.colorbar(m, ax=axes[0].tolist(), label="depth-averaged speed (m/s)")
     handles = [Patch(facecolor="none", edgecolor="black", hatch="////", label="no-flow cells (levee, masses above water)"),
@@ -100,7 +105,8 @@ def plot_closure_progress(rundir, out) -> Path:
     first = [init] if init else []
     masses = [0] * len(first) + [c["summary"]["masses"] for c in cyc]
     speed = [f["max_speed"] for f in first] + [c["summary"]["max_speed"] for c in cyc]
-    proxy = [f["breach_discharge"] for f in first] + [c["summary"]["breach_discharge"] for c in cyc]
+    # magnitude: the section discharge is negative when the flood is on the grid's north side
+    proxy = [abs(f["breach_discharge"]) for f in first] + [abs(c["summary"]["breach_discharge"]) for c in cyc]
     fig, ax = plt.subplots(figsize=(7, 4.2), constrained_layout=True)
     ax.plot(masses, speed, "o-", color="C0", label="max speed")
     ax.set_xlabel("masses placed")
