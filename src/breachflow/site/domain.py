@@ -16,9 +16,9 @@ and reported in :attr:`Site.report`:
 * initial state: the flood side of the levee at the flood level, the polder dry.
 
 The levee may run in any direction: the grid is built in breach-aligned coordinates
-(:class:`~.frame.GridFrame`, the CRS rotated about the breach centre by the levee's direction there), so
+(:class:`~breachflow.site.frame.GridFrame`, the CRS rotated about the breach centre by the levee's direction there), so
 that the levee at the breach runs along the grid's x axis as the closure cycle and its criteria expect;
-the cycle files carry the map coordinates and GDAL's rotated geotransform (:mod:`.frame`). Only with
+the cycle files carry the map coordinates and GDAL's rotated geotransform (:mod:`breachflow.site.frame`). Only with
 ``align=False`` (flow solvers that serve an ingested field on the CRS axes) must the levee run along the
 CRS x axis (within :data:`MAX_SKEW_DEG`).
 """
@@ -119,7 +119,7 @@ def build_site(spec: SiteSpec, resolution: float, *, align: bool = True) -> Site
     """Terrain + levee + breach → :class:`Site` (errors name the file and the value; nothing is written).
 
     *align*: build the grid along the levee at the breach (any direction); False: along the CRS axes
-    (the levee must then run within :data:`MAX_SKEW_DEG` of the x axis)."""
+    (the levee must then run within :data:`~breachflow.site.domain.MAX_SKEW_DEG` of the x axis)."""
     if not resolution > 0:
         raise InputError(f"[hydro] resolution must be > 0 m, got {resolution}")
     terrain = load_terrain(spec.terrain, crs=spec.crs, vertical_units=spec.terrain_units, variable=spec.terrain_variable)
