@@ -184,10 +184,13 @@ def gdal_info(path, variable: str = "depth") -> dict | None:
     origin = re.search(r"Origin = \(([^)]+)\)", info.stdout)
     size = re.search(r"Pixel Size = \(([^)]+)\)", info.stdout)
     size_xy = re.search(r"Size is (\d+), (\d+)", info.stdout)
+    # a rotated grid (a site whose levee is not along x) is reported as the six geotransform terms instead
+    rotated = re.search(r"GeoTransform =\s*\n\s*([^\n]+)\n\s*([^\n]+)", info.stdout)
     num = lambda m: tuple(float(v) for v in m.group(1).split(",")) if m else None
+    gt = tuple(float(v) for v in (rotated.group(1) + "," + rotated.group(2)).split(",")) if rotated else None
     return {"returncode": info.returncode, "crs": crs.group(1) if crs else None, "origin": num(origin),
             "pixel_size": num(size), "size": tuple(int(v) for v in size_xy.groups()) if size_xy else None,
-            "output": info.stdout + info.stderr}
+            "geotransform": gt, "output": info.stdout + info.stderr}
 
 
 _CRS_SCRIPT = r"""
@@ -255,8 +258,9 @@ def main(argv: list[str]) -> int:
             status = 1
         info = gdal_info(f)
         if info is not None and info["returncode"] == 0:
-            print(f"gdalinfo {f}: CRS {info['crs'] or 'none'}; origin {info['origin'] or '?'}; "
-                  f"pixel size {info['pixel_size'] or '?'}")
+            where = (f"geotransform {info['geotransform']} (rotated)" if info["geotransform"] else
+                     f"origin {info['origin'] or '?'}; pixel size {info['pixel_size'] or '?'}")
+            print(f"gdalinfo {f}: CRS {info['crs'] or 'none'}; {where}")
     return status
 
 

@@ -422,7 +422,8 @@ def closure_setup(scenario, *, overrides: dict | None = None):
     attrs = {}
     metadata = {}
     if hasattr(site, "build"):  # a terrain site (breachflow.site)
-        built = site.build(hydro.resolution)
+        # the embedded solver runs on a grid along the levee (any direction); ingested fields stay on the CRS axes
+        built = site.build(hydro.resolution, align=hydro.solver == "swe")
         dom = built.domain
         (xc, yc), half = built.centre, 0.5 * built.breach.length
         flood_level, bottom = built.flood_level, built.breach.bottom
@@ -508,6 +509,7 @@ def closure_setup(scenario, *, overrides: dict | None = None):
     dem = DemSettings(material=material, drag_law=fluid.drag_law, sampling=fluid.sampling, xi=fluid.xi,
                       velocity_profile=fluid.velocity_profile, roughness=fluid.roughness,
                       **dem_vals, **dem_kw)
+    closure = scenario.get("closure") or ClosureSection()
     placement = scenario["placement"].plan if "placement" in scenario else PlacementPlan(
         diameter=(1.4, 1.6), batch=4, positions="line", start=(xc - half + 0.5, yc), stop=(xc + half - 0.5, yc))
     if placement.positions not in ("zone", "list") and placement.start == placement.stop == (0.0, 0.0):
@@ -515,7 +517,12 @@ def closure_setup(scenario, *, overrides: dict | None = None):
         # radius in from the walls (the breach heads)
         r = 0.5 * placement.diameter[1]
         placement.start, placement.stop = (xc - half + r, yc), (xc + half - r, yc)
-    closure = scenario.get("closure") or ClosureSection()
+    elif built is not None and built.frame.rotated:
+        placement = _placement_to_grid(placement, built.frame)
+    if built is not None and built.frame.rotated and closure.area is not None:
+        raise InputError(f"[closure] area = {list(closure.area)} is a box on the CRS axes, but the grid of this site "
+                         f"runs along the levee ({built.frame.angle_deg:.1f}° from the CRS x axis); leave it out "
+                         f"(the breach area is then the whole domain)")
     # without [criteria]: a porous pile is closed when the overflow has stopped and the seepage is below 30 %
     # of the open breach's discharge (its toe stays fast); an impervious one when the flow in the breach is slow
     criteria = scenario["criteria"].criteria if "criteria" in scenario else EndCriteria.from_config(
@@ -528,13 +535,25 @@ def closure_setup(scenario, *, overrides: dict | None = None):
                          breach_x=(xc - half, xc + half), levee_y=yc,
                          flood_level=flood_level, bottom=bottom, name=scenario.name, attrs=attrs, metadata=metadata,
                          area=closure.area or (breach_area(scene, placement.diameter[1]) if built is None else None),
-                         loss_limit=closure.loss_limit)
+                         loss_limit=closure.loss_limit, frame=built.frame if built is not None else None)
     for k, v in (overrides or {}).items():
         setattr(setup, k, v)
     from .sanity import check_setup
 
     setup.warnings = check_setup(setup)
     return setup
+
+
+def _placement_to_grid(placement, frame):
+    """The release positions of *placement* (given in the site CRS) in the grid coordinates of a rotated
+    site (:class:`~breachflow.site.frame.GridFrame`); a new plan, the scenario's is left as it is."""
+    if placement.positions == "zone":
+        raise InputError(f"[placement] zone = {list(placement.zone)} is a box on the CRS axes, but the grid of this "
+                         f"site runs along the levee ({frame.angle_deg:.1f}° from the CRS x axis); give positions = "
+                         f"'line' (start, stop) or 'list' (points) in the site CRS instead")
+    to_grid = lambda p: tuple(float(v) for v in frame.to_grid(p[0], p[1]))
+    return replace(placement, start=to_grid(placement.start), stop=to_grid(placement.stop),
+                   points=[to_grid(p) for p in placement.points])
 
 
 class _WarmStartSWE:

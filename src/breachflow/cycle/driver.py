@@ -110,6 +110,9 @@ class ClosureSetup:
     loss_limit: float = LOSS_LIMIT
     #: warnings of the scenario's sanity check (:func:`breachflow.cycle.sanity.check_setup`)
     warnings: list = field(default_factory=list)
+    #: grid ↔ map coordinates of a site whose grid runs along its levee (:class:`breachflow.site.frame.GridFrame`):
+    #: everything above is in grid coordinates; the cycle files get the map coordinates (None: grid = map)
+    frame: object = None
 
 
 @dataclass
@@ -491,6 +494,8 @@ class ClosureRun:
             tt = np.broadcast_to(t_rec, (moving.size, t_rec.size))  # seconds since the cycle's release
             traj = validate(trajectories_dataset(moving, tt, frames, vframes, cycle=g, cycle_start=rel.time),
                             "closure_trajectories")
+            if s.frame is not None and s.frame.rotated:  # positions in grid coordinates: say how they map
+                traj.attrs.update(s.frame.attrs())
         rep.time_output = _time.perf_counter() - t_out  # the summary records the time up to the write itself
         self.rundir.write_cycle(g, field_ds, traj, new_rec, _summary(rep))
         self._live = (g, sim)
@@ -564,6 +569,8 @@ class ClosureRun:
                         placement_strategy=self.setup.placement.positions)
         for r in rep.criteria:
             ds.attrs[f"criterion_{r.name}"] = f"{r.value:.6g} {r.units} (threshold {r.threshold:.6g}, {'met' if r.satisfied else 'not met'})"
+        if self.setup.frame is not None:
+            ds = self.setup.frame.georeference(ds)
         return with_cycle_dimension(ds, rep.cycle)
 
 

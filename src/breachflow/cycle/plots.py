@@ -73,11 +73,16 @@ def plan_view_figure(rundir, cycle: int | None = None):
                                    ds.particle_diameter.values[act], ds.particle_resting.values[act]):
             ax.add_patch(plt.Circle((px, py), d / 2, fill=False, color="white" if rest > 0 else "red", lw=0.8))
         pad = 25.0
-        ax.set_xlim(max(x[0], -pad), min(x[-1], pad))
-        ax.set_ylim(max(y[0], -pad), min(y[-1], pad))
+        # a terrain site: around its breach centre (grid coordinates, the same point on the map)
+        site = "site_breach_centre" in ds.attrs
+        xc, yc = (float(v) for v in ds.attrs["site_breach_centre"].split()) if site else (0.0, 0.0)
+        ax.set_xlim(max(x[0], xc - pad), min(x[-1], xc + pad))
+        ax.set_ylim(max(y[0], yc - pad), min(y[-1], yc + pad))
         ax.set_aspect("equal")
-        ax.set_xlabel("x along the levee (m)")
-        ax.set_ylabel("y across the levee (m), flood side < 0")
+        turned = "grid_rotation_deg" in ds.attrs
+        ax.set_xlabel("x along the levee (m" + (", breach-aligned grid)" if turned else ")"))
+        ax.set_ylabel("y across the levee (m" + (", breach-aligned grid)" if turned else ")")
+                      + ("" if site else ", flood side < 0"))
         ax.set_title(f"cycle {g}: {int(act.sum())} masses, max speed {float(speed.max()):.2f} m/s")
     fig.colorbar(m, ax=axes[0].tolist(), label="depth-averaged speed (m/s)")
     handles = [Patch(facecolor="none", edgecolor="black", hatch="////", label="no-flow cells (levee, masses above water)"),
@@ -115,7 +120,8 @@ def plot_closure_progress(rundir, out) -> Path:
     ax.set_xlabel("masses placed")
     ax.set_ylabel("depth-averaged speed (m/s)")
     ax2 = ax.twinx()
-    ax2.plot(masses, h["breach_discharge"], "s--", color="C3", label="breach discharge")
+    # magnitude: the section discharge is negative when the flood is on the grid's north side
+    ax2.plot(masses, np.abs(h["breach_discharge"]), "s--", color="C3", label="breach discharge")
     ax2.set_ylabel("discharge through the breach (m³/s)", color="C3")
     ax.set_ylim(bottom=0)
     ax2.set_ylim(bottom=0)

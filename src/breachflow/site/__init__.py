@@ -5,7 +5,8 @@
 ...                            breach_bottom=2.0, flood_level=4.7), resolution=1.0)   # doctest: +SKIP
 """
 from .domain import Site, SiteSpec, build_site
+from .frame import GridFrame
 from .geometry import Breach, LeveeLine, load_levee
 from .terrain import Terrain, load_terrain
 
-__all__ = ["Site", "SiteSpec", "build_site", "Breach", "LeveeLine", "load_levee", "Terrain", "load_terrain"]
+__all__ = ["Site", "SiteSpec", "build_site", "GridFrame", "Breach", "LeveeLine", "load_levee", "Terrain", "load_terrain"]

@@ -79,7 +79,7 @@ class SiteTerrainSection:
             raise ctx.error("required key 'breach_bottom' is missing", None)
         return cls(spec)
 
-    def build(self, resolution: float):
+    def build(self, resolution: float, *, align: bool = True):
         from .domain import build_site
 
-        return build_site(self.spec, resolution)
+        return build_site(self.spec, resolution, align=align)

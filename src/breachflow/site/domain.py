@@ -1,8 +1,9 @@
 """The hydrodynamic domain of a real site, built around its breach (issue 13, SPEC §3–4).
 
 :func:`build_site` reads the terrain and the levee, places and cuts the breach, finds the flood side
-and builds an axis-aligned :class:`~breachflow.hydro.terrain.Domain` in the site CRS (real
-coordinates: a cycle file lands on the map where the levee is). Defaults, all overridable in ``[site]``
+and builds a :class:`~breachflow.hydro.terrain.Domain` along the levee at the breach, in the site CRS
+rotated about the breach centre (real coordinates: a cycle file lands on the map where the levee is).
+Defaults, all overridable in ``[site]``
 and reported in :attr:`Site.report`:
 
 * extent: ``B/2 + max(3 B, 30 m)`` each way along the levee, ``w + max(4 B, 40 m)`` to the flood side
@@ -14,8 +15,12 @@ and reported in :attr:`Site.report`:
   edges walls;
 * initial state: the flood side of the levee at the flood level, the polder dry.
 
-The grid axes are the CRS axes and the closure criteria measure the breach section along x, so the
-levee must run east–west (within :data:`MAX_SKEW_DEG`) at the breach.
+The levee may run in any direction: the grid is built in breach-aligned coordinates
+(:class:`~breachflow.site.frame.GridFrame`, the CRS rotated about the breach centre by the levee's direction there), so
+that the levee at the breach runs along the grid's x axis as the closure cycle and its criteria expect;
+the cycle files carry the map coordinates and GDAL's rotated geotransform (:mod:`breachflow.site.frame`). Only with
+``align=False`` (flow solvers that serve an ingested field on the CRS axes) must the levee run along the
+CRS x axis (within :data:`MAX_SKEW_DEG`).
 """
 from __future__ import annotations
 
@@ -27,10 +32,12 @@ import numpy as np
 
 from ..errors import InputError
 from ..hydro.terrain import BoundaryCondition, Domain, uniform_grid
+from .frame import GridFrame, levee_angle
 from .geometry import Breach, LeveeLine, footprint_half_width, load_levee, load_polygon, side_ground
 from .terrain import Terrain, load_terrain
 
-#: largest angle (degrees) between the levee at the breach and the CRS x axis
+#: largest angle (degrees) between the levee at the breach and the CRS x axis when the grid is not
+#: aligned with the levee (``build_site(..., align=False)``)
 MAX_SKEW_DEG = 5.0
 SIDE_KINDS = ("level", "outflow", "wall")
 
@@ -82,6 +89,8 @@ class Site:
     stage: tuple | None  # (times s, levels m) of a stage hydrograph, or None
     half_width: float
     report: dict
+    #: grid ↔ map coordinates (rotation 0: the grid axes are the CRS axes)
+    frame: GridFrame = field(default_factory=GridFrame)
 
     @property
     def breach_x(self) -> tuple:
@@ -106,8 +115,11 @@ class Site:
         return d
 
 
-def build_site(spec: SiteSpec, resolution: float) -> Site:
-    """Terrain + levee + breach → :class:`Site` (errors name the file and the value; nothing is written)."""
+def build_site(spec: SiteSpec, resolution: float, *, align: bool = True) -> Site:
+    """Terrain + levee + breach → :class:`Site` (errors name the file and the value; nothing is written).
+
+    *align*: build the grid along the levee at the breach (any direction); False: along the CRS axes
+    (the levee must then run within :data:`~breachflow.site.domain.MAX_SKEW_DEG` of the x axis)."""
     if not resolution > 0:
         raise InputError(f"[hydro] resolution must be > 0 m, got {resolution}")
     terrain = load_terrain(spec.terrain, crs=spec.crs, vertical_units=spec.terrain_units, variable=spec.terrain_variable)
@@ -131,13 +143,18 @@ def build_site(spec: SiteSpec, resolution: float) -> Site:
         src = spec.flood_stage or f"{_w(spec, 'flood_level')}"
         raise InputError(f"{src}: flood level {flood_level:.3f} m is not above the breach bottom "
                          f"{breach.bottom:.3f} m ([site] breach_bottom): no water flows through the breach")
-    xc, yc = levee.point(breach.s_c)
+    xc, yc = (float(v) for v in levee.point(breach.s_c))
     t = levee.tangent(breach.s_c)
-    skew = math.degrees(math.atan2(abs(t[1]), abs(t[0])))
-    if skew > MAX_SKEW_DEG:
-        raise InputError(f"{levee.source}: the levee runs at {skew:.1f}° to the x axis of the CRS at the breach "
-                         f"(chainage {breach.s_c:.1f} m); the grid is built along the CRS axes and needs the levee "
-                         f"within {MAX_SKEW_DEG:g}° of east–west there")
+    if align:
+        frame = GridFrame(levee_angle(t), (xc, yc))
+    else:
+        skew = math.degrees(math.atan2(abs(t[1]), abs(t[0])))
+        if skew > MAX_SKEW_DEG:
+            raise InputError(f"{levee.source}: the levee runs at {skew:.1f}° to the x axis of the CRS at the breach "
+                             f"(chainage {breach.s_c:.1f} m); this flow solver serves its field on the CRS axes and "
+                             f"needs the levee within {MAX_SKEW_DEG:g}° of east–west there (the 'swe' solver takes "
+                             f"any direction)")
+        frame = GridFrame(0.0, (xc, yc))
     fl, fr = footprint_half_width(levee, terrain, breach.s_c, breach.bottom)
     widths = [w for w in (fl, fr) if np.isfinite(w)]
     if not widths:
@@ -145,8 +162,9 @@ def build_site(spec: SiteSpec, resolution: float) -> Site:
                          f"{breach.bottom:.3f} m for 200 m on both sides of the levee; check [site] breach_bottom")
     w = max(widths)
     side = _flood_side(spec, levee, terrain, breach, w, flood_level)
-    # left of the line is +y when the line runs east (t_x > 0)
-    flood_sign = (1.0 if side == "left" else -1.0) * (1.0 if t[0] > 0 else -1.0)
+    # left of the line is +y (grid) when the line runs towards +x (grid)
+    tx_grid = frame.vector_to_grid(t[0], t[1])[0]
+    flood_sign = (1.0 if side == "left" else -1.0) * (1.0 if tx_grid > 0 else -1.0)
     B = breach.length
     along = spec.extent_along if spec.extent_along is not None else max(3.0 * B, 30.0)
     ext_f = spec.extent_flood if spec.extent_flood is not None else w + max(4.0 * B, 40.0)
@@ -156,25 +174,29 @@ def build_site(spec: SiteSpec, resolution: float) -> Site:
         y0, y1 = yc - ext_f, yc + ext_p
     else:
         y0, y1 = yc - ext_p, yc + ext_f
-    tb = terrain.bounds
-    clipped = (x0 < tb[0] or x1 > tb[1] or y0 < tb[2] or y1 > tb[3])
-    x0, x1, y0, y1 = max(x0, tb[0]), min(x1, tb[1]), max(y0, tb[2]), min(y1, tb[3])
     need = (xc - 0.5 * B - 2 * resolution, xc + 0.5 * B + 2 * resolution, yc - w, yc + w)
-    if x0 > need[0] or x1 < need[1] or y0 > need[2] or y1 < need[3]:
+    box, clipped = _clip_to_terrain(frame, (x0, x1, y0, y1), need, terrain)
+    if box is None:
+        tb = terrain.bounds
+        nx_, ny_ = frame.to_map(np.array(need[:2])[[0, 1, 1, 0]], np.array(need[2:])[[0, 0, 1, 1]])
         raise InputError(f"{spec.terrain}: the terrain (x {tb[0]:.1f}…{tb[1]:.1f}, y {tb[2]:.1f}…{tb[3]:.1f}) does not "
-                         f"cover the breach and its levee footprint (x {need[0]:.1f}…{need[1]:.1f}, y {need[2]:.1f}…{need[3]:.1f})")
+                         f"cover the breach and its levee footprint (x {nx_.min():.1f}…{nx_.max():.1f}, "
+                         f"y {ny_.min():.1f}…{ny_.max():.1f})")
+    x0, x1, y0, y1 = box
     dom = uniform_grid(x0, x1, y0, y1, resolution)
     if min(dom.shape) < 4:
         raise InputError(f"[hydro] resolution {resolution} m is too coarse for the site ({dom.shape[1]} × {dom.shape[0]} cells)")
-    X, Y = np.meshgrid(dom.x, dom.y)
-    z = terrain.sample(X, Y)
+    X, Y = np.meshgrid(dom.x, dom.y)  # grid coordinates
+    MX, MY = frame.to_map(X, Y) if frame.rotated else (X, Y)  # map (CRS) coordinates
+    z = terrain.sample(MX, MY)
     if not np.all(np.isfinite(z)):
         bad = np.argwhere(~np.isfinite(z))[0]
-        raise InputError(f"{spec.terrain}: no elevation at ({dom.x[bad[1]]:.1f}, {dom.y[bad[0]]:.1f}) inside the "
+        raise InputError(f"{spec.terrain}: no elevation at ({MX[tuple(bad)]:.1f}, {MY[tuple(bad)]:.1f}) inside the "
                          f"domain around the breach (no-data cells or outside the terrain); reduce the extent")
-    s, d = levee.frame(X, Y)
+    s, d = levee.frame(MX, MY)
     bed = np.minimum(z, breach.cut(s, d, w))
-    # boundaries: flood edge level, protected edge outflow, lateral edges walls (overridable)
+    # boundaries: flood edge level, protected edge outflow, lateral edges walls (overridable); the sides
+    # are the grid's (west = -x, along the levee), which are the compass sides when the grid is not rotated
     flood_edge, prot_edge = ("south", "north") if flood_sign < 0 else ("north", "south")
     kinds = {"west": "wall", "east": "wall", flood_edge: "level", prot_edge: "outflow"}
     for k, v in spec.boundaries.items():
@@ -203,17 +225,79 @@ def build_site(spec: SiteSpec, resolution: float) -> Site:
     dom.boundaries = bcs
     dom.name = f"site {Path(spec.terrain).name}"
     dom.crs_wkt = terrain.crs_wkt
+    if frame.rotated:
+        flood_where = f"grid {flood_edge} edge, bearing {frame.bearing((0.0, flood_sign)):.0f}°"
+    else:
+        flood_where = flood_edge
+    gx = np.array([x0, x1, x1, x0])
+    gy = np.array([y0, y0, y1, y1])
+    cx, cy = frame.to_map(gx, gy)
     report = {
         "terrain": str(spec.terrain), "levee": levee.source, "crs": _crs_name(terrain.crs_wkt),
         "breach_centre": (float(xc), float(yc)), "breach_chainage_m": breach.s_c, "breach_length_m": B,
         "breach_bottom_m": breach.bottom, "levee_crest_m": breach.crest, "levee_half_footprint_m": w,
-        "flood_side": f"{side} of the levee line ({flood_edge})", "flood_level_m": flood_level,
+        "flood_side": f"{side} of the levee line ({flood_where})", "flood_level_m": flood_level,
+        "grid_rotation_deg": frame.angle_deg,
         "extent": (float(x0), float(x1), float(y0), float(y1)), "extent_clipped_to_terrain": bool(clipped),
+        "extent_corners_map": [(float(a), float(b)) for a, b in zip(cx, cy)],
         "cells": f"{dom.shape[1]} x {dom.shape[0]} at {resolution:g} m", "boundaries": kinds,
         "absorbing_relaxation_s": relaxation,
     }
     return Site(domain=dom, terrain=terrain, levee=levee, breach=breach, centre=(float(xc), float(yc)),
-                flood_sign=flood_sign, flood_level=flood_level, stage=stage, half_width=w, report=report)
+                flood_sign=flood_sign, flood_level=flood_level, stage=stage, half_width=w, report=report, frame=frame)
+
+
+def _clip_to_terrain(frame: GridFrame, box, need, terrain: Terrain):
+    """The grid box ``(x0, x1, y0, y1)`` (grid coordinates) clipped so that it lies inside the terrain and
+    still contains *need*; ``(box, clipped)``, or ``(None, True)`` when the terrain cannot hold *need*.
+
+    Axis-aligned grid: each side clipped to the terrain's edges. Rotated grid: the four distances
+    ``e`` from the centre to the sides are the largest that keep the box's corners inside the terrain's
+    cell-centre hull (where it is sampled), a linear programme: first the largest common fraction
+    ``τ`` of the way from *need* to the wanted box (no side sacrificed for another), then the largest
+    ``Σ e_i / wanted_i`` at that ``τ``."""
+    x0, x1, y0, y1 = box
+    if not frame.rotated:
+        tb = terrain.bounds
+        clipped = (x0 < tb[0] or x1 > tb[1] or y0 < tb[2] or y1 > tb[3])
+        x0, x1, y0, y1 = max(x0, tb[0]), min(x1, tb[1]), max(y0, tb[2]), min(y1, tb[3])
+        if x0 > need[0] or x1 < need[1] or y0 > need[2] or y1 < need[3]:
+            return None, True
+        return (x0, x1, y0, y1), clipped
+    from scipy.optimize import linprog
+
+    cx, cy = frame.centre
+    want = np.array([cx - x0, x1 - cx, cy - y0, y1 - cy])  # west, east, south, north distances
+    low = np.array([cx - need[0], need[1] - cx, cy - need[2], need[3] - cy])
+    lo_x, hi_x, lo_y, hi_y = terrain.x[0], terrain.x[-1], terrain.y[0], terrain.y[-1]
+    c, s = math.cos(math.radians(frame.angle_deg)), math.sin(math.radians(frame.angle_deg))
+    rows, rhs = [], []
+    for ix, sx in ((0, -1.0), (1, 1.0)):
+        for iy, sy in ((2, -1.0), (3, 1.0)):
+            # corner offset (grid) = (sx e_ix, sy e_iy); map offset = R(θ) · that
+            for coef_x, coef_y, lo, hi in ((c, -s, lo_x - cx, hi_x - cx), (s, c, lo_y - cy, hi_y - cy)):
+                row = np.zeros(5)
+                row[ix], row[iy] = coef_x * sx, coef_y * sy
+                rows += [row, -row]
+                rhs += [hi, -lo]
+    A, b = np.array(rows), np.array(rhs)
+    span = np.maximum(want - low, 0.0)
+    # e_i >= low_i + τ span_i  →  -e_i + τ span_i <= -low_i
+    tau_rows = np.zeros((4, 5))
+    tau_rows[np.arange(4), np.arange(4)] = -1.0
+    tau_rows[:, 4] = span
+    bounds = [(lo_, hi_) for lo_, hi_ in zip(low, np.maximum(want, low))] + [(0.0, 1.0)]
+    A1, b1 = np.vstack([A, tau_rows]), np.concatenate([b, -low])
+    r1 = linprog(np.array([0, 0, 0, 0, -1.0]), A_ub=A1, b_ub=b1, bounds=bounds, method="highs")
+    if r1.status != 0:
+        return None, True
+    tau = float(r1.x[4])
+    bounds[4] = (max(tau - 1e-9, 0.0), 1.0)
+    r2 = linprog(np.concatenate([-1.0 / np.maximum(want, 1e-9), [0.0]]), A_ub=A1, b_ub=b1, bounds=bounds, method="highs")
+    e = (r2.x if r2.status == 0 else r1.x)[:4]
+    e = np.maximum(np.minimum(e, want), low)
+    clipped = bool(np.any(e < want - 1e-9))
+    return (cx - e[0], cx + e[1], cy - e[2], cy + e[3]), clipped
 
 
 def _crs_name(wkt):
