@@ -1,6 +1,7 @@
 """The report's typical breach closed end to end, timed against the issue-16 targets.
 
     python3 tasks.py bench closure [--resolutions 4,2] [--scenario examples/typical_breach.toml] [--no-dem]
+                                   [--threads N]
 
 Each item of ``--resolutions`` is ``RES[/window|/full][+FINE]``: the cell size (m), optionally the warm
 re-solve (``[hydro] resolve``, default the scenario's) and a nested fine grid of FINE m around the breach
@@ -64,14 +65,17 @@ def parse_item(item: str):
     return res, resolve, fine, label
 
 
-def one_resolution(scenario: Path, item: str, work: Path) -> dict:
+def one_resolution(scenario: Path, item: str, work: Path, threads: int | None = None) -> dict:
     res_m, resolve, fine, label = parse_item(item)
     text = scenario.read_text(encoding="utf-8")
     text, n = re.subn(r'resolution = "[^"]*"', f'resolution = "{res_m:g} m"', text)
     if n != 1:
         raise SystemExit(f"{scenario}: no single [hydro] resolution to override")
     text = re.sub(r'^(resolve|refine) = .*\n', "", text, flags=re.M)
-    extra = (f'resolve = "{resolve}"\n' if resolve else "") + (f'refine = "{fine:g} m"\n' if fine else "")
+    if threads:
+        text = re.sub(r'^threads = .*\n', "", text, flags=re.M)
+    extra = ((f'resolve = "{resolve}"\n' if resolve else "") + (f'refine = "{fine:g} m"\n' if fine else "")
+             + (f"threads = {threads}\n" if threads else ""))
     text = text.replace("[hydro]\n", "[hydro]\n" + extra, 1)
     tag = re.sub(r"[^0-9a-z]+", "_", label)
     sc = work / f"typical_{tag}.toml"
@@ -85,6 +89,8 @@ def one_resolution(scenario: Path, item: str, work: Path) -> dict:
     cyc = [c["summary"] for c in man["cycles"]]
     last = cyc[-1] if cyc else {}
     init = man.get("metadata", {}).get("initial") or man.get("initial") or {}
+    if threads:
+        label += f" ({threads} threads)"
     r.update(res=res_m, fine=fine or res_m, label=label, cycles=len(cyc),
              windows=[c.get("hydro", "") for c in cyc], masses=last.get("masses", 0), tonnage=last.get("tonnage", 0.0),
              lost=last.get("left_domain", 0), lost_t=last.get("lost_tonnage", 0.0),
@@ -133,19 +139,26 @@ def report(rows) -> None:
     if len(rows) > 1:
         a, b = rows[0], rows[-1]
         if a["q0"] and b["q0"]:
+            same = bool(a["closed"]) == bool(b["closed"])
+            tons = (f"tonnage {100 * (a['tonnage'] - b['tonnage']) / max(b['tonnage'], 1e-9):+.1f} %" if same else
+                    "tonnage not comparable (the outcomes differ: "
+                    + " / ".join("closed" if r["closed"] else "not closed" for r in (a, b)) + ")")
             print(f"  {a['label']} vs {b['label']}: discharge {100 * (a['q0'] - b['q0']) / b['q0']:+.1f} %, "
-                  f"peak speed {100 * (a['vmax0'] - b['vmax0']) / b['vmax0']:+.1f} %, tonnage "
-                  f"{100 * (a['tonnage'] - b['tonnage']) / max(b['tonnage'], 1e-9):+.1f} %")
+                  f"peak speed {100 * (a['vmax0'] - b['vmax0']) / b['vmax0']:+.1f} %, {tons}")
     print("\ntargets (2 cores):")
     for r in rows:
         if r["fine"] == 2.0:
             ok = "MET" if r["wall_total"] < TARGET_2M_WALL else "NOT MET"
+            how = "closed" if r["closed"] else ("verdict: not closable" if r["verdict"] else "ended not closed")
             print(f"  whole run at 2 m cells ({r['label']}) < {TARGET_2M_WALL:.0f} s wall: {r['wall_total']:.0f} s "
-                  f"(CPU {r['cpu']:.0f} s) — {ok}")
+                  f"(CPU {r['cpu']:.0f} s; {how} after {r['cycles']} cycles) — {ok}")
         proj = MEMBERS * r["cpu"] / CORES
         ok = "MET" if proj < NIGHT else "NOT MET"
+        how = "closed" if r["closed"] else "not closed"
         print(f"  {MEMBERS}-member ensemble at {r['label']} overnight (< {NIGHT / 3600:.0f} h): projected "
-              f"{MEMBERS} x {r['cpu']:.0f} CPU s / {CORES} cores = {proj / 3600:.1f} h — {ok} (projection)")
+              f"{MEMBERS} x {r['cpu']:.0f} CPU s / {CORES} cores = {proj / 3600:.1f} h — {ok} (projection from "
+              f"one run, {how} after {r['cycles']} cycles; `breachflow ensemble "
+              f"examples/ensembles/typical_feasibility.toml` measures it)")
 
 
 def dem_ratio(n_steps: int = 1500) -> None:
@@ -205,13 +218,15 @@ def main(argv) -> int:
     ap.add_argument("--resolutions", default="4,2")
     ap.add_argument("--scenario", default=str(ROOT / "examples" / "typical_breach.toml"))
     ap.add_argument("--no-dem", action="store_true")
+    ap.add_argument("--threads", type=int, default=None,
+                    help="[hydro] threads of the re-solves (numba threads; default the scenario's)")
     a = ap.parse_args(argv)
     if not a.no_dem:
         dem_ratio()
     rows = []
     with tempfile.TemporaryDirectory(prefix="bench-closure-") as tmp:
         for item in [r for r in a.resolutions.split(",") if r.strip()]:
-            rows.append(one_resolution(Path(a.scenario), item, Path(tmp)))
+            rows.append(one_resolution(Path(a.scenario), item, Path(tmp), a.threads))
             report(rows[-1:])
     if len(rows) > 1:
         print("\n=== all resolutions ===")
