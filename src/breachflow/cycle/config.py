@@ -422,8 +422,9 @@ def closure_setup(scenario, *, overrides: dict | None = None):
     attrs = {}
     metadata = {}
     if hasattr(site, "build"):  # a terrain site (breachflow.site)
-        # the embedded solver runs on a grid along the levee (any direction); ingested fields stay on the CRS axes
-        built = site.build(hydro.resolution, align=hydro.solver == "swe")
+        # the embedded and nested solvers run on a grid along the levee (any direction); a frozen ingested
+        # field (or a plug-in's) is served on the CRS axes
+        built = site.build(hydro.resolution, align=hydro.solver in ("swe", "nested"))
         dom = built.domain
         (xc, yc), half = built.centre, 0.5 * built.breach.length
         flood_level, bottom = built.flood_level, built.breach.bottom
@@ -459,12 +460,21 @@ def closure_setup(scenario, *, overrides: dict | None = None):
             reg_c = (np.abs(Xc - xc) <= half + hydro.monitor_radius) & (np.abs(Yc - yc) <= hydro.monitor_radius + half)
             regional = [_WarmStartSWE(hydro, reg_c, section=(xc - half, xc + half, yc)).cold.solve(dom)]
             metadata.update(refine_coarse_resolution=hydro.resolution, refine_resolution=hydro.refine)
+        # an ingested field is on the CRS axes: the local grid of a rotated site samples it in its frame
+        # (a refine's coarse steady state is already on the site's grid)
+        frame = built.frame if built is not None and hydro.refine is None and built.frame.rotated else None
         window, spacing = breach_window(xc, yc, 2.0 * half, fine)
         if hydro.window is not None:
+            if frame is not None:
+                raise InputError(f"[hydro] window = {list(hydro.window)} is a box on the CRS axes, but the grid of this "
+                                 f"site runs along the levee ({frame.angle_deg:.1f}° from the CRS x axis); leave it out "
+                                 f"(the default window is the breach ± (B/2 + 3 B) along the levee and ± 3 B across)")
             window, spacing = hydro.window, fine
         nested = NestedSolver(regional, window, spacing, manning=float(np.mean(dom.manning)),
                               order=hydro.order, courant=hydro.courant, tolerance=hydro.tolerance,
-                              t_max_initial=hydro.t_max_initial, t_max=hydro.t_max)
+                              t_max_initial=hydro.t_max_initial, t_max=hydro.t_max, frame=frame)
+        if nested.domain.crs_wkt is None:  # regional files without a CRS (e.g. ADH without its .prj): the site's
+            nested.domain.crs_wkt = dom.crs_wkt
         if hydro.refine is not None:
             nested.source = f"breachflow swe steady state at {hydro.resolution:g} m cells (coarse domain)"
             nested.section = (xc - half, xc + half, yc)

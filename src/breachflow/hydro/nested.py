@@ -18,7 +18,13 @@ grid snapshot of our own solver). Around the breach a local structured-grid mode
   flood source): an exact level reflects every wave and the local basin would ring;
 * the window (:func:`breach_window`): the breach ± (B/2 + 3 B) along the levee and ± 3 B across, its
   cells sized ``B / round(B / resolution)`` so that the breach ends fall on cell faces (the breach width
-  is then exact on the local grid whatever the regional mesh).
+  is then exact on the local grid whatever the regional mesh);
+* a levee in any direction: with a *frame* (:class:`~breachflow.site.frame.GridFrame` of a terrain site, the
+  CRS rotated about the breach centre by the levee's direction there) the local grid is built in the
+  breach-aligned grid coordinates, the regional field is sampled at the cells' map positions
+  ``c + R(θ)(x − c)`` and its velocity turned into grid components ``R(−θ) (u_east, v_north)``
+  (:class:`FramedSampler`: the same for the local model's terrain, initial state, edges, and for the DEM's
+  fallback); the snapshots carry their map coordinates (:meth:`~breachflow.site.frame.GridFrame.georeference`).
 
 Each ``solve`` re-solves the local model to steady state with the pile (obstacles / raised bed) from
 the previous state; outside the local window the regional field stays as ingested. The snapshots it
@@ -34,7 +40,7 @@ import numpy as np
 import xarray as xr
 
 from ..errors import InputError
-from .sampling import FieldSampler
+from .sampling import FieldSample, FieldSampler
 from .snapshot import DRY_DEPTH
 from .terrain import BoundaryCondition, Domain, uniform_grid
 
@@ -80,6 +86,29 @@ def load_regional(snapshots) -> xr.Dataset:
     return ds
 
 
+class FramedSampler(FieldSampler):
+    """A snapshot on the CRS axes sampled at positions in the grid coordinates of *frame* (a
+    :class:`~breachflow.site.frame.GridFrame`, or None: no rotation): the field at the map positions
+    ``frame.to_map(x, y)``, its velocity in grid components (``frame.vector_to_grid``); bed, depth and
+    surface are scalars. Rotation-invariant methods (bilinear / barycentric weights of the map positions,
+    the neighbourhood disc) make this the regional field seen from the rotated grid. Only :meth:`sample`
+    rotates: ``grid_arrays`` / ``mesh_arrays`` stay the snapshot's, on the CRS axes."""
+
+    def __init__(self, snapshot: xr.Dataset, method: str = "bilinear", frame=None, **kw):
+        self.frame = frame if frame is not None and frame.rotated else None
+        super().__init__(snapshot, method, **kw)
+
+    def sample(self, px, py, radius=None) -> FieldSample:
+        if self.frame is None:
+            return super().sample(px, py, radius)
+        X, Y = self.frame.to_map(px, py)
+        s = super().sample(X, Y, radius)
+        u, v = self.frame.vector_to_grid(s.u, s.v)
+        return FieldSample(s.bed, s.depth, s.surface, u, v, s.inside)
+
+    __call__ = sample
+
+
 def fill_obstacles(grid: xr.Dataset, layers: int = 3) -> xr.Dataset:
     """A grid snapshot whose obstacle cells (no-flow, e.g. an intact levee at crest elevation) take the
     mean bed, depth and velocity of their open neighbours, *layers* cells deep, so that interpolation
@@ -119,16 +148,19 @@ def _regional_obstacle(regional: xr.Dataset, X, Y) -> np.ndarray:
 
 
 def nested_domain(regional: xr.Dataset, window, resolution: float, manning=0.025, *, name: str = "nested",
-                  leaving: str = "free"):
+                  leaving: str = "free", frame=None):
     """The local :class:`~breachflow.hydro.terrain.Domain` in *window* ``(x0, x1, y0, y1)`` at *resolution* and its initial state
-    ``(h, hu, hv)`` from *regional*; boundary conditions from the regional field (module docstring)."""
+    ``(h, hu, hv)`` from *regional*; boundary conditions from the regional field (module docstring). With
+    *frame* (:class:`~breachflow.site.frame.GridFrame`) the window and the domain are in its grid coordinates
+    and the velocities grid components; *regional* stays on the CRS axes."""
     x0, x1, y0, y1 = map(float, window)
     dom = uniform_grid(x0, x1, y0, y1, resolution)
     if min(dom.shape) < 4:
         raise InputError(f"nested window {window} at {resolution} m has only {dom.shape[1]} x {dom.shape[0]} cells")
     X, Y = np.meshgrid(dom.x, dom.y)
-    smp = FieldSampler(fill_obstacles(regional), "bilinear").sample(X.ravel(), Y.ravel())
-    inside = smp.inside.reshape(dom.shape) & ~_regional_obstacle(regional, X, Y)
+    smp = FramedSampler(fill_obstacles(regional), "bilinear", frame).sample(X.ravel(), Y.ravel())
+    MX, MY = (X, Y) if frame is None else frame.to_map(X, Y)
+    inside = smp.inside.reshape(dom.shape) & ~_regional_obstacle(regional, MX, MY)
     if inside.mean() < 0.5:
         raise InputError(f"nested window {window}: only {100 * inside.mean():.0f} % of it lies inside the regional field")
     bed = smp.bed.reshape(dom.shape)
@@ -209,22 +241,31 @@ class NestedSolver:
 
     ``NestedSolver(snapshots, window, resolution, manning=...)``; ``domain`` is the local domain
     the closure runs on. ``solve(domain, obstacles=None, initial=None)``: a cold solve starts from the
-    regional state; every later one from the previous local state (warm start)."""
+    regional state; every later one from the previous local state (warm start).
+
+    *frame*: the :class:`~breachflow.site.frame.GridFrame` of a site whose levee runs in any direction:
+    *window*, the domain, the solutions and the DEM's positions are in its grid coordinates, the regional
+    field stays on the CRS axes (:class:`FramedSampler`); the solutions carry their map coordinates."""
 
     responds_to_pile = True
     mode = "nested"
 
     def __init__(self, snapshots=None, window=None, resolution: float = 4.0, manning=0.025, *, order: int = 2,
                  courant: float = 0.45, tolerance: float = 2e-3, t_max_initial: float = 300.0, t_max: float = 60.0,
-                 region=None, threads: int | None = 1, leaving: str = "free"):
+                 region=None, threads: int | None = 1, leaving: str = "free", frame=None):
         if snapshots is None or window is None:
             raise InputError("nested solver: give snapshots= (the ingested regional field) and window=(x0, x1, y0, y1)")
         self.regional = load_regional(snapshots)
-        bx = self.regional["mesh2d_node_x"].values if "mesh2d_node_x" in self.regional else self.regional.x.values
-        by = self.regional["mesh2d_node_y"].values if "mesh2d_node_y" in self.regional else self.regional.y.values
+        self.frame = frame if frame is not None and frame.rotated else None
+        if "mesh2d_node_x" in self.regional:
+            bx, by = self.regional["mesh2d_node_x"].values, self.regional["mesh2d_node_y"].values
+        else:  # a grid: the corners of its cell-centre box
+            bx, by = np.meshgrid(self.regional.x.values[[0, -1]], self.regional.y.values[[0, -1]])
+        if self.frame is not None:
+            bx, by = self.frame.to_grid(bx, by)
         w = tuple(map(float, window))
-        # the window is clipped to the regional field's bounding box (outside it there is nothing to nest
-        # in) by whole cells, so that its lattice (e.g. breach ends on cell faces) is kept
+        # the window is clipped to the regional field's bounding box (grid coordinates; outside it there is
+        # nothing to nest in) by whole cells, so that its lattice (e.g. breach ends on cell faces) is kept
         r = float(resolution)
         cut = lambda lo, hi, sign: (np.ceil(max(sign * (hi - lo), 0.0) / r - 1e-9) * r)
         self.window = (w[0] + cut(w[0], float(np.min(bx)), 1), w[1] - cut(float(np.max(bx)), w[1], 1),
@@ -233,7 +274,7 @@ class NestedSolver:
             raise InputError(f"nested window {w} does not overlap the regional field "
                              f"(x {np.min(bx):g}..{np.max(bx):g}, y {np.min(by):g}..{np.max(by):g})")
         self.domain, self.initial_state = nested_domain(self.regional, self.window, resolution, manning,
-                                                        leaving=leaving)
+                                                        leaving=leaving, frame=self.frame)
         from .swe.solver import SWEOptions
 
         self.options = SWEOptions(order=order, courant=courant, threads=threads)
@@ -245,10 +286,11 @@ class NestedSolver:
 
     def fallback_sampler(self, method: str = "bilinear") -> FieldSampler:
         """The regional field as ingested, sampled where a point lies outside the local window (the DEM's
-        :class:`~breachflow.hydro.sampling.FieldSampler` ``fallback``); built once per method."""
+        :class:`~breachflow.hydro.sampling.FieldSampler` ``fallback``): at grid positions, velocity in grid
+        components when the grid is rotated (:class:`FramedSampler`); built once per method."""
         cache = self.__dict__.setdefault("_fallback", {})
         if method not in cache:
-            cache[method] = FieldSampler(self.regional, method)
+            cache[method] = FramedSampler(self.regional, method, self.frame)
         return cache[method]
 
     def solve(self, domain=None, obstacles=None, initial=None) -> xr.Dataset:
@@ -261,19 +303,21 @@ class NestedSolver:
                           section=self.section)
         self.last = sim
         ds = sim.snapshot(source=f"breachflow nested local model in {self.source}")
+        where = "" if self.frame is None else " (breach-aligned grid coordinates)"
         ds.attrs.update(hydro_mode=self.mode, flow_responds_to_pile=1,
                         hydro_note=(f"local shallow-water model on x {self.window[0]:g}..{self.window[1]:g}, "
-                                    f"y {self.window[2]:g}..{self.window[3]:g} m re-solved with the pile; outside it "
-                                    f"the ingested field ({self.source}) unchanged"))
-        return ds
+                                    f"y {self.window[2]:g}..{self.window[3]:g} m{where} re-solved with the pile; outside "
+                                    f"it the ingested field ({self.source}) unchanged"))
+        return ds if self.frame is None else self.frame.georeference(ds)
 
 
-def consistency(local: xr.Dataset, regional: xr.Dataset, centre, radius: float) -> dict:
+def consistency(local: xr.Dataset, regional: xr.Dataset, centre, radius: float, frame=None) -> dict:
     """Differences between a local solution and the regional field within *radius* (m) of *centre*, over
     local cells wet in both: max / mean ``|Δ speed|`` and ``|Δ depth|`` (m/s, m), the peak speeds of both, the
-    mean regional speed and depth there, and the cell count."""
+    mean regional speed and depth there, and the cell count. *frame*: the local grid's
+    :class:`~breachflow.site.frame.GridFrame` (*centre* in its grid coordinates)."""
     X, Y = np.meshgrid(local.x.values, local.y.values)
-    smp = FieldSampler(fill_obstacles(regional), "bilinear").sample(X.ravel(), Y.ravel())
+    smp = FramedSampler(fill_obstacles(regional), "bilinear", frame).sample(X.ravel(), Y.ravel())
     rs = np.hypot(smp.u, smp.v).reshape(X.shape)
     rh = smp.depth.reshape(X.shape)
     ls = np.hypot(local.u.values, local.v.values)

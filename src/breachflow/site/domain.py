@@ -18,9 +18,11 @@ and reported in :attr:`Site.report`:
 The levee may run in any direction: the grid is built in breach-aligned coordinates
 (:class:`~breachflow.site.frame.GridFrame`, the CRS rotated about the breach centre by the levee's direction there), so
 that the levee at the breach runs along the grid's x axis as the closure cycle and its criteria expect;
-the cycle files carry the map coordinates and GDAL's rotated geotransform (:mod:`breachflow.site.frame`). Only with
-``align=False`` (flow solvers that serve an ingested field on the CRS axes) must the levee run along the
-CRS x axis (within :data:`MAX_SKEW_DEG`).
+the cycle files carry the map coordinates and GDAL's rotated geotransform (:mod:`breachflow.site.frame`). The
+``nested`` solver builds its local model in the same frame from the ingested field on the CRS axes
+(:class:`~breachflow.hydro.nested.FramedSampler`). Only with ``align=False`` (the frozen snapshot and plug-in
+solvers, which serve a field on the CRS axes unchanged) must the levee run along the CRS x axis (within
+:data:`MAX_SKEW_DEG`).
 """
 from __future__ import annotations
 
@@ -153,7 +155,7 @@ def build_site(spec: SiteSpec, resolution: float, *, align: bool = True) -> Site
             raise InputError(f"{levee.source}: the levee runs at {skew:.1f}° to the x axis of the CRS at the breach "
                              f"(chainage {breach.s_c:.1f} m); this flow solver serves its field on the CRS axes and "
                              f"needs the levee within {MAX_SKEW_DEG:g}° of east–west there (the 'swe' solver takes "
-                             f"any direction)")
+                             f"any direction, and so does 'nested')")
         frame = GridFrame(0.0, (xc, yc))
     fl, fr = footprint_half_width(levee, terrain, breach.s_c, breach.bottom)
     widths = [w for w in (fl, fr) if np.isfinite(w)]
