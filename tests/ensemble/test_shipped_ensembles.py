@@ -1,17 +1,21 @@
 """The ensemble specs shipped in examples/ensembles/ load and give the members their README promises."""
 from pathlib import Path
 
+import numpy as np
 import pytest
 
+from breachflow.ensemble.execute import check_members, plan
 from breachflow.ensemble.spec import load_spec
+from breachflow.scenario import closure_window
 
 ROOT = Path(__file__).resolve().parents[2]
+TYPICAL = ROOT / "examples" / "ensembles" / "typical_feasibility.toml"
 
 
 def test_typical_feasibility_is_27_closure_members_on_the_typical_breach():
-    spec = load_spec(ROOT / "examples" / "ensembles" / "typical_feasibility.toml")
+    spec = load_spec(TYPICAL)
     assert spec.runner == "closure"
-    assert spec.dims == ("flood_level", "mass_size", "batch") and spec.shape == (3, 3, 3)
+    assert spec.dims == ("density", "mass_size", "batch") and spec.shape == (3, 3, 3)
     members = spec.members()
     assert len(members) == 27 and len({m.key for m in members}) == 27
     seen = set()
@@ -20,10 +24,32 @@ def test_typical_feasibility_is_27_closure_members_on_the_typical_breach():
         assert table["site"]["preset"] == "typical_breach"  # from the base scenario file
         assert table["hydro"]["resolution"] == "4 m"
         # the varied values land in the member's scenario, the rest comes from the base file
-        assert table["site"]["flood_water_elevation"] == m.values["flood_level"]
+        assert table["placement"]["density"] == m.values["density"]
         assert table["placement"]["diameter"] == m.values["mass_size"]
         assert table["placement"]["batch"] == m.values["batch"]
-        assert table["placement"]["density"] == "2650 kg/m^3"
-        seen.add((m.values_si["flood_level"], m.values_si["mass_size"], m.values_si["batch"]))
+        assert table["placement"]["release_height"] == "1 m"
+        seen.add((m.values_si["density"], m.values_si["mass_size"], m.values_si["batch"]))
     assert len(seen) == 27
-    assert sorted({s[0] for s in seen}) == pytest.approx([35.1, 36.6, 38.1])
+    assert sorted({s[0] for s in seen}) == pytest.approx([1900.0, 2300.0, 2650.0])
+
+
+def test_typical_feasibility_members_have_a_closure_window(tmp_path):
+    """Every member can be judged feasible or not: its scenario gives a finite closure window (a
+    member without one would report ``feasible = false`` whatever its closure did)."""
+    _, _, _, tasks = plan(TYPICAL, out=tmp_path)
+    # the window is the same for every member (nothing varied enters it): 4900 ha x 2 m filled at
+    # 1800 m3/s is 9.8e7 m3 / 1800 m3/s = 15.1 h unless the flood falls first
+    ds = closure_window(**tasks[0].scenario.scenario().window_kwargs())
+    window = float(ds["closure_window"])
+    assert np.isfinite(window) and window == pytest.approx(4900e4 * 2.0 / 1800.0, rel=1e-3)
+    assert not any("no closure window" in w for w in check_members(tasks[:2]))
+
+
+def test_a_closure_ensemble_without_a_window_is_told_feasibility_cannot_be_judged(tmp_path):
+    text = TYPICAL.read_text(encoding="utf-8").split("# the closure window")[0]
+    text = text.replace('base = "../typical_breach.toml"', f'base = "{(ROOT / "examples" / "typical_breach.toml").as_posix()}"')
+    spec = tmp_path / "no_window.toml"
+    spec.write_text(text, encoding="utf-8")
+    _, _, _, tasks = plan(spec, out=tmp_path / "out")
+    warnings = check_members(tasks[:2])
+    assert any("no closure window" in w and "[flood], [polder], [breach]" in w and "2 of 2" in w for w in warnings)

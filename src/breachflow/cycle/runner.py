@@ -35,7 +35,14 @@ class ClosureRunner:
         from .config import closure_setup
 
         # parsed afresh (not member.scenario(): its cache would travel to the worker with the task)
-        return list(closure_setup(parse_scenario(member.text(), path=member.path)).warnings)
+        scenario = parse_scenario(member.text(), path=member.path)
+        warnings = list(closure_setup(scenario).warnings)
+        missing = [s for s in ("flood", "polder", "breach") if s not in scenario]
+        if missing:
+            warnings.append("no closure window: the scenario has no [" + "], [".join(missing) + "] table, so "
+                            "feasibility (closure before the window ends) cannot be judged and `feasible` is "
+                            "false for every member")
+        return warnings
 
     def run(self, member: MemberScenario, run_dir: Path, seed: int) -> dict[str, Any]:
         from ..scenario import closure_window
