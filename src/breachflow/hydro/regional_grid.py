@@ -6,16 +6,16 @@ mask. A raster export (RAS Mapper / GDAL ``.asc``, LISFLOOD-FP ``.wd``) has neit
 terrain with NODATA depth, like any dry ground. At steady state a finite-volume model cannot hold a
 cell dry beside a wet cell whose water surface is above the dry cell's bed (water flows across that
 face), nor beside such a cell: the water surface ``L`` of the wet cells spreads over the dry cells it
-would flood (priority flood, 4 face neighbours),
+would flood (priority flood, 4 face neighbours)::
 
     L_c = max over face neighbours n of L_n with L_n > z_c + tol      (dry c; wet c: L_c = z_c + h_c)
     no_flow = dry & (L > z + tol),   tol = 1 cm
 
-and those cells were no-flow in the regional model (the whole flooded-over part of the levee, not only
+Those cells were no-flow in the regional model (the whole flooded-over part of the levee, not only
 its first row: a local grid coarser than the regional one samples a one-cell ring with gaps). A local
 model interpolated from the grid without this mask opens the levee's flood-side slope to the water and,
-the crest being smoothed below the flood level by the interpolation, lets the whole levee overflow (the
-~14 % mean |Δ speed| near the breach the ESRI consistency check measured before). Dry cells above
+the crest being smoothed below the flood level by the interpolation, lets the whole levee overflow (a mean
+``|Δ speed|`` of 12–14 % near the breach in the ESRI consistency check, ``tests/site/test_nested_esri.py``). Dry cells above
 every such level stay ground (high ground, a crest above the flood). Applied by the nested solver to
 grid snapshots that have no ``obstacle`` variable; a snapshot that is still filling (a wetting front
 running downhill) would be read as walled: give the regional model's steady state.
