@@ -583,7 +583,9 @@ def with_cycle_dimension(ds: xr.Dataset, g: int) -> xr.Dataset:
     for name in list(ds.data_vars):
         if name != "crs":
             ds[name] = ds[name].expand_dims("cycle")
-    return ds.assign_coords(cycle=("cycle", np.array([g], "i4"), {"long_name": "closure cycle <g>", "units": "1"}))
+    # units "count" (UDUNITS, dimensionless), not "1": GDAL passes coordinate attributes as text tags and
+    # rioxarray's open_rasterio turns "1" into the int 1 and fails testing it for "since" (rioxarray <= 0.23)
+    return ds.assign_coords(cycle=("cycle", np.array([g], "i4"), {"long_name": "closure cycle <g>", "units": "count"}))
 
 
 def _summary(rep: CycleReport) -> dict:

@@ -6,7 +6,8 @@ grid snapshot of our own solver). Around the breach a local structured-grid mode
 * terrain: the regional bed interpolated at the local cell centres (bilinear on grids, barycentric on
   triangles — :class:`~breachflow.hydro.sampling.FieldSampler`); cells outside the regional field (mesh
   holes such as an intact levee modelled as no-flow, or the regional model's obstacle cells) are local
-  obstacles;
+  obstacles; a grid without an obstacle mask (ESRI grids: the levee is dry terrain) gets one from its
+  dry cells that the wet cells' water surface would flood (:mod:`~breachflow.hydro.regional_grid`);
 * initial state: the regional depth and velocity there;
 * boundary conditions, per edge cell, from the regional field: where water enters, the regional water
   level (supercritical inflow: level and unit discharge); where it leaves, free outflow (``leaving =
@@ -40,6 +41,7 @@ import numpy as np
 import xarray as xr
 
 from ..errors import InputError
+from .regional_grid import with_no_flow
 from .sampling import FieldSample, FieldSampler
 from .snapshot import DRY_DEPTH
 from .terrain import BoundaryCondition, Domain, uniform_grid
@@ -154,6 +156,7 @@ def nested_domain(regional: xr.Dataset, window, resolution: float, manning=0.025
     *frame* (:class:`~breachflow.site.frame.GridFrame`) the window and the domain are in its grid coordinates
     and the velocities grid components; *regional* stays on the CRS axes."""
     x0, x1, y0, y1 = map(float, window)
+    regional = with_no_flow(regional)  # a raster without a no-flow mask (ESRI grids): dry cells it held dry
     dom = uniform_grid(x0, x1, y0, y1, resolution)
     if min(dom.shape) < 4:
         raise InputError(f"nested window {window} at {resolution} m has only {dom.shape[1]} x {dom.shape[0]} cells")

@@ -280,7 +280,7 @@ class RunDirectory:
         grids = _pad_to_common_sizes([f[grid_vars] for f in fields])
         stacked = xr.concat(grids, dim="cycle", data_vars="all", coords="minimal",
                             compat="override", join="override")
-        stacked = stacked.assign_coords(cycle=("cycle", np.asarray(cycles, "i4"), {"long_name": "closure cycle <g>", "units": "1"}))
+        stacked = stacked.assign_coords(cycle=("cycle", np.asarray(cycles, "i4"), {"long_name": "closure cycle <g>", "units": "count"}))
         last = fields[-1]
         part_vars = [v for v in last.data_vars if "particle" in last[v].dims]
         final = last[part_vars]
