@@ -32,7 +32,8 @@ def _hash(code, mask):
 
 @numba.njit(cache=True, inline="always", error_model="numpy")
 def _wrap_cell(c, n, periodic):
-    if periodic:
+    """Cell coordinate *c* wrapped into [0, n) on a periodic axis (the integer modulo only when outside)."""
+    if periodic and (c < 0 or c >= n):
         c = c % n
         if c < 0:
             c += n
@@ -88,7 +89,9 @@ def build_grid(idx, pos, radius, margin, geom, periodic, ncell, table_bits, sing
 
 @numba.njit(cache=True, inline="always", error_model="numpy")
 def min_image(dx, L, periodic):
-    if periodic:
+    """Minimum-image difference ``dx - L round(dx / L)`` for a periodic axis of length *L*. Wrapped
+    coordinates differ by less than L/2 for most pairs: those skip the division (same result)."""
+    if periodic and (dx >= 0.5 * L or dx < -0.5 * L):
         dx -= L * math.floor(dx / L + 0.5)
     return dx
 
