@@ -59,9 +59,22 @@ def pair_forces_window(pa, pb, hist, rhist, touching, pos, vel, omega, vel_h, om
     mr = np.empty(3)
     ncontacts = 0
     reach_t = max(-lo, hi) if law == WINDOW_AVERAGED else 0.0
+    # the list is sorted by i: i's force and torque are summed in registers and stored when i changes (as
+    # LAMMPS' fxtmp); any order gives the same sums up to round-off
+    ci = np.uint64(0)
+    fix = fiy = fiz = tix = tiy = tiz = 0.0
     for p in range(pa.shape[0]):
         i = np.uint64(pa[p])  # unsigned: no negative-index wraparound test on each access
         j = np.uint64(pb[p])
+        if i != ci:
+            force[ci, 0] += fix
+            force[ci, 1] += fiy
+            force[ci, 2] += fiz
+            torque[ci, 0] += tix
+            torque[ci, 1] += tiy
+            torque[ci, 2] += tiz
+            fix = fiy = fiz = tix = tiy = tiz = 0.0
+            ci = i
         if not (awake[i] or awake[j]) or not (active[i] and active[j]):
             continue
         dx = min_image(pos[j, 0] - pos[i, 0], geom[6], periodic[0])
@@ -129,9 +142,9 @@ def pair_forces_window(pa, pb, hist, rhist, touching, pos, vel, omega, vel_h, om
                 continue
         else:
             ncontacts += 1
-        force[i, 0] += fx
-        force[i, 1] += fy
-        force[i, 2] += fz
+        fix += fx
+        fiy += fy
+        fiz += fz
         force[j, 0] -= fx
         force[j, 1] -= fy
         force[j, 2] -= fz
@@ -139,9 +152,9 @@ def pair_forces_window(pa, pb, hist, rhist, touching, pos, vel, omega, vel_h, om
         cx = ny * ftz - nz * fty
         cy = nz * ftx - nx * ftz
         cz = nx * fty - ny * ftx
-        torque[i, 0] += ri * cx
-        torque[i, 1] += ri * cy
-        torque[i, 2] += ri * cz
+        tix += ri * cx
+        tiy += ri * cy
+        tiz += ri * cz
         torque[j, 0] += rj * cx
         torque[j, 1] += rj * cy
         torque[j, 2] += rj * cz
@@ -163,6 +176,13 @@ def pair_forces_window(pa, pb, hist, rhist, touching, pos, vel, omega, vel_h, om
                 wake[s] = True
                 wake_ids[n_wake[0]] = s
                 n_wake[0] += 1
+    if pa.shape[0]:
+        force[ci, 0] += fix
+        force[ci, 1] += fiy
+        force[ci, 2] += fiz
+        torque[ci, 0] += tix
+        torque[ci, 1] += tiy
+        torque[ci, 2] += tiz
     return ncontacts
 
 
