@@ -11,7 +11,7 @@ history of SPEC §5, computed differently:
   Less accurate where a contact begins or ends inside a step: at the default step its coefficient of
   restitution depends on the onset phase (tests/dem/test_contact_laws.py gives the measured spread).
 
-The compiled contact kernels hold both laws and select one by :attr:`code` (a plug-in registered here
+The compiled contact kernels hold both laws and select one by the class attribute ``code`` (a plug-in registered here
 cannot add a third without a kernel for it). Rolling resistance (:func:`.contact_law.rolling_law`) and the
 boundaries use the chosen law too.
 """
@@ -37,7 +37,7 @@ class WindowAveraged:
 
     def force(self, n, overlap, v, g, hist, kn, ks, c_cn, c_cs, c_cf, alpha, beta, dt, lo=0.0, hi=0.0):
         """Force (on the particle n points away from) of one contact with history *hist* (3,), updated in
-        place; returns (window fraction in contact, force (3,), tangential force (3,), compressive |f_N|)."""
+        place; returns (window fraction in contact, force (3,), tangential force (3,), compressive ``|f_N|``)."""
         h = np.asarray(hist, float).reshape(1, 3)
         kn, ks, c_cn, c_cs, c_cf, alpha, beta = _props(kn, ks, c_cn, c_cs, c_cf, alpha, beta)
         r = contact_law(*map(float, n), float(overlap), *map(float, v), *map(float, g), h, 0, kn, ks, c_cn, c_cs,
