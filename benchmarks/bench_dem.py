@@ -18,7 +18,9 @@ second (mean ± standard deviation), the ratio breachflow / LAMMPS (mean ± sd o
 breachflow faster), and the two codes' results after the timed steps (difference of the mean height of
 the spheres, m; translational kinetic energy per sphere of each, J) as the error figure. The wall dashpot
 given to LAMMPS is halved: its ``wall/gran`` uses the sphere's mass as m_eff, breachflow the pair value.
-breachflow runs ``velocity_verlet`` (LAMMPS' ``fix nve/sphere`` scheme) and the default ``predicted_verlet``.
+breachflow runs ``velocity_verlet`` (LAMMPS' ``fix nve/sphere`` scheme) and the default ``predicted_verlet``
+with the default contact law (``window_averaged``), and ``velocity_verlet`` with ``contact_law="hooke_history"``
+(LAMMPS' law exactly: the like-for-like ratio, and a result difference that shows only round-off growth).
 
 LAMMPS (``pair_style gran/hooke/history``, ``fix wall/gran hooke/history``, ``fix nve/sphere``, same
 kn/kt/damping/friction/skin/dt, ``neigh_modify every 1 check yes``, serial) runs in the separate venv
@@ -79,12 +81,12 @@ def release(n: int, L: float, seed: int = 0):
     return pos, rng.normal(0, 0.3, (n, 3))
 
 
-def make_sim(pos, vel, L, integrator="velocity_verlet", omega=None):
+def make_sim(pos, vel, L, integrator="velocity_verlet", omega=None, law="window_averaged"):
     from breachflow.dem import DemSimulation, Plane
 
     mat, _ = material()
     sim = DemSimulation(boundaries=[Plane((0, 0, 0), (0, 0, 1), mat)], periodic_x=(0, L), periodic_y=(0, L),
-                        dt=DT, sleeping=False, integrator=integrator)
+                        dt=DT, sleeping=False, integrator=integrator, contact_law=law)
     sim.add_particles(pos, D / 2, mat, vel=vel, omega=omega)
     return sim
 
@@ -117,9 +119,9 @@ def summary(sim):
     return float(s.pos[:, 2].mean()), float(0.5 * np.sum(s.mass * np.sum(s.vel**2, axis=1)) / s.n)
 
 
-def time_breachflow(start, L, steps, integrator):
+def time_breachflow(start, L, steps, integrator, law="window_averaged"):
     """Particle-steps per CPU second of *steps* steps from *start* = (pos, vel, omega); (rate, summary)."""
-    sim = make_sim(*start[:2], L, integrator, omega=start[2])
+    sim = make_sim(*start[:2], L, integrator, omega=start[2], law=law)
     sim.step(1)  # F(t) of the start state (LAMMPS' setup) and the first step, not timed in either code
     t = time.process_time()
     sim.step(steps - 1)
@@ -221,18 +223,21 @@ def compare(scene, n, steps, reps, env, log=print):
     sim, L = settled_bed(n) if scene == "bed" else poured_pile(n)
     s = sim.state
     start = (s.pos.copy(), s.vel.copy(), s.omega.copy())
-    rates = {"vv": [], "pv": [], "lammps": []}
+    rates = {"vv": [], "pv": [], "hh": [], "lammps": []}
     out = {}
     for r in range(reps):
         rv, out["vv"] = time_breachflow(start, L, steps, "velocity_verlet")
         rp, out["pv"] = time_breachflow(start, L, steps, "predicted_verlet")
+        rh, out["hh"] = time_breachflow(start, L, steps, "velocity_verlet", "hooke_history")
         rates["vv"].append(rv)
         rates["pv"].append(rp)
+        rates["hh"].append(rh)
         lam = run_lammps(start, s.radius, s.density, L, steps, env) if env is not None else None
         if lam is not None:
             rates["lammps"].append(lam[0])
             out["lammps"] = lam[1]
-        log(f"{scene} N={n} rep {r + 1}: velocity_verlet {rv:.3e}, predicted_verlet {rp:.3e}, LAMMPS "
+        log(f"{scene} N={n} rep {r + 1}: velocity_verlet {rv:.3e}, predicted_verlet {rp:.3e}, velocity_verlet + "
+            f"hooke_history {rh:.3e}, LAMMPS "
             f"{'-' if lam is None else f'{lam[0]:.3e}'} particle-steps/CPU s")
     return dict(rates=rates, out=out, contacts=sim.n_contacts / n, bytes=sim.memory_bytes() / n)
 
@@ -337,25 +342,29 @@ def main(argv) -> int:
     env = None if args.no_lammps else ensure_lammps()
     table = Table(title=f"DEM vs LAMMPS gran/hooke/history: d=1 m, kn=1e7 N/m, dt=1e-3 s, periodic x/y, "
                         f"{args.steps} timed steps, {args.reps} repeats (mean ± sd)")
-    console.print("M p-steps/CPU s: million particle-steps per CPU second; VV velocity_verlet, PV predicted_verlet; "
-                  "error: after the timed steps, mean height breachflow VV - LAMMPS (m); kinetic energy per sphere "
-                  "breachflow VV / LAMMPS (J)")
+    console.print("M p-steps/CPU s: million particle-steps per CPU second; VV velocity_verlet, PV predicted_verlet "
+                  "(default contact law window_averaged); HH velocity_verlet with contact_law hooke_history (LAMMPS' "
+                  "law: the like-for-like ratio); error: after the timed steps, mean height breachflow - LAMMPS (m); "
+                  "kinetic energy per sphere breachflow / LAMMPS (J)")
     for col in ("scene", "N", "contacts/particle", "bytes/particle", "VV M p-steps/CPU s", "PV M p-steps/CPU s",
-                "LAMMPS M p-steps/CPU s", "VV/LAMMPS", "PV/LAMMPS", "error: d mean z; KE"):
+                "HH M p-steps/CPU s", "LAMMPS M p-steps/CPU s", "VV/LAMMPS", "PV/LAMMPS", "HH/LAMMPS",
+                "error VV: d mean z; KE", "error HH: d mean z; KE"):
         table.add_column(col, justify="right")
     for scene in [x for x in args.scenes.split(",") if x]:
         for n in sizes:
             t0 = time.perf_counter()
             r = compare(scene, n, args.steps, args.reps, env, log=lambda m: console.print(f"[dim]{m}[/dim]"))
             rt, out = r["rates"], r["out"]
-            err = "-"
+            err = {"vv": "-", "hh": "-"}
             if "lammps" in out:
-                (zb, kb), (zl, kl) = out["vv"], out["lammps"]
-                err = f"{zb - zl:+.3f} m; {kb:.2e} / {kl:.2e} J"
-            ratio = {k: [a / b for a, b in zip(rt[k], rt["lammps"])] for k in ("vv", "pv")}
+                zl, kl = out["lammps"]
+                for k in err:
+                    zb, kb = out[k]
+                    err[k] = f"{zb - zl:+.2e} m; {kb:.3e} / {kl:.3e} J"
+            ratio = {k: [a / b for a, b in zip(rt[k], rt["lammps"])] for k in ("vv", "pv", "hh")}
             table.add_row(scene, f"{n}", f"{r['contacts']:.2f}", f"{r['bytes']:.0f}", mean_sd(rt["vv"], 1e6),
-                          mean_sd(rt["pv"], 1e6), mean_sd(rt["lammps"], 1e6), mean_sd(ratio["vv"]),
-                          mean_sd(ratio["pv"]), err)
+                          mean_sd(rt["pv"], 1e6), mean_sd(rt["hh"], 1e6), mean_sd(rt["lammps"], 1e6),
+                          mean_sd(ratio["vv"]), mean_sd(ratio["pv"]), mean_sd(ratio["hh"]), err["vv"], err["hh"])
             console.print(f"[dim]{scene} N={n} done in {time.perf_counter() - t0:.0f} s[/dim]")
     console.print(table)
 

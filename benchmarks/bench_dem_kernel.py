@@ -5,7 +5,8 @@
 On the settled bed of benchmarks/bench_dem.py (n spheres), times ``contacts.pair_forces_window`` (the
 window-averaged spring–dashpot law with shear history, as the Verlet integrators call it) and a loop over
 the same pair list that only adds ``k_N overlap`` along the normal (what any contact code must do at
-least), in CPU ns per listed pair; best of ``--reps``, interleaved.
+least), in CPU ns per listed pair; best of ``--reps``, interleaved. The same kernel with
+``contact_law = "hooke_history"`` (LAMMPS' point-evaluated law) is timed too.
 """
 from __future__ import annotations
 
@@ -69,7 +70,10 @@ def main(argv) -> int:
            s.omega, False, s.radius, s.mass, s.inertia, s._props, s.awake, s.active, sim.geom, sim.periodic, dt,
            sim.wake_velocity, f, t, sim._wake_flag, sim._wake_ids, np.zeros(1, np.int64), -0.5 * dt, 0.5 * dt)
     bare = (sim._pa, sim._pb, s.pos, s.radius, float(s.kn[0]), sim.geom, sim.periodic, f)
-    kernels = {"pair_forces_window": (contacts.pair_forces_window, law), "bare Hooke": (bare_hooke, bare)}
+    # LAMMPS' law, point values (contact_law hooke_history), on its own copy of the histories
+    law_h = law[:2] + (law[2].copy(), law[3].copy(), law[4].copy()) + law[5:-2] + (0.0, 0.0, contacts.HOOKE_HISTORY)
+    kernels = {"pair_forces_window": (contacts.pair_forces_window, law),
+               "  hooke_history law": (contacts.pair_forces_window, law_h), "bare Hooke": (bare_hooke, bare)}
     best = {k: math.inf for k in kernels}
     for fn, args in kernels.values():
         fn(*args)

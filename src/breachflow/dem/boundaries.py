@@ -73,14 +73,15 @@ class Plane(Boundary):
         if control == "fixed":
             self.velocity[:] = 0.0
 
-    def forces(self, idx, state, dt, force, torque, lo=0.0, hi=0.0) -> int:
+    def forces(self, idx, state, dt, force, torque, lo=0.0, hi=0.0, law=0) -> int:
         """Add the contact forces on particles *idx*, averaged over the force window ``[lo, hi]`` (s,
-        :func:`.contact_law.contact_law`); returns the number of contacts."""
+        :func:`.contact_law.contact_law`; *law*: kernel code of the contact law, :mod:`.contact_laws`);
+        returns the number of contacts."""
         self.reaction[:] = 0.0
         return contacts.plane_forces(idx, self.point, self.normal, self.velocity, self.props, self.hist,
                                      self.rhist, state.pos, state.vel, state.omega, state.radius, state.mass,
                                      state.inertia, state._props, dt, force, torque, self.reaction, lo, hi,
-                                     state.vel_h, state.omega_h)
+                                     state.vel_h, state.omega_h, law)
 
     def advance(self, dt: float) -> None:
         if self.control == "force":
@@ -131,9 +132,9 @@ class HeightField(Boundary):
         return np.array([contacts._bilinear(self.x0, self.y0, self.hx, self.hy, self.bed, a, b)[0]
                          for a, b in zip(px, py)])
 
-    def forces(self, idx, state, dt, force, torque, lo=0.0, hi=0.0) -> int:
+    def forces(self, idx, state, dt, force, torque, lo=0.0, hi=0.0, law=0) -> int:
         """As :meth:`Plane.forces` (no reaction is kept)."""
         return contacts.heightfield_forces(idx, self.x0, self.y0, self.hx, self.hy, self.bed, self.props,
                                            self.hist, self.rhist, state.pos, state.vel, state.omega,
                                            state.radius, state.mass, state.inertia, state._props, dt, force,
-                                           torque, lo, hi, state.vel_h, state.omega_h)
+                                           torque, lo, hi, state.vel_h, state.omega_h, law)

@@ -21,6 +21,8 @@ import math
 
 import numba
 
+#: kernel codes
+WINDOW_AVERAGED, HOOKE_HISTORY = 0, 1
 #: rolling stiffness ``k_r = ROLLING_STIFFNESS * k_N mu_r^2 R_r^2`` (Ai et al. 2011, 3-D value)
 ROLLING_STIFFNESS = 2.25
 #: rolling dashpot ``C_r = ROLLING_DAMPING_RATIO * 2 sqrt(I_r k_r)`` (Ai et al. 2011 eta_r)
@@ -73,7 +75,7 @@ def history_in_plane(hist, p, nx, ny, nz):
 
 @numba.njit(cache=True, inline="always", error_model="numpy")
 def contact_law(nx, ny, nz, overlap, vx, vy, vz, gx, gy, gz, hist, p, kn, ks, c_cn, c_cs, c_cf, alpha, beta, dt, lo,
-                hi, out):
+                hi):
     """Force on particle i from one contact (SPEC §5), averaged over the integrator's force window;
     updates the shear history *hist* in place. Returns the window fraction in contact (0: none).
 
@@ -108,9 +110,7 @@ def contact_law(nx, ny, nz, overlap, vx, vy, vz, gx, gy, gz, hist, p, kn, ks, c_
         hist[p, 0] = 0.0
         hist[p, 1] = 0.0
         hist[p, 2] = 0.0
-        for k in range(7):
-            out[k] = 0.0
-        return 0.0
+        return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
     tx = vx - vn * nx
     ty = vy - vn * ny
     tz = vz - vn * nz
@@ -143,14 +143,7 @@ def contact_law(nx, ny, nz, overlap, vx, vy, vz, gx, gy, gz, hist, p, kn, ks, c_
             ftx = ks * hx + c_t * tx
             fty = ks * hy + c_t * ty
             ftz = ks * hz + c_t * tz
-            out[0] = fnm * nx + ftx
-            out[1] = fnm * ny + fty
-            out[2] = fnm * nz + ftz
-            out[3] = ftx
-            out[4] = fty
-            out[5] = ftz
-            out[6] = -fnm
-            return 1.0
+            return 1.0, fnm * nx + ftx, fnm * ny + fty, fnm * nz + ftz, ftx, fty, ftz, -fnm
         if slipping and m < 0.0 and us_hat > 0.0:  # sliding before now: the spring sat at the Coulomb limit
             sc = (alpha + beta * kn * (overlap + w * m)) / ks / us_hat
             sx = hx * sc
@@ -190,14 +183,61 @@ def contact_law(nx, ny, nz, overlap, vx, vy, vz, gx, gy, gz, hist, p, kn, ks, c_
     ftx = phi * (ks * sx + c_t * tx)
     fty = phi * (ks * sy + c_t * ty)
     ftz = phi * (ks * sz + c_t * tz)
-    out[0] = fnm * nx + ftx
-    out[1] = fnm * ny + fty
-    out[2] = fnm * nz + ftz
-    out[3] = ftx
-    out[4] = fty
-    out[5] = ftz
-    out[6] = -fnm  # compressive normal force magnitude (N)
-    return phi
+    return phi, fnm * nx + ftx, fnm * ny + fty, fnm * nz + ftz, ftx, fty, ftz, -fnm  # compressive normal force magnitude (N)
+
+
+@numba.njit(cache=True, inline="always", error_model="numpy")
+def hooke_history(nx, ny, nz, overlap, vx, vy, vz, gx, gy, gz, hist, p, kn, ks, c_cn, c_cs, alpha, beta, dt):
+    """LAMMPS ``pair_style gran/hooke/history`` (and ``fix wall/gran hooke/history``), evaluated at the
+    point ``t`` (no force window): the law of :func:`contact_law` as LAMMPS computes it, for like-for-like
+    comparisons (``contact_law = "hooke_history"``, :mod:`.contact_laws`). Arguments as :func:`contact_law`;
+    *overlap* must be > 0 (the caller skips pairs not in contact now). Returns 1.
+
+    Differences from the default law (LAMMPS' ``compute``, Silbert et al. 2001): the shear displacement
+    ``u_S += g_S dt`` is advanced before it is turned into the tangent plane, and turned by projection
+    (``u_S - (u_S . n) n``: it shrinks as the contact rolls); the Coulomb limit applies to the whole
+    tangential force ``|k_S u_S + c_CS v_S| <= alpha + mu |f_N|`` (f_N with its dashpot), and on slip the
+    spring is set to ``u_S = (F/|f_t|)(u_S + c_CS v_S / k_S) - c_CS v_S / k_S``; one tangential dashpot
+    ``c_CS`` (``c_CF`` is unused); onset and release are resolved to a step, not within it.
+    ``alpha`` = 0 is LAMMPS exactly (LAMMPS has no adhesion term).
+    """
+    vn = vx * nx + vy * ny + vz * nz
+    tx = vx - vn * nx
+    ty = vy - vn * ny
+    tz = vz - vn * nz
+    gn = gx * nx + gy * ny + gz * nz
+    hx = hist[p, 0] + (gx - gn * nx) * dt
+    hy = hist[p, 1] + (gy - gn * ny) * dt
+    hz = hist[p, 2] + (gz - gn * nz) * dt
+    shrmag_sq = hx * hx + hy * hy + hz * hz
+    hn = hx * nx + hy * ny + hz * nz
+    hx -= hn * nx
+    hy -= hn * ny
+    hz -= hn * nz
+    fnm = -kn * overlap + c_cn * vn
+    ftx = ks * hx + c_cs * tx
+    fty = ks * hy + c_cs * ty
+    ftz = ks * hz + c_cs * tz
+    fs_sq = ftx * ftx + fty * fty + ftz * ftz
+    f_hat = alpha + beta * abs(fnm)
+    if fs_sq > f_hat * f_hat:
+        if shrmag_sq != 0.0:
+            sc = f_hat / math.sqrt(fs_sq)
+            ct = c_cs / ks
+            hx = sc * (hx + ct * tx) - ct * tx
+            hy = sc * (hy + ct * ty) - ct * ty
+            hz = sc * (hz + ct * tz) - ct * tz
+            ftx *= sc
+            fty *= sc
+            ftz *= sc
+        else:
+            ftx = 0.0
+            fty = 0.0
+            ftz = 0.0
+    hist[p, 0] = hx
+    hist[p, 1] = hy
+    hist[p, 2] = hz
+    return 1.0, fnm * nx + ftx, fnm * ny + fty, fnm * nz + ftz, ftx, fty, ftz, -fnm
 
 
 @numba.njit(cache=True, inline="always", error_model="numpy")

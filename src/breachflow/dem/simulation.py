@@ -38,6 +38,7 @@ import numpy as np
 from ..errors import InputError, PhysicsError
 from . import contacts, memory, steploop
 from .boundaries import Boundary, Plane
+from .contact_laws import resolve as resolve_contact_law
 from .forces import G, ForceModel, Gravity, add_global_damping, zero_rows
 from .integrators import integrators
 from .state import Material, ParticleState
@@ -69,7 +70,8 @@ class DemSimulation:
     ``skin`` neighbour-list skin (m; default 0.1 median diameter); ``cell_size`` grid cell (m; default
     median diameter + skin); ``sleeping`` on/off; ``plane_2d`` restricts motion to the x–z plane
     (translation in x, z and rotation about y; the report's 2-D setting; out-of-plane components of
-    inserted velocities are dropped).
+    inserted velocities are dropped); ``contact_law`` name in ``breachflow.contact_laws``
+    (:mod:`.contact_laws`: ``window_averaged``, the default, or LAMMPS' ``hooke_history``).
     """
 
     def __init__(self, state: ParticleState | None = None, *, boundaries=(), models=(), gravity=(0.0, 0.0, -G),
@@ -78,7 +80,7 @@ class DemSimulation:
                  sleep_velocity: float = 1e-3, wake_velocity: float | None = None, sleep_steps: int = 100,
                  sleep_check: int = 25,
                  wake_force_fraction: float = 0.05, static_models: bool = False,
-                 plane_2d: bool = False):
+                 plane_2d: bool = False, contact_law="window_averaged"):
         self.state = state if state is not None else ParticleState.empty()
         self.boundaries: list[Boundary] = list(boundaries)
         self.models: list[ForceModel] = list(models)
@@ -87,6 +89,8 @@ class DemSimulation:
                 raise InputError(f"force model {m!r} lacks added_mass/accumulate (ForceModel protocol)")
         self.gravity = Gravity(gravity)
         self.integrator = integrators.get(integrator)() if isinstance(integrator, str) else integrator
+        self.contact_law = resolve_contact_law(contact_law)
+        self._law = int(self.contact_law.code)  # kernel code of the contact law
         self._user_dt = dt
         self.periodic = np.array([periodic_x is not None, periodic_y is not None], dtype=np.int64)
         self._period_ranges = (periodic_x, periodic_y)
@@ -295,10 +299,10 @@ class DemSimulation:
         n = contacts.pair_forces_window(self._pa, self._pb, self._hist, self._rhist, self._touch, pos, vel, omega,
                                         vel_h, omega_h, split, s.radius, s.mass, s.inertia, s._props, s.awake,
                                         s.active, self.geom, self.periodic, self._dt, self.wake_velocity, force,
-                                        torque, self._wake_flag, self._wake_ids, self._n_wake, lo, hi)
+                                        torque, self._wake_flag, self._wake_ids, self._n_wake, lo, hi, self._law)
         view = _StateView(s, pos, vel, omega, vel_h, omega_h)
         for b in self.boundaries:
-            n += b.forces(self.idx, view, self._dt, force, torque, lo, hi)
+            n += b.forces(self.idx, view, self._dt, force, torque, lo, hi, self._law)
         self.n_contacts = n
 
     def refresh_forces(self):

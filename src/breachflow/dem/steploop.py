@@ -29,11 +29,12 @@ def verlet_steps(nmax, t, idx, pos, vel, omega, vel_prev, omega_prev, force, tor
                  props, awake, active, geom, periodic, wake_speed, wake, wake_ids, n_wake, pl_point, pl_normal,
                  pl_vel, pl_props, pl_hist, pl_rhist, pl_reaction, g, c_gn, c_gw, box, use_box, left_ids, pos_build,
                  half_skin, sleeping, v_sleep, n_sleep, sleep_count, sleep_ids, sleep_check, step0, e_tol, crit,
-                 consecutive, ok, stats):
+                 consecutive, ok, stats, law=0):
     """Up to *nmax* Verlet steps (kick, drift, wrap, contacts, planes, gravity, damping, kick) of the awake
     particles *idx*; returns (steps done, reason, time). *stats* (out): [max, sum displacement of the last
     step, contacts, #left / #woken / #asleep / bad id, consecutive steps below *e_tol*]; ``e_tol < 0``: no
-    equilibrium test. *crit* 0: max criterion, 1: sum. ``ok``: consecutive steps below e_tol so far."""
+    equilibrium test. *crit* 0: max criterion, 1: sum. ``ok``: consecutive steps below e_tol so far. *law*: kernel
+    code of the contact law (:mod:`.contact_laws`)."""
     h = 0.5 * dt
     done = 0
     for _ in range(nmax):
@@ -68,12 +69,12 @@ def verlet_steps(nmax, t, idx, pos, vel, omega, vel_prev, omega_prev, force, tor
         zero_rows(idx, force, torque)
         nc = pair_forces_window(pa, pb, hist, rhist, touch, pos, ve, we, vel, omega, predict, radius, mass, inertia,
                                 props, awake, active, geom, periodic, dt, wake_speed, force, torque, wake, wake_ids,
-                                n_wake, lo, hi)
+                                n_wake, lo, hi, law)
         for b in range(pl_point.shape[0]):
             pl_reaction[b, :] = 0.0
             nc += plane_forces(idx, pl_point[b], pl_normal[b], pl_vel[b], pl_props[b], pl_hist[b], pl_rhist[b], pos,
                                ve, we, radius, mass, inertia, props, dt, force, torque, pl_reaction[b], lo, hi, vel,
-                               omega)
+                               omega, law)
         _add_gravity(idx, mass, g, force)
         add_global_damping(idx, ve, we, c_gn, c_gw, 1.0, force, torque)
         kick(kicked, vel, omega, force, torque, inv_m, inv_i, h, lmask, rmask)
@@ -142,7 +143,8 @@ def run(sim, nmax: int, e_tol: float = -1.0, crit: int = 0, consecutive: int = 1
         sim.periodic, sim.wake_velocity, sim._wake_flag, sim._wake_ids, sim._n_wake, pl[0], pl[1], pl[2], pl[3],
         pl_hist, pl_rhist, reaction, sim.gravity.g, s.c_gn, s.c_gw, sim._box, sim._use_box, sim._tmp_ids,
         sim._pos_build, 0.5 * sim.skin, sim.sleeping, sim.sleep_velocity, sim.sleep_steps, sim._sleep_count,
-        sim._tmp_ids, sim.sleep_check, sim.steps, float(e_tol), int(crit), int(consecutive), int(ok), stats)
+        sim._tmp_ids, sim.sleep_check, sim.steps, float(e_tol), int(crit), int(consecutive), int(ok), stats,
+        sim._law)
     for k, b in enumerate(planes):
         b.hist[:] = pl_hist[k]
         b.rhist[:] = pl_rhist[k]

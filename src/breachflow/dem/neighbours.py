@@ -1,0 +1,295 @@
+"""Neighbour search of the DEM (SPEC §5): a cell grid and the pair list (split out of :mod:`.contacts`).
+
+Each particle is inserted in every cell its bounding box (radius + skin/2) overlaps, so the cell size can
+follow the *typical* diameter while a 10:1 size ratio only costs the few large particles more insertions;
+a pair is reported once, from the cell at the minimum corner of the intersection of both boxes. Nearly
+uniform spheres without sleepers use one cell per particle and a half stencil (own cell + 13 forward
+cells, as LAMMPS' half lists), on a dense cell array when compact. Only awake particles search (sleeping
+ones sit in a separate grid rebuilt on sleep/wake). Periodic x / y use minimum-image distances and
+wrapped cell coordinates. The list is kept until some awake particle moved more than skin/2
+(:func:`displacement_since`, as LAMMPS' ``neigh_modify check yes``).
+"""
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+OFFSET = 1 << 20  # cell-coordinate offset for packing three signed ints into one int64
+
+
+@numba.njit(cache=True, inline="always", error_model="numpy")
+def _pack(cx, cy, cz):
+    return ((cx + OFFSET) << 42) | ((cy + OFFSET) << 21) | (cz + OFFSET)
+
+
+@numba.njit(cache=True, inline="always", error_model="numpy")
+def _hash(code, mask):
+    h = (code * 0x5851F42D4C957F2D) & 0x7FFFFFFFFFFFFFFF
+    return (h >> 17) & mask
+
+
+@numba.njit(cache=True, inline="always", error_model="numpy")
+def _wrap_cell(c, n, periodic):
+    """Cell coordinate *c* wrapped into [0, n) on a periodic axis (the integer modulo only when outside)."""
+    if periodic and (c < 0 or c >= n):
+        c = c % n
+        if c < 0:
+            c += n
+    return c
+
+
+@numba.njit(cache=True, error_model="numpy")
+def build_grid(idx, pos, radius, margin, geom, periodic, ncell, table_bits, single):
+    """Hashed cell grid of particles *idx*: each in every cell its box overlaps, or (``single``, for
+    nearly uniform sizes with cells >= the largest reach) only in the cell of its centre.
+
+    geom = (origin xyz, cell size xyz, period Lx, Ly); periodic = (px, py) as int;
+    ncell = cells per period in x, y. Returns (bucket_start, entry_particle, entry_code).
+    """
+    size = 1 << table_bits
+    mask = size - 1
+    counts = np.zeros(size + 1, np.int64)
+    lo = np.empty(3, np.int64)
+    hi = np.empty(3, np.int64)
+    for pass_ in range(2):
+        if pass_ == 1:
+            total = 0
+            for b in range(size):
+                c = counts[b]
+                counts[b] = total
+                total += c
+            counts[size] = total
+            fill = counts[:size].copy()
+            ent_p = np.empty(total, np.int64)
+            ent_c = np.empty(total, np.int64)
+        for k in range(idx.shape[0]):
+            i = idx[k]
+            r = 0.0 if single else radius[i] + margin
+            for d in range(3):
+                lo[d] = int(math.floor((pos[i, d] - r - geom[d]) / geom[3 + d]))
+                hi[d] = int(math.floor((pos[i, d] + r - geom[d]) / geom[3 + d]))
+            for cx in range(lo[0], hi[0] + 1):
+                wx = _wrap_cell(cx, ncell[0], periodic[0])
+                for cy in range(lo[1], hi[1] + 1):
+                    wy = _wrap_cell(cy, ncell[1], periodic[1])
+                    for cz in range(lo[2], hi[2] + 1):
+                        code = _pack(wx, wy, cz)
+                        b = _hash(code, mask)
+                        if pass_ == 0:
+                            counts[b] += 1
+                        else:
+                            s = fill[b]
+                            ent_p[s] = i
+                            ent_c[s] = code
+                            fill[b] = s + 1
+    return counts, ent_p, ent_c
+
+
+@numba.njit(cache=True, inline="always", error_model="numpy")
+def min_image(dx, L, periodic):
+    """Minimum-image difference ``dx - L round(dx / L)`` for a periodic axis of length *L*. Wrapped
+    coordinates differ by less than L/2 for most pairs: those skip the division (same result)."""
+    if periodic and (dx >= 0.5 * L or dx < -0.5 * L):
+        dx -= L * math.floor(dx / L + 0.5)
+    return dx
+
+
+@numba.njit(cache=True, inline="always", error_model="numpy")
+def _append_if_near(i, j, pos, radius, margin, geom, periodic, out_a, out_b, n_out):
+    """List the pair (min(i, j), max(i, j)) if its gap is below ``2 margin`` (the skin); returns the new
+    count (pairs beyond the capacity of out_a are counted, not stored: the caller retries bigger)."""
+    dx = min_image(pos[j, 0] - pos[i, 0], geom[6], periodic[0])
+    dy = min_image(pos[j, 1] - pos[i, 1], geom[7], periodic[1])
+    dz = pos[j, 2] - pos[i, 2]
+    reach = radius[i] + radius[j] + 2.0 * margin
+    if dx * dx + dy * dy + dz * dz < reach * reach:
+        if n_out < out_a.shape[0]:
+            out_a[n_out] = min(i, j)
+            out_b[n_out] = max(i, j)
+        n_out += 1
+    return n_out
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _scan(i, lo, hi, pos, radius, margin, geom, periodic, ncell, start, ent_p, ent_c, mask,
+          only_greater, single, out_a, out_b, n_out):
+    for cx in range(lo[0], hi[0] + 1):
+        wx = _wrap_cell(cx, ncell[0], periodic[0])
+        for cy in range(lo[1], hi[1] + 1):
+            wy = _wrap_cell(cy, ncell[1], periodic[1])
+            for cz in range(lo[2], hi[2] + 1):
+                code = _pack(wx, wy, cz)
+                b = _hash(code, mask)
+                for s in range(start[b], start[b + 1]):
+                    if ent_c[s] != code:
+                        continue
+                    j = ent_p[s]
+                    if j == i or (only_greater and j < i):
+                        continue
+                    if not single:
+                        dx = min_image(pos[j, 0] - pos[i, 0], geom[6], periodic[0])
+                        dy = min_image(pos[j, 1] - pos[i, 1], geom[7], periodic[1])
+                        dz = pos[j, 2] - pos[i, 2]
+                        rj = radius[j] + margin
+                        # report once: only from the min corner of the two boxes' intersection
+                        jx = int(math.floor((pos[i, 0] + dx - rj - geom[0]) / geom[3]))
+                        jy = int(math.floor((pos[i, 1] + dy - rj - geom[1]) / geom[4]))
+                        jz = int(math.floor((pos[i, 2] + dz - rj - geom[2]) / geom[5]))
+                        if max(lo[0], jx) != cx or max(lo[1], jy) != cy or max(lo[2], jz) != cz:
+                            continue
+                    n_out = _append_if_near(i, j, pos, radius, margin, geom, periodic, out_a, out_b, n_out)
+    return n_out
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _find_pairs_dense(search_idx, pos, radius, margin, geom, periodic, ncell, out_a, out_b):
+    """:func:`_find_pairs_half` on a dense cell array over the particles' bounding box (counting sort, as
+    LAMMPS' bins); returns -1 when that box holds more than 27 cells per particle (sparse: use the hash)."""
+    n = search_idx.shape[0]
+    cell = np.empty((n, 3), np.int64)
+    lo = np.zeros(3, np.int64)
+    dim = np.zeros(3, np.int64)
+    for k in range(n):
+        i = search_idx[k]
+        for d in range(3):
+            c = int(math.floor((pos[i, d] - geom[d]) / geom[3 + d]))
+            if d < 2 and periodic[d]:
+                c = _wrap_cell(c, ncell[d], 1)
+            cell[k, d] = c
+            if k == 0 or c < lo[d]:
+                lo[d] = c
+            if k == 0 or c > dim[d]:
+                dim[d] = c  # the largest cell for now
+    for d in range(3):
+        dim[d] = dim[d] - lo[d] + 1
+    for d in range(2):
+        if periodic[d]:
+            lo[d] = 0
+            dim[d] = ncell[d]
+    total = dim[0] * dim[1] * dim[2]
+    if n == 0 or total > 27 * n + 4096:
+        return 0 if n == 0 else -1
+    start = np.zeros(total + 1, np.int64)
+    home = np.empty(n, np.int64)
+    for k in range(n):
+        c = ((cell[k, 2] - lo[2]) * dim[1] + (cell[k, 1] - lo[1])) * dim[0] + (cell[k, 0] - lo[0])
+        home[k] = c
+        start[c + 1] += 1
+    for c in range(total):
+        start[c + 1] += start[c]
+    fill = start[:total].copy()
+    order = np.empty(n, np.int64)
+    for k in range(n):
+        order[fill[home[k]]] = search_idx[k]
+        fill[home[k]] += 1
+    n_out = 0
+    for k in range(n):
+        i = search_idx[k]
+        for oz in range(0, 2):
+            z = cell[k, 2] - lo[2] + oz
+            if z >= dim[2]:
+                continue
+            for oy in range(-1 if oz else 0, 2):
+                y = cell[k, 1] - lo[1] + oy
+                if periodic[1]:
+                    y = _wrap_cell(y, dim[1], 1)
+                elif y < 0 or y >= dim[1]:
+                    continue
+                for ox in range(-1 if (oz or oy) else 0, 2):
+                    x = cell[k, 0] - lo[0] + ox
+                    if periodic[0]:
+                        x = _wrap_cell(x, dim[0], 1)
+                    elif x < 0 or x >= dim[0]:
+                        continue
+                    own = ox == 0 and oy == 0 and oz == 0
+                    c = (z * dim[1] + y) * dim[0] + x
+                    for e in range(start[c], start[c + 1]):
+                        j = order[e]
+                        if own and j <= i:
+                            continue
+                        n_out = _append_if_near(i, j, pos, radius, margin, geom, periodic, out_a, out_b, n_out)
+    return n_out
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _find_pairs_half(search_idx, pos, radius, margin, geom, periodic, ncell, start, ent_p, ent_c, mask, out_a, out_b):
+    """:func:`find_pairs` for one cell per particle (cells >= the largest reach) and no sleeping grid: each
+    particle scans its own cell (partners j > i) and the 13 cells of the forward half of its 27-cell
+    neighbourhood (all partners), so each pair is met once, from one side (a half stencil, as LAMMPS'
+    half neighbour lists; periodic ranges hold >= 4 cells, so forward and backward cells differ)."""
+    n_out = 0
+    for k in range(search_idx.shape[0]):
+        i = search_idx[k]
+        hx = int(math.floor((pos[i, 0] - geom[0]) / geom[3]))
+        hy = int(math.floor((pos[i, 1] - geom[1]) / geom[4]))
+        hz = int(math.floor((pos[i, 2] - geom[2]) / geom[5]))
+        for oz in range(0, 2):
+            for oy in range(-1 if oz else 0, 2):
+                for ox in range(-1 if (oz or oy) else 0, 2):
+                    own = ox == 0 and oy == 0 and oz == 0
+                    code = _pack(_wrap_cell(hx + ox, ncell[0], periodic[0]), _wrap_cell(hy + oy, ncell[1], periodic[1]),
+                                 hz + oz)
+                    b = _hash(code, mask)
+                    for s in range(start[b], start[b + 1]):
+                        if ent_c[s] != code:
+                            continue
+                        j = ent_p[s]
+                        if own and j <= i:
+                            continue
+                        n_out = _append_if_near(i, j, pos, radius, margin, geom, periodic, out_a, out_b, n_out)
+    return n_out
+
+
+@numba.njit(cache=True, error_model="numpy")
+def find_pairs(search_idx, pos, radius, margin, geom, periodic, ncell,
+               start_a, ent_p_a, ent_c_a, bits_a, start_s, ent_p_s, ent_c_s, bits_s, single, out_a, out_b):
+    """Pairs (a < b) with gap < 2*margin, searched from awake particles *search_idx*.
+
+    Grid "a" holds the awake particles (pairs counted once with j > i), grid "s" the sleeping ones.
+    Returns the number of pairs; if it exceeds the capacity of out_a, the caller retries bigger.
+    """
+    mask_a = (1 << bits_a) - 1
+    mask_s = (1 << bits_s) - 1
+    lo = np.empty(3, np.int64)
+    hi = np.empty(3, np.int64)
+    n_out = 0
+    if single and ent_p_s.shape[0] == 0:  # awake grid only: half stencil, on a dense grid if compact
+        n_out = _find_pairs_dense(search_idx, pos, radius, margin, geom, periodic, ncell, out_a, out_b)
+        if n_out >= 0:
+            return n_out
+        return _find_pairs_half(search_idx, pos, radius, margin, geom, periodic, ncell, start_a, ent_p_a, ent_c_a,
+                                mask_a, out_a, out_b)
+    for k in range(search_idx.shape[0]):
+        i = search_idx[k]
+        r = radius[i] + margin
+        for d in range(3):
+            if single:  # the 27 cells around the home cell (cells are >= the largest reach)
+                home = int(math.floor((pos[i, d] - geom[d]) / geom[3 + d]))
+                lo[d] = home - 1
+                hi[d] = home + 1
+            else:
+                lo[d] = int(math.floor((pos[i, d] - r - geom[d]) / geom[3 + d]))
+                hi[d] = int(math.floor((pos[i, d] + r - geom[d]) / geom[3 + d]))
+        n_out = _scan(i, lo, hi, pos, radius, margin, geom, periodic, ncell, start_a, ent_p_a, ent_c_a,
+                      mask_a, True, single, out_a, out_b, n_out)
+        if ent_p_s.shape[0] > 0:
+            n_out = _scan(i, lo, hi, pos, radius, margin, geom, periodic, ncell, start_s, ent_p_s,
+                          ent_c_s, mask_s, False, single, out_a, out_b, n_out)
+    return n_out
+
+
+@numba.njit(cache=True, error_model="numpy")
+def displacement_since(idx, pos, pos_ref, geom, periodic):
+    """max ``|x_i - x_ref_i|`` over *idx* with periodic minimum image."""
+    m = 0.0
+    for k in range(idx.shape[0]):
+        i = idx[k]
+        dx = min_image(pos[i, 0] - pos_ref[i, 0], geom[6], periodic[0])
+        dy = min_image(pos[i, 1] - pos_ref[i, 1], geom[7], periodic[1])
+        dz = pos[i, 2] - pos_ref[i, 2]
+        d2 = dx * dx + dy * dy + dz * dz
+        if d2 > m:
+            m = d2
+    return math.sqrt(m)
