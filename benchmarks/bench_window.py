@@ -83,11 +83,15 @@ def main(argv) -> int:
                     converged=solver.last.history.converged)
 
     ref = run(base.solver.warm)
+    print(f"reference full at {a.reference:.0e}: Q {ref['q']:.1f} m3/s, {ref['cpu']:.1f} CPU s", flush=True)
     rows = [("reference full", a.reference, ref)]
     for tol in [float(t) for t in a.tolerances.split(",") if t]:
         s = setup_at(tol)
-        rows.append(("full", tol, run(s.solver.warm)))
-        rows.append(("window", tol, run(s.solver.window)))
+        for name, solver in (("full", s.solver.warm), ("window", s.solver.window)):
+            r = run(solver)
+            rows.append((name, tol, r))
+            extra = {k: r["info"][k] for k in ("mode", "why", "grown", "fraction", "edge_change") if k in r["info"]}
+            print(f"  {name} at {tol:.0e}: Q {r['q']:.1f} m3/s, {r['cpu']:.1f} CPU s, {extra}", flush=True)
     print(f"\npile: raised bed x {x0:.1f}..{x0 + 0.4 * B:.1f} m, |y| < {0.12 * B:.1f} m; speeds within B = {B:.1f} m "
           "of the breach centre; differences against the reference")
     hdr = ("re-solve", "tol 1/s", "Q m3/s", "dQ %", "vmax m/s", "dvmax", "max|dv|", "mean|dv|", "max|dh| m",
