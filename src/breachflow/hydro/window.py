@@ -162,10 +162,12 @@ class WindowResolver:
         j1 = int(np.clip(np.searchsorted(domain.y, y1, side="right"), 0, ny))
         return j0, j1, i0, i1
 
-    def _full(self, domain, obstacles, initial, why):
+    def _full(self, domain, obstacles, initial, why, edge_change=None):
         out = self.full.solve(domain, obstacles=obstacles, initial=initial)
         self.last = self.full.last
         self.last_info = {"mode": "full", "why": why, "cells": int(np.prod(domain.shape)), "grown": 0}
+        if edge_change is not None:  # the level changes at the window's edges that made it grow (m)
+            self.last_info["edge_change"] = dict(edge_change)
         out.attrs["hydro_window"] = f"full domain ({why})"
         return out
 
@@ -195,7 +197,7 @@ class WindowResolver:
                 if (j1 - j0) * (i1 - i0) > self.max_fraction * ncell or grown > self.max_grow:
                     why = (f"window {i1 - i0} x {j1 - j0} cells > {self.max_fraction:g} of the domain"
                            if grown <= self.max_grow else f"change still at the window edge after {self.max_grow} growths")
-                    return self._full(dom, None, state, why)
+                    return self._full(dom, None, state, why, getattr(self, "_edge_change", None) if grown else None)
                 sub = window_domain(dom, initial, box)
                 sl = (slice(j0, j1), slice(i0, i1))
                 reg = None
