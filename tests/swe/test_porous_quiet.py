@@ -64,6 +64,10 @@ def test_skipping_quiet_cells_in_the_porous_resolve_matches_the_full_computation
     assert np.abs(np.hypot(*skip.discharge) - np.hypot(*full.discharge)).max() <= 1e-9
     assert abs(q["default"] - q["all"]) <= 1e-9 * abs(q["all"])
     # and quiet cells (dry polder land, water at rest) did cost no flux work
+    print(f"\nporous re-solve, default scene: {full.steps} steps, cell-stages skipped "
+          f"{100 * (1 - skip.stats[3] / full.stats[3]):.1f} %, max |dh| default vs unskipped "
+          f"{np.abs(skip.depth - full.depth).max():.3g} m, Q {q['default']:.4f} vs {q['all']:.4f} m3/s "
+          f"(open breach {q_open:.4f})")
     assert skip.stats[3] < 0.95 * full.stats[3]
 
 

@@ -168,7 +168,8 @@ class WindowResolver:
         self.last_info = {"mode": "full", "why": why, "cells": int(np.prod(domain.shape)), "grown": 0}
         if edge_change is not None:  # the level changes at the window's edges that made it grow (m)
             self.last_info["edge_change"] = dict(edge_change)
-        out.attrs["hydro_window"] = f"full domain ({why})"
+        edge = f"; edge level change {max(edge_change.values()):.3f} m" if edge_change else ""
+        out.attrs["hydro_window"] = f"full domain ({why}{edge})"
         return out
 
     def solve(self, domain: Domain, obstacles=None, initial=None) -> xr.Dataset:
@@ -226,7 +227,8 @@ class WindowResolver:
             merged.attrs["hydro_window"] = (
                 f"x {dom.x[i0] - 0.5 * dom.dx:g}..{dom.x[i1 - 1] + 0.5 * dom.dx:g}, y {dom.y[j0] - 0.5 * dom.dy:g}.."
                 f"{dom.y[j1 - 1] + 0.5 * dom.dy:g} m ({i1 - i0} x {j1 - j0} cells, "
-                f"{100 * (j1 - j0) * (i1 - i0) / ncell:.1f} % of the domain; grown {grown} times)")
+                f"{100 * (j1 - j0) * (i1 - i0) / ncell:.1f} % of the domain; grown {grown} times; edge level "
+                f"change {max(self._edge_change.values(), default=0.0):.3f} m)")
             return merged
         finally:
             self._pile = pile
