@@ -148,7 +148,7 @@ def porous_resistance(h, hu, hv, pile, A, B, n_free, dt, g, h_dry):
 @numba.njit(cache=True, nogil=True)
 def porous_resistance_box(h, hu, hv, pile, A, B, n_free, dt, g, h_dry, j0, j1, i0, i1):
     """:func:`porous_resistance` on the cells ``[j0:j1, i0:i1]`` (the box holding the pile; the solver's
-    time loop applies it after every step, :func:`breachflow.hydro.swe.kernels.advance`)."""
+    time loop ``kernels.advance`` applies it after every step)."""
     for j in range(j0, j1):
         for i in range(i0, i1):
             p = pile[j, i]
