@@ -162,11 +162,14 @@ class WindowResolver:
         j1 = int(np.clip(np.searchsorted(domain.y, y1, side="right"), 0, ny))
         return j0, j1, i0, i1
 
-    def _full(self, domain, obstacles, initial, why):
+    def _full(self, domain, obstacles, initial, why, edge_change=None):
         out = self.full.solve(domain, obstacles=obstacles, initial=initial)
         self.last = self.full.last
         self.last_info = {"mode": "full", "why": why, "cells": int(np.prod(domain.shape)), "grown": 0}
-        out.attrs["hydro_window"] = f"full domain ({why})"
+        if edge_change is not None:  # the level changes at the window's edges that made it grow (m)
+            self.last_info["edge_change"] = dict(edge_change)
+        edge = f"; edge level change {max(edge_change.values()):.3f} m" if edge_change else ""
+        out.attrs["hydro_window"] = f"full domain ({why}{edge})"
         return out
 
     def solve(self, domain: Domain, obstacles=None, initial=None) -> xr.Dataset:
@@ -195,7 +198,7 @@ class WindowResolver:
                 if (j1 - j0) * (i1 - i0) > self.max_fraction * ncell or grown > self.max_grow:
                     why = (f"window {i1 - i0} x {j1 - j0} cells > {self.max_fraction:g} of the domain"
                            if grown <= self.max_grow else f"change still at the window edge after {self.max_grow} growths")
-                    return self._full(dom, None, state, why)
+                    return self._full(dom, None, state, why, getattr(self, "_edge_change", None) if grown else None)
                 sub = window_domain(dom, initial, box)
                 sl = (slice(j0, j1), slice(i0, i1))
                 reg = None
@@ -224,7 +227,8 @@ class WindowResolver:
             merged.attrs["hydro_window"] = (
                 f"x {dom.x[i0] - 0.5 * dom.dx:g}..{dom.x[i1 - 1] + 0.5 * dom.dx:g}, y {dom.y[j0] - 0.5 * dom.dy:g}.."
                 f"{dom.y[j1 - 1] + 0.5 * dom.dy:g} m ({i1 - i0} x {j1 - j0} cells, "
-                f"{100 * (j1 - j0) * (i1 - i0) / ncell:.1f} % of the domain; grown {grown} times)")
+                f"{100 * (j1 - j0) * (i1 - i0) / ncell:.1f} % of the domain; grown {grown} times; edge level "
+                f"change {max(self._edge_change.values(), default=0.0):.3f} m)")
             return merged
         finally:
             self._pile = pile

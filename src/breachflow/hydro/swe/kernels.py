@@ -10,6 +10,8 @@ Conserved variables ``h, hu, hv`` on a structured grid padded with ``G = 2`` gho
 3. MUSCL reconstruction, hydrostatic reconstruction and HLL(C) fluxes (:mod:`.fluxes`), flux divergence
    with the well-balanced bed-slope source and a forward-Euler update with implicit Manning friction,
    fused by rows (:func:`.step.stage`); two stages combined as SSP-RK2 (Heun) give second order in time.
+4. in a porous pile (:mod:`.porous`), the implicit Forchheimer resistance after each step (Lie
+   splitting), inside the same loop so the quiet-cell ranges carry over from step to step.
 """
 from __future__ import annotations
 
@@ -18,6 +20,7 @@ import math
 import numpy as np
 
 from .ghosts import fill_ghosts, ghost_bed_slopes, relax_outer_velocity  # noqa: F401  (re-exported)
+from .porous import porous_resistance_box
 from .layout import (BC_DISCHARGE, BC_LEVEL, BC_OUTFLOW, BC_WALL, EAST, LIMITERS, NORTH,  # noqa: F401
                      RIEMANN, SOUTH, WEST, G, _jit)
 from .step import activity, copy_interior, primitives, stage
@@ -36,12 +39,15 @@ def _range_cells(lo, hi):
 def advance(h, hu, hv, z, obst, manning, bed_dz, kinds, times, levels, discharges, outer_un, relaxation,
             dx, dy, g, second_order, limiter, riemann, courant, h_dry,
             t, t_stop, max_steps, dt_min, skip_quiet, quiet_tol, blocks,
-            h1, hu1, hv1, u, v, eta, stats):
+            h1, hu1, hv1, u, v, eta, stats, pile_h, pile_A, pile_B, pile_n, pile_box):
     """March from *t* to *t_stop* (or *max_steps*) with adaptive CFL steps.
 
     *skip_quiet*: quiet cells (:func:`.step.activity`, relative tolerance *quiet_tol*; 0: only cells
     whose update is exactly zero, same results) skip the flux work; *blocks*: blocks of rows run in
-    parallel (the numba thread count). Returns ``(t, steps, status)``; status 0 = reached t_stop,
+    parallel (the numba thread count). With a non-empty *pile_box* ``(j0, j1, i0, i1)`` (padded indices)
+    the porous pile's resistance (:func:`.porous.porous_resistance_box` with the pile arrays *pile_h*,
+    *pile_A*, *pile_B* and the free-surface Manning *pile_n*) is applied after every step (Lie splitting).
+    Returns ``(t, steps, status)``; status 0 = reached t_stop,
     1 = step limit, 2 = non-finite state or a time step below *dt_min* (runaway).
     ``stats[0] += clipped depth``, ``stats[1] = min dt``, ``stats[2] = max dt``, ``stats[3] +=``
     cell-stages that did the flux work (the others were quiet).
@@ -93,6 +99,9 @@ def advance(h, hu, hv, z, obst, manning, bed_dz, kinds, times, levels, discharge
             copy_interior(hu1, hu)
             copy_interior(hv1, hv)
         relax_outer_velocity(h, hu, hv, outer_un, relaxation, dt, h_dry)
+        if pile_box[1] > pile_box[0]:
+            porous_resistance_box(h, hu, hv, pile_h, pile_A, pile_B, pile_n, dt, g, h_dry, pile_box[0], pile_box[1],
+                                  pile_box[2], pile_box[3])
         t += dt
         steps += 1
         if dt < stats[1]:

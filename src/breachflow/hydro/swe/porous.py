@@ -142,9 +142,15 @@ def _solve_gradient(qstar, h, a, A, B, n_free, c):
 def porous_resistance(h, hu, hv, pile, A, B, n_free, dt, g, h_dry):
     """Implicit Forchheimer + over-crest Manning resistance in the pile cells (arrays of equal shape,
     e.g. the solver's padded ones); see the module docstring."""
-    ny, nx = h.shape
-    for j in range(ny):
-        for i in range(nx):
+    porous_resistance_box(h, hu, hv, pile, A, B, n_free, dt, g, h_dry, 0, h.shape[0], 0, h.shape[1])
+
+
+@numba.njit(cache=True, nogil=True)
+def porous_resistance_box(h, hu, hv, pile, A, B, n_free, dt, g, h_dry, j0, j1, i0, i1):
+    """:func:`porous_resistance` on the cells ``[j0:j1, i0:i1]`` (the box holding the pile; the solver's
+    time loop ``kernels.advance`` applies it after every step)."""
+    for j in range(j0, j1):
+        for i in range(i0, i1):
             p = pile[j, i]
             if p <= 0.0:
                 continue

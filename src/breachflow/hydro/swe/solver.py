@@ -130,7 +130,10 @@ class SWESimulation:
         """Padded pile arrays; Manning friction is replaced by the pile's law in pile cells."""
         pile = getattr(d, "porous", None)
         self.porous = pile if pile is not None and pile.any else None
+        # the pile's resistance is applied inside the time loop (kernels.advance) on the box holding it
+        self.pile_box = np.zeros(4, np.int64)
         if self.porous is None:
+            self.pile = {k: np.zeros((1, 1)) for k in ("height", "A", "B", "n_free")}
             return
         P = K.G
         self.pile = {k: np.zeros(shape) for k in ("height", "A", "B", "n_free")}
@@ -139,6 +142,9 @@ class SWESimulation:
         self.pile["n_free"][P:-P, P:-P] = d.manning
         self.pile["height"][self.obst != 0] = 0.0
         self.manning[self.pile["height"] > 0] = 0.0
+        jj, ii = np.nonzero(self.pile["height"] > 0)
+        if jj.size:
+            self.pile_box[:] = (jj.min(), jj.max() + 1, ii.min(), ii.max() + 1)
 
     # ------------------------------------------------------------------ state
     def _set_initial(self, initial):
@@ -218,16 +224,15 @@ class SWESimulation:
         previous_threads = numba.get_num_threads()
         if o.threads:
             numba.set_num_threads(max(1, min(int(o.threads), numba.config.NUMBA_NUM_THREADS)))
+        pl = self.pile
         try:
-            if self.porous is not None:
-                t, steps, status = self._advance_porous(t_end, max_steps)
-            else:
-                t, steps, status = K.advance(
-                    self.h, self.hu, self.hv, self.z, self.obst, self.manning, self.bed_dz,
-                    self.kinds, self.times, self.levels, self.discharges, self.outer_velocity, self.relaxation,
-                    self.dx, self.dy, o.gravity, o.order == 2, K.LIMITERS[o.limiter], K.RIEMANN[o.riemann],
-                    o.courant, o.h_dry, float(self.t), float(t_end), int(max_steps), o.dt_min, o.skip_quiet,
-                    o.quiet_tolerance, numba.get_num_threads(), w[0], w[1], w[2], w[3], w[4], w[5], self.stats)
+            t, steps, status = K.advance(
+                self.h, self.hu, self.hv, self.z, self.obst, self.manning, self.bed_dz,
+                self.kinds, self.times, self.levels, self.discharges, self.outer_velocity, self.relaxation,
+                self.dx, self.dy, o.gravity, o.order == 2, K.LIMITERS[o.limiter], K.RIEMANN[o.riemann],
+                o.courant, o.h_dry, float(self.t), float(t_end), int(max_steps), o.dt_min, o.skip_quiet,
+                o.quiet_tolerance, numba.get_num_threads(), w[0], w[1], w[2], w[3], w[4], w[5], self.stats,
+                pl["height"], pl["A"], pl["B"], pl["n_free"], self.pile_box)
         finally:
             numba.set_num_threads(previous_threads)
         self.t = t
@@ -258,28 +263,6 @@ class SWESimulation:
         if not ((d.x >= x0) & (d.x <= x1)).any():
             raise InputError(f"section {section!r} holds no cell of the domain")
         return j, cols
-
-    def _advance_porous(self, t_end, max_steps):
-        """March step by step, applying the pile's implicit Forchheimer term after each step (Lie splitting)."""
-        from .porous import porous_resistance
-
-        o = self.options
-        w = self._work
-        pl = self.pile
-        t, steps, status = float(self.t), 0, 1
-        while t < t_end and steps < max_steps:
-            t1, n, status = K.advance(
-                self.h, self.hu, self.hv, self.z, self.obst, self.manning, self.bed_dz,
-                self.kinds, self.times, self.levels, self.discharges, self.outer_velocity, self.relaxation,
-                self.dx, self.dy, o.gravity, o.order == 2, K.LIMITERS[o.limiter], K.RIEMANN[o.riemann],
-                o.courant, o.h_dry, t, float(t_end), 1, o.dt_min, o.skip_quiet,
-                o.quiet_tolerance, numba.get_num_threads(), w[0], w[1], w[2], w[3], w[4], w[5], self.stats)
-            if status == 2 or n == 0:
-                return t1, steps + n, 2 if status == 2 else status
-            porous_resistance(self.h, self.hu, self.hv, pl["height"], pl["A"], pl["B"], pl["n_free"], t1 - t,
-                              o.gravity, o.h_dry)
-            t, steps = t1, steps + n
-        return t, steps, 0 if t >= t_end else 1
 
     def run_to_steady(self, tolerance: float = 1e-4, t_max: float = 3600.0, check_interval: float | None = None,
                       min_time: float = 0.0, region=None, progress=None, section=None) -> ConvergenceHistory:

@@ -11,7 +11,9 @@ Quiet cells cost no flux work: a cell whose cross stencil (two cells each way in
 cells excepted) holds water at rest — ``hu = hv = 0`` — with one bitwise-equal surface ``eta``, or is
 entirely dry (``h = 0``), has exactly zero face fluxes and bed-slope source (hydrostatic reconstruction
 gives equal face depths on both sides, every limited slope is zero), so its update is the identity
-and is applied without computing them. Results are identical to the full computation.
+and is applied without computing them; a face between a working cell and a skipped open cell is zero,
+one between a working cell and an obstacle is a wall face and is computed. Results are identical to
+the full computation (``tests/swe/test_porous_quiet.py``: levee obstacles next to the breach flow).
 """
 from __future__ import annotations
 
@@ -218,8 +220,11 @@ def _stage_rows(h, hu, hv, u, v, eta, obst, lo, hi, h0, hu0, hv0, manning, idx, 
         a = lo[j]
         b = hi[j]
         if a <= b:
-            x_row(h, u, v, eta, obst, j, a, b, idx, g, second_order, limiter, riemann, a > G, b < G + nx - 1, acc)
-        # y faces towards a skipped (quiet) interior cell count as zero, as the skipped cell takes none
+            # a face towards a skipped open cell is zero; towards an obstacle it is a wall (reflected momentum)
+            x_row(h, u, v, eta, obst, j, a, b, idx, g, second_order, limiter, riemann, a > G and obst[j, a - 1] != 1,
+                  b < G + nx - 1 and obst[j, b + 1] != 1, acc)
+        # y faces towards a skipped (quiet) open interior cell count as zero, as the skipped cell takes none;
+        # faces towards an obstacle are walls and always count
         lo_b = lo[j - 1] if j - 1 >= G else G
         hi_b = hi[j - 1] if j - 1 >= G else G + nx - 1
         lo_a = lo[j + 1] if j + 1 < h.shape[0] - G else G
@@ -240,12 +245,12 @@ def _stage_rows(h, hu, hv, u, v, eta, obst, lo, hi, h0, hu0, hv0, manning, idx, 
                 fa0 = 0.0
                 fa1 = 0.0
                 fa2 = 0.0
-                if i >= lo_b and i <= hi_b:
+                if (i >= lo_b and i <= hi_b) or obst[j - 1, i] == 1:
                     fb0 = f_below[0, i]
                     fb1 = f_below[1, i]
                     fb2 = f_below[2, i]
                     fb3 = f_below[3, i]
-                if i >= lo_a and i <= hi_a:
+                if (i >= lo_a and i <= hi_a) or obst[j + 1, i] == 1:
                     fa0 = f_above[0, i]
                     fa1 = f_above[1, i]
                     fa2 = f_above[2, i]
