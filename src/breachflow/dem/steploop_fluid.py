@@ -15,8 +15,9 @@ force evaluation (:func:`breachflow.fluid.compiled.apparent_mass`, the formula o
 the same order, so the results are bit-identical (tests/dem/test_steploop_fluid.py).
 
 :func:`eligible` says when it applies: a fixed-step Verlet integrator, fixed planes and at most one height
-field, no force model or one ``FluidForces`` whose fused kernels apply (:meth:`FluidForces._fused_args`: a
-non-uniform grid snapshot, no Basset term, particles outside the grid see air, no fallback sampler) with
+field, no force model or one ``FluidForces`` whose fused kernels apply (a
+non-uniform grid snapshot, no Basset term, particles outside the grid see air, no fallback sampler;
+``FluidForces._fused_args``) with
 ``static_models`` on and the sleepers' force check done. Otherwise (nested fallback sampler, a mesh or
 uniform field, Basset, ``outside="error"``, the report scheme, ``adaptive_free_flight``, moving planes,
 non-static models) the simulation steps in Python.
