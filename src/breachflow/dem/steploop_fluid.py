@@ -63,7 +63,7 @@ def fluid_verlet_steps(nmax, t, idx, pos, vel, omega, vel_prev, omega_prev, forc
     pl_point, pl_normal, pl_vel, pl_props, pl_hist, pl_rhist, pl_reaction = planes
     hx0, hy0, hhx, hhy, hbed, hprops, hhist, hrhist = hf
     method, bed, depth, u, v, x0, y0, dx, dy, smax, outside_air, profile, k_s = field
-    wind, rho_w, nu_w, rho_a, nu_a, with_air, grav, law, params, xi, time_step, do_torque, rho_am = fluid
+    wind, rho_w, nu_w, rho_a, nu_a, with_air, grav, dlaw, params, xi, time_step, do_torque, rho_am = fluid
     nb = pl_point.shape[0] + (1 if hf_at >= 0 else 0)
     phi = np.empty(idx.shape[0])
     if fluid_on:  # the apparent mass at the start positions (as DemSimulation.inverse_mass)
@@ -123,7 +123,7 @@ def fluid_verlet_steps(nmax, t, idx, pos, vel, omega, vel_prev, omega_prev, forc
             zero_rows(idx, fm, tm)
             grid_fluid_forces_phi(idx, pos, ve, we, pos, awake, radius, method, bed, depth, u, v, x0, y0, dx, dy,
                                   smax, outside_air, profile, k_s, wind, rho_w, nu_w, rho_a, nu_a, with_air, grav,
-                                  law, params, xi, time_step, do_torque, fm, tm, phi)
+                                  dlaw, params, xi, time_step, do_torque, fm, tm, phi)
             for k in range(idx.shape[0]):
                 i = idx[k]
                 for d in range(3):
