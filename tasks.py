@@ -60,7 +60,7 @@ def ensure_env() -> None:
         check=True,
     )
     # compile the numba kernels once now, so that the first run does not spend most of its time compiling
-    print("[tasks] compiling the numba kernels into the cache (once per install, about 30 CPU s)", flush=True)
+    print("[tasks] compiling the numba kernels into the cache (once per install, about 50 CPU s)", flush=True)
     env = dict(os.environ)
     env.setdefault("NUMBA_CACHE_DIR", _numba_cache_dir())
     if subprocess.run([str(PY), "-m", "breachflow.warmup"], env=env).returncode:

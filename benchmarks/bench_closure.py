@@ -20,9 +20,12 @@ each resolution (their change from 4 m to 2 m is the discretisation error of the
 peak speed is ~6.1 m/s) and the tonnage each resolution needs.
 
 ``--no-dem`` skips the DEM measurement: cycle 1 of the embedded default scenario (1 m cells, 5 masses)
-stepped with the fluid forces term by term (``FluidForces(compiled=False)``, the path before issue 16) and
-with the fused kernels, in the same process: microseconds per DEM step, their ratio, and the largest
-difference of the final positions (the error figure: round-off amplified by the contacts).
+stepped three ways in the same process: the fluid forces term by term (``FluidForces(compiled=False)``, the
+path before issue 16), the fused fluid-force kernel called once per step from Python
+(``DemSimulation.compiled = False``), and many steps per compiled call (:mod:`breachflow.dem.steploop_fluid`,
+the default): microseconds per DEM step, the ratios, and the largest difference of the final positions
+against the term-by-term path (the error figure: round-off amplified by the contacts; the compiled loop and
+the per-step fused path are bit-identical).
 """
 from __future__ import annotations
 
@@ -162,11 +165,12 @@ def report(rows) -> None:
 
 
 def dem_ratio(n_steps: int = 1500) -> None:
-    """µs per DEM step of the default scenario's cycle 1, fluid forces term by term vs fused."""
+    """µs per DEM step of the default scenario's cycle 1: fluid forces term by term, fused per Python step,
+    many steps per compiled call."""
     import numpy as np
 
     from breachflow.cycle.config import closure_setup
-    from breachflow.cycle.driver import ClosureRun
+    from breachflow.cycle.driver import ClosureRun, dem_view
     from breachflow.cycle.main import default_scenario_text
     from breachflow.fluid.forces import FluidForces
     from breachflow.hydro.sampling import FieldSampler
@@ -175,39 +179,46 @@ def dem_ratio(n_steps: int = 1500) -> None:
     text = default_scenario_text()
     setup = closure_setup(parse_scenario(text))
     snap = setup.solver.solve(setup.domain)
+    variants = {"term by term": (False, False), "fused, per step": (True, False), "compiled loop": (True, True)}
     out = {}
     with tempfile.TemporaryDirectory() as tmp:
-        for compiled in (False, True, False, True):  # interleaved: load drifts on a shared machine
-            run = ClosureRun(setup, Path(tmp) / f"r{compiled}{len(out)}", text, overwrite=True)
-            d = setup.dem
-            orig = run._fluid
-            run._fluid = lambda s, c=compiled: FluidForces(__import__("breachflow.cycle.driver", fromlist=["x"]).dem_view(s),
-                                                           drag_law=d.drag_law, sampling=d.sampling, xi=d.xi,
-                                                           velocity_profile=d.velocity_profile,
-                                                           roughness=d.roughness,
-                                                           manning=float(np.median(setup.domain.manning)),
-                                                           outside="air", compiled=c)
-            sim = run._make_dem(snap)
-            sampler = FieldSampler(snap, method="bilinear")
+        for rep in range(2):  # interleaved: load drifts on a shared machine
+            for name, (fused, loop) in variants.items():
+                run = ClosureRun(setup, Path(tmp) / f"r{rep}{len(out)}{fused}{loop}", text, overwrite=True)
+                d = setup.dem
+                orig = run._fluid
+                run._fluid = lambda s, c=fused: FluidForces(dem_view(s), drag_law=d.drag_law, sampling=d.sampling,
+                                                            xi=d.xi, velocity_profile=d.velocity_profile,
+                                                            roughness=d.roughness,
+                                                            manning=float(np.median(setup.domain.manning)),
+                                                            outside="air", compiled=c)
+                sim = run._make_dem(snap)
+                sim.compiled = loop
+                sampler = FieldSampler(snap, method="bilinear")
 
-            def surface_at(x, y):
-                smp = sampler.sample(np.asarray(x, float), np.asarray(y, float))
-                return np.where(smp.inside, np.maximum(smp.surface, smp.bed), np.nan)
+                def surface_at(x, y):
+                    smp = sampler.sample(np.asarray(x, float), np.asarray(y, float))
+                    return np.where(smp.inside, np.maximum(smp.surface, smp.bed), np.nan)
 
-            rel = setup.placement.release(1, setup.seed, surface_at)
-            run._add(sim, rel.pos, rel.radius, rel.density)
-            sim.step(10)
-            c0 = time.process_time()
-            sim.step(n_steps)
-            cpu = time.process_time() - c0
-            out.setdefault(compiled, []).append((cpu, sim.state.pos.copy(), sim.n_awake))
-            run._fluid = orig
-    t_ref = min(c for c, _, _ in out[False]) / n_steps * 1e6
-    t_new = min(c for c, _, _ in out[True]) / n_steps * 1e6
-    dx = float(np.abs(out[True][0][1] - out[False][0][1]).max())
-    print(f"\nDEM of the default run's cycle 1 ({n_steps} steps, 5 masses; CPU, best of 2 interleaved): "
-          f"fluid forces term by term {t_ref:.0f} µs/step, fused {t_new:.0f} µs/step, ratio {t_ref / t_new:.2f}x; "
-          f"largest position difference after {n_steps + 10} steps {dx:.2e} m")
+                rel = setup.placement.release(1, setup.seed, surface_at)
+                run._add(sim, rel.pos, rel.radius, rel.density)
+                sim.step(10)
+                c0 = time.process_time()
+                sim.step(n_steps)
+                cpu = time.process_time() - c0
+                out.setdefault(name, []).append((cpu, sim.state.pos.copy(), sim.n_awake))
+                run._fluid = orig
+    us = {name: min(c for c, _, _ in v) / n_steps * 1e6 for name, v in out.items()}
+    spread = {name: max(c for c, _, _ in v) / n_steps * 1e6 for name, v in out.items()}
+    ref = out["term by term"][0][1]
+    print(f"\nDEM of the default run's cycle 1 ({n_steps} steps, 5 masses; CPU µs per step, best (worst) of 2 "
+          f"interleaved):")
+    for name in variants:
+        dx = float(np.abs(out[name][0][1] - ref).max())
+        same = np.array_equal(out[name][0][1], out["fused, per step"][0][1])
+        print(f"  {name:16s} {us[name]:7.1f} ({spread[name]:.1f}) µs/step, {us['term by term'] / us[name]:5.1f}x "
+              f"the term-by-term path; largest position difference to it {dx:.2e} m; "
+              f"bit-identical to fused per step: {same}")
 
 
 def main(argv) -> int:

@@ -1,12 +1,14 @@
 """Compile breachflow's numba kernels once, into numba's on-disk cache (``cache=True``).
 
 ``python -m breachflow.warmup`` (run by ``tasks.py`` right after installing) runs a short, coarse version
-of the embedded default closure scenario — 3 m cells, short solves, two cycles, 1 s of DEM each — in a
+of the embedded default closure scenario — 3 m cells, short solves, two cycles, 6 s of DEM each (long
+enough for masses to come to rest, so the porous pile and the incremental pile top are computed) — in a
 temporary directory. That calls every kernel of a closure run (solver, DEM contacts and integrators,
-fluid forces, sampling, remap) with the argument types of a real run, so numba compiles and caches each
-one; a user's first ``breachflow run`` then loads them from the cache instead of compiling (most of the
-CPU time of a first run on an empty cache; see README "Speed"). Where the cache lives is numba's choice
-(``NUMBA_CACHE_DIR``, which ``tasks.py`` sets to ``.numba_cache``).
+fluid forces, the many-steps-per-call DEM loop of the cycle's scene (:mod:`breachflow.dem.steploop_fluid`),
+sampling, remap) with the argument types of a real run, so numba compiles and caches each one; a user's
+first ``breachflow run`` then loads them from the cache instead of compiling (most of the CPU time of a
+first run on an empty cache; see README). Where the cache lives is numba's choice (``NUMBA_CACHE_DIR``,
+which ``tasks.py`` sets to ``.numba_cache``).
 """
 from __future__ import annotations
 
@@ -20,7 +22,7 @@ _EDITS = (
     (r'resolution = "[^"]*"', 'resolution = "3 m"'),
     (r't_max_initial = "[^"]*"', 't_max_initial = "20 s"'),
     (r't_max = "[^"]*"', 't_max = "5 s"'),
-    (r'max_time = "[^"]*"', 'max_time = "1 s"'),
+    (r'max_time = "[^"]*"', 'max_time = "6 s"'),
     (r"max_cycles = \d+", "max_cycles = 2"),
 )
 
@@ -52,8 +54,9 @@ def warm_up() -> float:
 
 
 def warm_up_dem() -> None:
-    """Two spheres on a plane without force models: the many-steps-per-call DEM kernel
-    (:mod:`breachflow.dem.steploop`), which a closure run (fluid forces) does not use."""
+    """Two spheres on a plane without force models: the many-steps-per-call DEM kernel of dry scenes with
+    planes (:mod:`breachflow.dem.steploop`), which a closure run (terrain and fluid forces:
+    :mod:`breachflow.dem.steploop_fluid`) does not use."""
     from .dem import DemSimulation, Material, Plane
 
     rock = Material(density=2650, kn=1e7, friction=0.5, c_cn=4e4)

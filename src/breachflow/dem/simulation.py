@@ -491,8 +491,9 @@ class DemSimulation:
         left = int(n)
         while left > 0:
             done = 0
-            if self.compiled and steploop.eligible(self):  # many steps in one compiled call
-                done, disp, _ = steploop.run(self, left)
+            run = steploop.runner(self) if self.compiled else None
+            if run is not None:  # many steps in one compiled call
+                done, disp, _ = run(self, left)
             if done == 0:
                 disp = self._one_step()
                 done = 1
@@ -688,8 +689,9 @@ class DemSimulation:
         left = int(max_steps)
         while left > 0:
             done = 0
-            if self.compiled and steploop.eligible(self):  # many steps in one compiled call
-                done, disp, ok = steploop.run(self, left, e_tol, k, consecutive, ok)
+            run = steploop.runner(self) if self.compiled else None
+            if run is not None:  # many steps in one compiled call
+                done, disp, ok = run(self, left, e_tol, k, consecutive, ok)
             if done == 0:
                 disp = self._one_step()
                 ok = ok + 1 if disp[k] < e_tol else 0

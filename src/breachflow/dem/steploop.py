@@ -115,10 +115,19 @@ def eligible(sim) -> bool:
             and all(type(b) is Plane and b.control == "fixed" for b in sim.boundaries))
 
 
+def runner(sim):
+    """The compiled many-steps runner that can advance *sim* (this module's :func:`run`, or
+    :func:`.steploop_fluid.run` for height fields and fluid forces), or None (step in Python)."""
+    if eligible(sim):
+        return run
+    from . import steploop_fluid
+
+    return steploop_fluid.run if steploop_fluid.eligible(sim) else None
+
+
 def run(sim, nmax: int, e_tol: float = -1.0, crit: int = 0, consecutive: int = 1, ok: int = 0):
     """Advance *sim* (:func:`eligible`) by up to *nmax* steps in one compiled call, with the driver's
     bookkeeping for the event that ended it; returns (steps done, last (max, sum) displacement, ok)."""
-    from ..errors import PhysicsError
     from .contacts import displacement_since as disp_since
 
     s = sim.state
@@ -145,6 +154,17 @@ def run(sim, nmax: int, e_tol: float = -1.0, crit: int = 0, consecutive: int = 1
         sim._pos_build, 0.5 * sim.skin, sim.sleeping, sim.sleep_velocity, sim.sleep_steps, sim._sleep_count,
         sim._tmp_ids, sim.sleep_check, sim.steps, float(e_tol), int(crit), int(consecutive), int(ok), stats,
         sim._law)
+    return finish(sim, planes, pl_hist, pl_rhist, reaction, done, why, t, stats, n0, e_tol, ok)
+
+
+def finish(sim, planes, pl_hist, pl_rhist, reaction, done, why, t, stats, n0, e_tol, ok):
+    """The driver's bookkeeping after a compiled many-steps call (this module's or
+    :mod:`.steploop_fluid`'s) that ended with reason *why*; returns (steps done, last (max, sum)
+    displacement, ok)."""
+    from ..errors import PhysicsError
+
+    s = sim.state
+    dt = sim._dt
     for k, b in enumerate(planes):
         b.hist[:] = pl_hist[k]
         b.rhist[:] = pl_rhist[k]

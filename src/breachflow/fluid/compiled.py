@@ -50,6 +50,13 @@ def _profiled(code, k_s, z, b, h, uu, vv):
     return uu * f, vv * f
 
 
+@numba.njit(cache=True, inline="always")
+def apparent_mass(xi, a, phi, rho_w, rho_a):
+    """``xi (rho_W V_sub + rho_A (V - V_sub))`` (kg) of a sphere of radius *a* with submerged fraction *phi*."""
+    vol = 4.0 / 3.0 * math.pi * a ** 3
+    return xi * vol * (phi * rho_w + (1.0 - phi) * rho_a)
+
+
 @numba.njit(cache=True)
 def grid_added_masses(rows, pos, radius, method, bed, depth, u, v, x0, y0, dx, dy, smax, outside_air,
                       profile, k_s, rho_w, rho_a, xi, out):
@@ -68,8 +75,7 @@ def grid_added_masses(rows, pos, radius, method, bed, depth, u, v, x0, y0, dx, d
             if not outside_air:
                 return k
             phi = 0.0
-        vol = 4.0 / 3.0 * math.pi * radius[i] ** 3
-        out[k] = xi * vol * (phi * rho_w + (1.0 - phi) * rho_a)
+        out[k] = apparent_mass(xi, radius[i], phi, rho_w, rho_a)
     return -1
 
 
@@ -89,13 +95,24 @@ def grid_fluid_forces(idx, pos, vel, omega, state_pos, awake, radius, method, be
     torque uses the depth-averaged gridpoint velocities, as the step path). ``time_step`` 0 means the
     default horizon of the convective term, ``0.125 max(s_max, 1e-3) / max |v_h|``. Returns -1 on success.
     """
+    return grid_fluid_forces_phi(idx, pos, vel, omega, state_pos, awake, radius, method, bed, depth, u, v, x0, y0,
+                                 dx, dy, smax, outside_air, profile, k_s, wind, rho_w, nu_w, rho_a, nu_a, with_air, g,
+                                 law, params, xi, time_step, do_torque, force, torque, np.empty(idx.size))
+
+
+@numba.njit(cache=True)
+def grid_fluid_forces_phi(idx, pos, vel, omega, state_pos, awake, radius, method, bed, depth, u, v, x0, y0, dx, dy,
+                          smax, outside_air, profile, k_s, wind, rho_w, nu_w, rho_a, nu_a, with_air, g, law, params,
+                          xi, time_step, do_torque, force, torque, phi):
+    """:func:`grid_fluid_forces`, leaving the submerged fraction of particle ``idx[k]`` in ``phi[k]`` (0 outside
+    the field or in the air): with :func:`apparent_mass` the next step's apparent mass at the same positions
+    without sampling the field again (the DEM's compiled step loop, :mod:`breachflow.dem.steploop_fluid`)."""
     n = idx.size
     px = np.empty((n, 3))
     pv = np.empty((n, 3))
     po = np.empty((n, 3))
     su = np.empty(n)
     sv = np.empty(n)
-    phi = np.empty(n)
     ins_ = np.empty(n, np.bool_)
     vmax = 0.0
     any_wet = False

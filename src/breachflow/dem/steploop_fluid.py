@@ -1,0 +1,251 @@
+"""Many DEM steps of the closure cycle's scene inside one compiled call (issue 16).
+
+The cycle's DEM (``cycle/driver.py``) has the terrain as a :class:`~.boundaries.HeightField` and the frozen
+flow field as a :class:`~breachflow.fluid.forces.FluidForces` model (``static_models``), so
+:mod:`.steploop` does not apply. :func:`fluid_verlet_steps` runs the same Verlet steps as
+:func:`.steploop.verlet_steps` with, in the order of ``DemSimulation._one_step``: the height-field contacts
+(:func:`.contacts.heightfield_forces`, in the boundaries' order among fixed planes), gravity, the fluid
+forces (:func:`breachflow.fluid.compiled.grid_fluid_forces_phi`: buoyancy, drag with the vertical
+velocity profile, convective apparent mass, gridpoint torque, into ``sim._fm``/``_tm`` and then added) and
+the global damping; the inverse mass ``1/(m + m_added)`` of the kicks is the integrators'
+(:meth:`~.simulation.DemSimulation.inverse_mass`). The field is sampled once per step for the moving masses:
+the apparent mass of the next step (at the same positions) reuses the submerged fraction of this step's
+force evaluation (:func:`breachflow.fluid.compiled.apparent_mass`, the formula of
+:func:`~breachflow.fluid.compiled.grid_added_masses`). The kernels are the ones the Python path calls, in
+the same order, so the results are bit-identical (tests/dem/test_steploop_fluid.py).
+
+:func:`eligible` says when it applies: a fixed-step Verlet integrator, fixed planes and at most one height
+field, no force model or one ``FluidForces`` whose fused kernels apply (a
+non-uniform grid snapshot, no Basset term, particles outside the grid see air, no fallback sampler;
+``FluidForces._fused_args``) with
+``static_models`` on and the sleepers' force check done. Otherwise (nested fallback sampler, a mesh or
+uniform field, Basset, ``outside="error"``, the report scheme, ``adaptive_free_flight``, moving planes,
+non-static models) the simulation steps in Python.
+"""
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+from ..fluid.compiled import apparent_mass, grid_added_masses, grid_fluid_forces_phi
+from .contacts import (displacement_since, heightfield_forces, pair_forces_window, plane_forces, sleep_update,
+                       wrap_and_check)
+from .forces import _add_gravity, add_global_damping, zero_rows
+from .integrators import drift, kick, predict_extrapolated
+from .steploop import BAD, CONVERGED, DONE, LEFT, REBUILD, SLEEP, WAKE
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _inverse_masses(idx, mass, radius, phi, xi, rho_w, rho_a, inv_m):
+    """``inv_m[i] = 1/(m_i + apparent mass)`` of particles ``idx[k]`` with submerged fractions ``phi[k]``."""
+    for k in range(idx.shape[0]):
+        i = idx[k]
+        inv_m[i] = 1.0 / (mass[i] + apparent_mass(xi, radius[i], phi[k], rho_w, rho_a))
+
+
+@numba.njit(cache=True, error_model="numpy")
+def fluid_verlet_steps(nmax, t, idx, pos, vel, omega, vel_prev, omega_prev, force, torque, fp, tp, vp, wp, inv_m,
+                       inv_i, lmask, rmask, dt, predict, extrapolate, lo, hi, pa, pb, hist, rhist, touch, radius,
+                       mass, inertia, props, awake, active, geom, periodic, wake_speed, wake, wake_ids, n_wake,
+                       planes, hf_at, hf, fluid_on, field, fluid, fm, tm, g, c_gn, c_gw, box, use_box, left_ids,
+                       pos_build, half_skin, sleeping, v_sleep, n_sleep, sleep_count, sleep_ids, sleep_check, step0,
+                       e_tol, crit, consecutive, ok, stats, law=0):
+    """:func:`.steploop.verlet_steps` (same arguments, results and reasons) with a height field and fluid forces.
+
+    *planes* ``(point, normal, velocity, props, hist, rhist, reaction)`` stacked per fixed plane; *hf_at*
+    the position of the height field among the boundaries (-1: none), *hf* its ``(x0, y0, hx, hy, bed,
+    props, hist, rhist)``; *fluid_on* whether there is a fluid model, *field* its fused field arguments
+    (``FluidForces._fused``), *fluid* ``(wind, rho_w, nu_w, rho_a, nu_a, with_air, gravity, law, params, xi,
+    time_step, torque, rho_a_added)``; *fm*, *tm* the model force/torque rows (``sim._fm``/``_tm``);
+    *inv_m* receives the inverse masses with the apparent mass (``sim._inv_m_added``, or ``sim._inv_m``
+    without fluid, then untouched).
+    """
+    pl_point, pl_normal, pl_vel, pl_props, pl_hist, pl_rhist, pl_reaction = planes
+    hx0, hy0, hhx, hhy, hbed, hprops, hhist, hrhist = hf
+    method, bed, depth, u, v, x0, y0, dx, dy, smax, outside_air, profile, k_s = field
+    wind, rho_w, nu_w, rho_a, nu_a, with_air, grav, dlaw, params, xi, time_step, do_torque, rho_am = fluid
+    nb = pl_point.shape[0] + (1 if hf_at >= 0 else 0)
+    phi = np.empty(idx.shape[0])
+    if fluid_on:  # the apparent mass at the start positions (as DemSimulation.inverse_mass)
+        grid_added_masses(idx, pos, radius, method, bed, depth, u, v, x0, y0, dx, dy, smax, outside_air, profile,
+                          k_s, rho_w, rho_am, xi, phi)
+        for k in range(idx.shape[0]):
+            i = idx[k]
+            inv_m[i] = 1.0 / (mass[i] + phi[k])
+    h = 0.5 * dt
+    done = 0
+    for _ in range(nmax):
+        if displacement_since(idx, pos, pos_build, geom, periodic) > half_skin:
+            return done, REBUILD, t
+        n_wake[0] = 0
+        kick(idx, vel, omega, force, torque, inv_m, inv_i, h, lmask, rmask)
+        mx, sm = drift(idx, pos, vel, dt)
+        kicked = idx  # the step's particles: retired ones still get the closing kick, as in the integrators
+        nleft, bad = wrap_and_check(idx, pos, vel, omega, geom, periodic, box, use_box, active, awake, left_ids)
+        if bad >= 0:
+            stats[3] = bad
+            return done, BAD, t
+        if nleft:  # forces are computed without them (as after_drift)
+            keep = 0
+            for k in range(idx.shape[0]):
+                if active[idx[k]]:
+                    keep += 1
+            new = np.empty(keep, np.int64)
+            keep = 0
+            for k in range(idx.shape[0]):
+                if active[idx[k]]:
+                    new[keep] = idx[k]
+                    keep += 1
+            idx = new
+        if predict:
+            predict_extrapolated(kicked, vel, omega, force, torque, fp, tp, inv_m, inv_i, h, extrapolate, lmask,
+                                 rmask, vp, wp)
+            ve, we = vp, wp
+        else:
+            ve, we = vel, omega
+        zero_rows(idx, force, torque)
+        nc = pair_forces_window(pa, pb, hist, rhist, touch, pos, ve, we, vel, omega, predict, radius, mass, inertia,
+                                props, awake, active, geom, periodic, dt, wake_speed, force, torque, wake, wake_ids,
+                                n_wake, lo, hi, law)
+        p = 0
+        for b in range(nb):
+            if b == hf_at:
+                nc += heightfield_forces(idx, hx0, hy0, hhx, hhy, hbed, hprops, hhist, hrhist, pos, ve, we, radius,
+                                         mass, inertia, props, dt, force, torque, lo, hi, vel, omega, law)
+                continue
+            pl_reaction[p, :] = 0.0
+            nc += plane_forces(idx, pl_point[p], pl_normal[p], pl_vel[p], pl_props[p], pl_hist[p], pl_rhist[p], pos,
+                               ve, we, radius, mass, inertia, props, dt, force, torque, pl_reaction[p], lo, hi, vel,
+                               omega, law)
+            p += 1
+        _add_gravity(idx, mass, g, force)
+        if fluid_on:  # static models: the awake rows of _fm/_tm, then added (DemSimulation.body_forces)
+            zero_rows(idx, fm, tm)
+            grid_fluid_forces_phi(idx, pos, ve, we, pos, awake, radius, method, bed, depth, u, v, x0, y0, dx, dy,
+                                  smax, outside_air, profile, k_s, wind, rho_w, nu_w, rho_a, nu_a, with_air, grav,
+                                  dlaw, params, xi, time_step, do_torque, fm, tm, phi)
+            for k in range(idx.shape[0]):
+                i = idx[k]
+                for d in range(3):
+                    force[i, d] += fm[i, d]
+                    torque[i, d] += tm[i, d]
+        add_global_damping(idx, ve, we, c_gn, c_gw, 1.0, force, torque)
+        kick(kicked, vel, omega, force, torque, inv_m, inv_i, h, lmask, rmask)
+        if fluid_on:  # next step's apparent mass, at these positions
+            _inverse_masses(idx, mass, radius, phi, xi, rho_w, rho_am, inv_m)
+        t += dt
+        done += 1
+        stats[0] = mx
+        stats[1] = sm
+        stats[2] = nc
+        if e_tol >= 0.0:
+            ok = ok + 1 if (mx if crit == 0 else sm) < e_tol else 0
+            stats[4] = ok
+        if nleft:
+            stats[3] = nleft
+            return done, LEFT, t
+        if sleeping:
+            if n_wake[0] > 0:
+                stats[3] = n_wake[0]
+                return done, WAKE, t
+            ns = sleep_update(idx, vel, omega, vel_prev, omega_prev, radius, v_sleep, n_sleep, sleep_count, awake,
+                              sleep_ids, (step0 + done) % sleep_check == 0)
+            if ns:
+                stats[3] = ns
+                return done, SLEEP, t
+        if e_tol >= 0.0 and ok >= consecutive:
+            return done, CONVERGED, t
+    return done, DONE, t
+
+
+def _fluid_model(sim):
+    """The simulation's one fused ``FluidForces`` model, None without models, False if not eligible."""
+    from ..fluid.forces import FluidForces
+
+    if not sim.models:
+        return None
+    m = sim.models[0]
+    if (len(sim.models) != 1 or type(m) is not FluidForces or m._fused is None or not m._fused[10]
+            or not sim.static_models or not sim._models_checked):
+        return False
+    return m
+
+
+def eligible(sim) -> bool:
+    """Whether :func:`run` can advance *sim* (module docstring): a fixed-step Verlet integrator, fixed planes
+    and at most one height field, no force model or one fused static ``FluidForces``, awake particles and
+    known forces."""
+    from .boundaries import HeightField, Plane
+    from .integrators import VelocityVerlet
+
+    integ = sim.integrator
+    if (sim.idx.size == 0 or sim.forces_stale or not isinstance(integ, VelocityVerlet)
+            or type(integ).step is not VelocityVerlet.step):
+        return False
+    n_hf = 0
+    for b in sim.boundaries:
+        if type(b) is HeightField:
+            n_hf += 1
+        elif not (type(b) is Plane and b.control == "fixed"):
+            return False
+    return n_hf <= 1 and _fluid_model(sim) is not False
+
+
+_NO_FIELD = (0, np.zeros((1, 1)), np.zeros((1, 1)), np.zeros((1, 1)), np.zeros((1, 1)), 0.0, 0.0, 1.0, 1.0, 0.0,
+             True, 0, 1.0)
+
+
+def run(sim, nmax: int, e_tol: float = -1.0, crit: int = 0, consecutive: int = 1, ok: int = 0):
+    """Advance *sim* (:func:`eligible`) by up to *nmax* steps in one compiled call, with the driver's
+    bookkeeping for the event that ended it (:func:`.steploop.finish`); returns (steps done, last (max,
+    sum) displacement, ok)."""
+    from . import steploop
+    from .boundaries import HeightField
+
+    s = sim.state
+    if sim._dirty or displacement_since(sim.idx, s.pos, sim._pos_build, sim.geom, sim.periodic) > 0.5 * sim.skin:
+        sim._rebuild()
+    n = s.pos.shape[0]
+    hf_at, hf = -1, (0.0, 0.0, 1.0, 1.0, np.zeros((1, 1)), np.zeros(8), np.zeros((1, 3)), np.zeros((1, 3)))
+    planes = []
+    for k, b in enumerate(sim.boundaries):
+        if type(b) is HeightField:
+            hf_at, hf = k, (b.x0, b.y0, b.hx, b.hy, b.bed, b.props, b.hist, b.rhist)
+        else:
+            planes.append(b)
+    pl_hist = np.stack([b.hist for b in planes]) if planes else np.zeros((0, n, 3))
+    pl_rhist = np.stack([b.rhist for b in planes]) if planes else np.zeros((0, n, 3))
+    pl = [np.array([getattr(b, name) for b in planes], float).reshape(len(planes), width)
+          for name, width in (("point", 3), ("normal", 3), ("velocity", 3), ("props", 8))]
+    reaction = np.zeros((len(planes), 3))
+    model = _fluid_model(sim)
+    if model is not None:
+        if sim._inv_m_added.shape[0] != n:
+            sim._inv_m_added = np.zeros(n)
+        inv_m = sim._inv_m_added
+        air = model.air if model.air is not None else model.water
+        fluid = (model.wind, model.water.rho, model.water.nu, air.rho, air.nu, model.air is not None, model.gravity,
+                 model.drag_law.law_id, model.drag_law.params, model.xi, model.time_step or 0.0, model.torque,
+                 0.0 if model.air is None else model.air.rho)
+        field = model._fused
+    else:
+        inv_m = sim._inv_m
+        fluid = (np.zeros(3), 1.0, 1.0, 1.0, 1.0, False, 0.0, 0, np.zeros(1), 0.0, 0.0, False, 0.0)
+        field = _NO_FIELD
+    integ, w, dt = sim.integrator, sim.work, sim._dt
+    sim._n_wake = np.zeros(1, np.int64)
+    stats = np.zeros(5)
+    n0 = sim.idx.size
+    done, why, t = fluid_verlet_steps(
+        int(nmax), sim.t, sim.idx, s.pos, s.vel, s.omega, s.vel_prev, s.omega_prev, sim.force, sim.torque, w["fp"],
+        w["tp"], w["v"], w["w"], inv_m, sim._inv_i, sim.lmask, sim.rmask, dt, bool(integ.predict_velocity),
+        float(integ.extrapolate), integ.force_window[0] * dt, integ.force_window[1] * dt, sim._pa, sim._pb,
+        sim._hist, sim._rhist, sim._touch, s.radius, s.mass, s.inertia, s._props, s.awake, s.active, sim.geom,
+        sim.periodic, sim.wake_velocity, sim._wake_flag, sim._wake_ids, sim._n_wake,
+        (pl[0], pl[1], pl[2], pl[3], pl_hist, pl_rhist, reaction), hf_at, hf, model is not None, field, fluid,
+        sim._fm, sim._tm, sim.gravity.g, s.c_gn, s.c_gw, sim._box, sim._use_box, sim._tmp_ids, sim._pos_build,
+        0.5 * sim.skin, sim.sleeping, sim.sleep_velocity, sim.sleep_steps, sim._sleep_count, sim._tmp_ids,
+        sim.sleep_check, sim.steps, float(e_tol), int(crit), int(consecutive), int(ok), stats, sim._law)
+    if model is not None:
+        model.evaluations += done
+    return steploop.finish(sim, planes, pl_hist, pl_rhist, reaction, done, why, t, stats, n0, e_tol, ok)
