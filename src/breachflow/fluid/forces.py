@@ -158,6 +158,10 @@ class FluidForces:
         sampler = getattr(self.field, "sampler", None)
         if self.basset is not None or sampler is None or sampler.kind != "grid" or self.field.uniform:
             return None
+        if getattr(sampler, "frame", None) is not None:
+            # a field sampled from a turned grid (hydro.nested.FramedSampler): only its sample() turns the
+            # positions and velocities, the raw grid arrays the fused kernels read stay on the CRS axes
+            return None
         method = {"bilinear": C.BILINEAR, "linear": C.BILINEAR, "barycentric": C.BILINEAR,
                   "neighbourhood": C.NEIGHBOURHOOD, "neighborhood": C.NEIGHBOURHOOD}.get(sampler.method)
         if method is None:
