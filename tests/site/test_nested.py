@@ -205,7 +205,8 @@ def demo_mesh_file(tmp_path_factory):
 def test_nested_in_an_ingested_adh_mesh_closes_the_breach(demo_mesh_file, tmp_path, seed):
     """The scaled breach's steady state as an ADH-like mesh file; ``solver = "nested"`` re-solves a local
     model around the breach with the pile each cycle: the breach discharge falls to nothing and it closes,
-    at the defaults (log velocity profile) for several placement seeds, and no mass leaves through the levee.
+    at the defaults (log velocity profile) for several placement seeds, and no mass leaves through the levee
+    (one rolling off a pile higher than the levee may leave along its crest).
     (The mesh has the intact levee as a hole: before the local terrain raised such cells to the water
     level, the DEM had no levee there and masses rolled off the pile through it: seed 1 lost 27 of 110
     masses and did not close in 22 cycles.)"""
@@ -215,11 +216,12 @@ def test_nested_in_an_ingested_adh_mesh_closes_the_breach(demo_mesh_file, tmp_pa
     res = run_closure(scen, tmp_path / "run", plots=False)
     _closure_print(f"ugrid seed {seed}", res, time.process_time() - t0)
     assert res.closed, [(r.cycle, r.breach_discharge, r.max_speed) for r in res.reports]
-    # no mass leaves through the intact levee (the breach area's faces along it, x = +-(B/2 + D_max))
+    # no mass leaves through the intact levee: one that reaches the breach area's faces along it,
+    # x = +-(B/2 + D_max), is on top of the levee (its crest at the 3 m flood level; contact overlap ~5 mm)
     with xr.open_dataset(tmp_path / "run" / f"cycle_{res.cycles:04d}.nc") as ds:
-        lost = ds.particle_active.values[0] == 0
-        x_lost = ds.particle_x.values[0][lost & np.isfinite(ds.particle_x.values[0])]
-    assert np.all(np.abs(x_lost) < 6.0 + 2.2 - 1e-6), x_lost
+        p = {k: ds[f"particle_{k}"].values[0] for k in ("x", "z", "diameter", "active")}
+    side = (p["active"] == 0) & (np.abs(np.nan_to_num(p["x"])) >= 6.0 + 2.2 - 1e-6)
+    assert np.all(p["z"][side] - 0.5 * p["diameter"][side] >= 3.0 - 0.05), (p["x"][side], p["z"][side])
     q = [r.breach_discharge for r in res.reports]
     man = json.loads((tmp_path / "run" / "manifest.json").read_text())
     q0 = man["metadata"]["initial"]["breach_discharge"]
