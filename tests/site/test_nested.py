@@ -201,7 +201,8 @@ def demo_mesh_file(tmp_path_factory):
     return path
 
 
-@pytest.mark.parametrize("seed", [1, 2, pytest.param(3, marks=pytest.mark.slow), pytest.param(4, marks=pytest.mark.slow)])
+@pytest.mark.parametrize("seed", [1, 2, pytest.param(3, marks=pytest.mark.slow),
+                                  pytest.param(4, marks=pytest.mark.slow)])
 def test_nested_in_an_ingested_adh_mesh_closes_the_breach(demo_mesh_file, tmp_path, seed):
     """The scaled breach's steady state as an ADH-like mesh file; ``solver = "nested"`` re-solves a local
     model around the breach with the pile each cycle: the breach discharge falls to nothing and it closes,

@@ -519,7 +519,9 @@ class ClosureRun:
     def _fluid_roughness(self) -> float:
         """The log law's roughness height of the DEM's fluid forces (as :meth:`_fluid` sets it)."""
         d = self.setup.dem
-        return float(d.roughness if d.roughness is not None else roughness_from_manning(np.median(self.setup.domain.manning)))
+        if d.roughness is not None:
+            return float(d.roughness)
+        return float(roughness_from_manning(np.median(self.setup.domain.manning)))
 
     def _pile_view(self, sim, rec) -> PileView:
         """The sill along the placement's gap line before this cycle's release, for the strategies that
