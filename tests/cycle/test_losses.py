@@ -84,3 +84,60 @@ def test_loss_limit_and_area_come_from_the_scenario(tmp_path):
 
     with pytest.raises(BreachflowError, match="area"):
         closure_setup(parse_scenario((SCENARIO % (1, "no_flow")).replace("[closure]", '[closure]\narea = ["6 m", "-6 m", "0 m", "1 m"]')))
+
+
+def test_rolling_speed_balances_drag_and_rolling_resistance():
+    """``rolling_speed``: the drag 1/2 rho C_D A u^2 equals mu_r times the submerged weight. For D = 4 m the
+    Reynolds number (~3e7) is past the report law's cap C_D = 0.40 (SPEC §6), so u^2 = mu_r Delta g (2 D / 3) / 0.20
+    by hand; for smaller masses the balance is checked with the law's own C_D(Re)."""
+    from breachflow.cycle.losses import rolling_speed
+    from breachflow.fluid.drag import get_drag_law
+
+    g, delta = 9.80665, 1.65
+    assert rolling_speed(4.0, 2650.0, 0.3) == pytest.approx(math.sqrt(0.3 * delta * g * (2 * 4.0 / 3) / 0.20), rel=1e-9)
+    assert rolling_speed(4.0, 2650.0, 0.3) == pytest.approx(8.045, abs=1e-3)
+    law = get_drag_law("report")
+    for d in (0.05, 0.5, 2.0):
+        u = rolling_speed(d, 2650.0, 0.3)
+        drag = 0.5 * 1000.0 * float(law.cd(u * d / 1e-6)) * math.pi * d * d / 4 * u * u
+        assert drag == pytest.approx(0.3 * 1650.0 * g * math.pi * d ** 3 / 6, rel=1e-8)
+    assert rolling_speed(2.0, 2650.0, 0.0) == 0.0
+
+
+@pytest.mark.parametrize("ratio,rolls", [(0.9, False), (1.1, True)])
+def test_a_lone_sphere_on_a_flat_bed_rolls_above_the_rolling_speed(ratio, rolls):
+    """The DEM (rolling resistance of dem/contact_law.py, the closure's default rock) and the fluid forces
+    (uniform profile) agree with the verdict's ``rolling_speed``: a 2 m sphere resting on a flat bed under
+    a current of 0.9 u_roll stays, under 1.1 u_roll it rolls away."""
+    from breachflow.cycle.losses import rolling_speed
+    from breachflow.dem import DemSimulation, HeightField, Material
+    from breachflow.fluid.field import UniformWater
+    from breachflow.fluid.forces import FluidForces
+
+    D = 2.0
+    u_roll = rolling_speed(D, 2650.0, 0.3)
+    mat = Material(density=2650.0, kn=2.0e7, friction=0.6, rolling_friction=0.3).with_restitution(
+        0.3, 2650.0 * math.pi / 6 * D ** 3)
+    x = np.linspace(-50.0, 50.0, 11)
+    bed = HeightField(x, x, np.zeros((11, 11)), mat)
+    water = UniformWater(surface=3.0 * D, u=ratio * u_roll, v=0.0, bed=0.0)
+    sim = DemSimulation(boundaries=[bed], models=[FluidForces(water, air=None)], sleeping=False, static_models=True)
+    sim.add_particles(np.array([[0.0, 0.0, 0.5 * D - 2e-3]]), 0.5 * D, mat)
+    sim.step(int(math.ceil(4.0 / sim.dt)))
+    moved = float(np.hypot(*sim.state.pos[0, :2]))
+    assert (moved > 0.5 * D) is rolls, moved
+
+
+def test_the_verdict_says_which_speed_governs_and_counts_older_masses():
+    """Below Izbash's speed but above the lone-mass rolling speed: the verdict says the rolling governs; lost
+    masses placed in earlier cycles are counted as such (not "6 of 5 masses")."""
+    from breachflow.cycle.losses import not_closable_verdict
+
+    v = not_closable_verdict(2, 14, 20, 1243.2, 1776.0, np.full(20, 4.0), np.full(20, 2650.0), 8.46,
+                             lost_placed=0, roll_speed=8.05, bed_factor=1.05)
+    assert "14 masses (1243.2 t), 0 of them placed in this cycle," in v and "(20 masses, 1776.0 t placed in it)" in v
+    assert "8.46 m/s (depth-averaged; 8.88 m/s at the centre of a mass on the bed) is below the Izbash" in v
+    assert "above the 8.05 m/s at which a lone mass rolls on the bare bed" in v and v.endswith("which governs here")
+    fast = not_closable_verdict(1, 14, 20, 155.4, 222.0, np.full(20, 2.0), np.full(20, 2650.0), 7.93,
+                                lost_placed=14, roll_speed=5.7)
+    assert "14 masses (155.4 t) were carried" in fast and "exceeds the Izbash" in fast and "governs" not in fast

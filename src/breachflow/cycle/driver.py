@@ -27,13 +27,15 @@ import xarray as xr
 from ..dem import DemSimulation, HeightField, Material
 from ..errors import InputError
 from ..fluid.forces import FluidForces
+from ..fluid.profile import factors as profile_factors
+from ..fluid.profile import roughness_from_manning
 from ..hydro.sampling import FieldSampler
 from ..hydro.snapshot import DRY_DEPTH
 from ..schemas import validate
 from ..output import RunDirectory, particles_dataset, trajectories_dataset
 from ..output.cf import pad_particles
 from .criteria import CycleContext, EndCriteria, gap_section_speeds, section_discharge
-from .losses import LOSS_LIMIT, gap_speed, losses_flagged, not_closable_verdict
+from .losses import LOSS_LIMIT, gap_speed, gap_speed_and_depth, losses_flagged, not_closable_verdict, rolling_speed
 from .placement import PlacementPlan
 from .strategies import PileView
 from .strategies import band as strategy_band
@@ -473,8 +475,7 @@ class ClosureRun:
         gspeed = gap_speed(new_snapshot, area)
         verdict = ""
         if not closed and placed_t > 0 and lost_t > s.loss_limit * placed_t:
-            verdict = not_closable_verdict(g, lost_now.size, len(new_ids), lost_t, placed_t, 2.0 * rel.radius,
-                                           rel.density, gap_speed(snapshot, area))
+            verdict = self._verdict(g, lost_now, new_ids, lost_t, placed_t, rel, snapshot, area)
         rep = CycleReport(cycle=g, masses=masses, tonnage=tonnage, operation_time=rel.time, max_speed=max_speed,
                           discharge_proxy=proxy, breach_discharge=q_breach, criteria=results, closed=closed, governing=governing,
                           dem_steps=sim.steps - steps0, dem_particle_steps=sim.particle_steps - ps0,
@@ -500,6 +501,27 @@ class ClosureRun:
         self.rundir.write_cycle(g, field_ds, traj, new_rec, _summary(rep))
         self._live = (g, sim)
         return rep, new_rec, new_snapshot
+
+    def _verdict(self, g, lost_now, new_ids, lost_t, placed_t, rel, snapshot, area) -> str:
+        """The "not closable" statement (:func:`~breachflow.cycle.losses.not_closable_verdict`) for the field
+        *snapshot* the masses felt: the gap speed, the profile's speed at a mass's centre on the bed there and
+        the speed at which a lone mass rolls on the bare bed."""
+        d = self.setup.dem
+        diam = float(np.median(2.0 * rel.radius))
+        rho = float(np.median(rel.density))
+        speed, depth = gap_speed_and_depth(snapshot, area)
+        factor = float(profile_factors(d.velocity_profile, 0.5 * diam, depth, self._fluid_roughness()))
+        roll = rolling_speed(diam, rho, d.material.rolling_friction, d.drag_law)
+        return not_closable_verdict(g, lost_now.size, len(new_ids), lost_t, placed_t, 2.0 * rel.radius, rel.density,
+                                    speed, lost_placed=int(np.isin(lost_now, new_ids).sum()), roll_speed=roll,
+                                    bed_factor=factor)
+
+    def _fluid_roughness(self) -> float:
+        """The log law's roughness height of the DEM's fluid forces (as :meth:`_fluid` sets it)."""
+        d = self.setup.dem
+        if d.roughness is not None:
+            return float(d.roughness)
+        return float(roughness_from_manning(np.median(self.setup.domain.manning)))
 
     def _pile_view(self, sim, rec) -> PileView:
         """The sill along the placement's gap line before this cycle's release, for the strategies that

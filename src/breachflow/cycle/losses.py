@@ -24,6 +24,21 @@ stones into flowing water*; Izbash & Khaldre 1970)::
 ``C = 0.86`` for a stone exposed on top of others, ``1.20`` for one embedded among them — the speed
 range in which dumped stones of that size start to be carried away. Losses of more than ``loss_limit``
 of all placed tonnage over the run are flagged in the summary even when the breach closes.
+
+Izbash's speeds are for a stone in a bed of stones. The first masses of a closure land on the bare
+breach floor, where a lone sphere is held by nothing but its rolling resistance: it rolls once the drag
+exceeds ``mu_r`` times its submerged weight (:mod:`breachflow.dem.contact_law`, the moment
+``mu_r R F_N`` against the drag's ``F R``), i.e. at the speed (at its centre height)
+
+    u_roll = sqrt(mu_r (rho_s - rho_w) g V / (1/2 rho_w C_D(Re) A)),   V = pi D^3/6, A = pi D^2/4
+
+(:func:`rolling_speed`; ``C_D`` from the run's drag law at ``Re = u_roll D / nu``). For the model's
+spheres (``mu_r`` 0.3) this lies below Izbash's exposed-stone speed (D = 4 m, report drag law: 8.05
+against 9.78 m/s), so masses can be carried off a bare floor by a flow slower than Izbash's speed. The
+verdict names both and which one the flow exceeds, with the depth-averaged gap speed converted to the
+speed at a mass's centre on the bed by the run's velocity profile; it counts the masses lost in the
+cycle separately from those placed in it (masses still rolling at the end of a cycle may leave in the
+next one).
 """
 from __future__ import annotations
 
@@ -53,31 +68,83 @@ def izbash_speed(diameter, density, rho_w: float = 1000.0, g: float = 9.80665, c
 
 def gap_speed(snapshot, area) -> float:
     """Largest depth-averaged speed (m/s) over wet, open cells inside the breach *area*."""
+    return gap_speed_and_depth(snapshot, area)[0]
+
+
+def gap_speed_and_depth(snapshot, area) -> tuple[float, float]:
+    """:func:`gap_speed` and the water depth (m) in the cell where it occurs (0, 0 when none is wet)."""
     x = snapshot["x"].values
     y = snapshot["y"].values
     X, Y = np.meshgrid(x, y)
     inside = (X >= area[0]) & (X <= area[1]) & (Y >= area[2]) & (Y <= area[3])
-    wet = snapshot["depth"].values > 1e-6
+    depth = snapshot["depth"].values
+    wet = depth > 1e-6
     if "obstacle" in snapshot:
         wet &= ~snapshot["obstacle"].values.astype(bool)
     sel = inside & wet
     if not sel.any():
+        return 0.0, 0.0
+    speed = np.where(sel, np.hypot(snapshot["u"].values, snapshot["v"].values), -np.inf)
+    k = np.unravel_index(int(np.argmax(speed)), speed.shape)
+    return float(speed[k]), float(depth[k])
+
+
+def rolling_speed(diameter: float, density: float, rolling_friction: float, drag_law="report",
+                  rho_w: float = 1000.0, nu_w: float = 1.0e-6, g: float = 9.80665) -> float:
+    """Flow speed (m/s, at the centre) that rolls a lone submerged sphere on a flat bed: the drag
+    ``1/2 rho_w C_D(Re) A u^2`` equals ``rolling_friction`` times the submerged weight (module docstring);
+    fixed point on ``C_D(Re)``. 0 without rolling resistance."""
+    from ..fluid.drag import get_drag_law
+
+    law = get_drag_law(drag_law)
+    d = float(diameter)
+    w_sub = float(rolling_friction) * (float(density) - rho_w) * g * math.pi * d ** 3 / 6.0
+    if w_sub <= 0.0:
         return 0.0
-    return float(np.hypot(snapshot["u"].values, snapshot["v"].values)[sel].max())
+    area = 0.25 * math.pi * d * d
+    u = 1.0
+    for _ in range(100):
+        cd = float(law.cd(u * d / nu_w))
+        new = math.sqrt(w_sub / (0.5 * rho_w * cd * area))
+        if abs(new - u) <= 1e-10 * new:
+            return new
+        u = new
+    return u
 
 
 def not_closable_verdict(cycle: int, lost: int, placed: int, lost_t: float, placed_t: float, diameters,
-                         density, speed: float) -> str:
-    """The statement a run ends with when a cycle loses more than ``loss_limit`` of its tonnage."""
+                         density, speed: float, *, lost_placed: int | None = None, roll_speed: float | None = None,
+                         bed_factor: float = 1.0) -> str:
+    """The statement a run ends with when a cycle loses more than ``loss_limit`` of its tonnage.
+
+    *lost* masses (*lost_t* t) left the breach area in *cycle*, *lost_placed* of them placed in it (None:
+    not known); *placed* masses (*placed_t* t) were placed. *speed* is the gap speed (depth-averaged) of the
+    field the masses felt; *bed_factor* the velocity profile's factor at the centre of a mass resting on
+    the bed there (the speed it feels is ``bed_factor * speed``); *roll_speed* the speed at which a lone
+    mass rolls on the bare bed (:func:`rolling_speed`; None: not stated)."""
     d = np.asarray(diameters, float)
     rho = float(np.median(density))
     dtxt = f"{d.min():.3g} m" if np.ptp(d) < 1e-9 else f"{d.min():.3g}-{d.max():.3g} m"
     lo, hi = (float(izbash_speed(float(np.median(d)), rho, c=c)) for c in IZBASH_C)
+    felt = bed_factor * speed
+    who = f"{lost} masses ({lost_t:.1f} t)"
+    if lost_placed is not None and lost_placed != lost:
+        who += f", {lost_placed} of them placed in this cycle,"
     cmp = "exceeds" if speed > lo else "is below"
-    return (f"not closable with D = {dtxt} masses of {rho:.0f} kg/m3: in cycle {cycle}, {lost} of {placed} masses "
-            f"({lost_t:.1f} t of {placed_t:.1f} t) were carried out of the breach area; gap speed {speed:.2f} m/s "
-            f"{cmp} the Izbash critical speed {lo:.2f}-{hi:.2f} m/s for D = {float(np.median(d)):.3g} m "
-            f"(C = {IZBASH_C[0]}-{IZBASH_C[1]})")
+    text = (f"not closable with D = {dtxt} masses of {rho:.0f} kg/m3: in cycle {cycle}, {who} were carried out "
+            f"of the breach area ({placed} masses, {placed_t:.1f} t placed in it); gap speed {speed:.2f} m/s "
+            f"(depth-averaged")
+    if abs(bed_factor - 1.0) > 1e-9:
+        text += f"; {felt:.2f} m/s at the centre of a mass on the bed"
+    text += (f") {cmp} the Izbash critical speed {lo:.2f}-{hi:.2f} m/s for D = {float(np.median(d)):.3g} m "
+             f"(C = {IZBASH_C[0]}-{IZBASH_C[1]}, a stone in a bed of stones)")
+    if roll_speed is not None:
+        rel = "above" if felt > roll_speed else "below"
+        text += (f"; the speed at a mass's centre is {rel} the {roll_speed:.2f} m/s at which a lone mass rolls "
+                 f"on the bare bed (drag > rolling friction x submerged weight)")
+        if felt <= lo and felt > roll_speed:
+            text += ", which governs here"
+    return text
 
 
 def losses_flagged(lost_t: float, placed_t: float, limit: float) -> bool:

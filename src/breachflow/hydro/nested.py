@@ -167,9 +167,12 @@ def nested_domain(regional: xr.Dataset, window, resolution: float, manning=0.025
     if inside.mean() < 0.5:
         raise InputError(f"nested window {window}: only {100 * inside.mean():.0f} % of it lies inside the regional field")
     bed = smp.bed.reshape(dom.shape)
-    fill = np.nanmax(bed[inside]) if inside.any() else 0.0
-    bed = np.where(inside, bed, fill)
     h = np.where(inside, np.nan_to_num(smp.depth.reshape(dom.shape)), 0.0)
+    # cells outside the regional field (a mesh hole: the intact levee) are no-flow for the flow model and
+    # solid for the DEM's terrain (the domain bed): at least as high as the water the levee holds, so that
+    # masses meet the breach walls there instead of rolling through the levee (before: the highest open bed)
+    fill = max(np.nanmax(bed[inside]), np.nanmax((bed + h)[inside])) if inside.any() else 0.0
+    bed = np.where(inside, bed, fill)
     u = np.where(inside & (h > DRY_DEPTH), np.nan_to_num(smp.u.reshape(dom.shape)), 0.0)
     v = np.where(inside & (h > DRY_DEPTH), np.nan_to_num(smp.v.reshape(dom.shape)), 0.0)
     dom.bed = bed
