@@ -172,7 +172,9 @@ def nested_domain(regional: xr.Dataset, window, resolution: float, manning=0.025
     # solid for the DEM's terrain (the domain bed): at least as high as the water the levee holds, so that
     # masses meet the breach walls there instead of rolling through the levee (before: the highest open bed)
     fill = max(np.nanmax(bed[inside]), np.nanmax((bed + h)[inside])) if inside.any() else 0.0
-    bed = np.where(inside, bed, fill)
+    # a raster's no-flow cells (ESRI grids, our own snapshots) keep their own bed, the levee's real shape
+    raw = FramedSampler(regional, "bilinear", frame).sample(X.ravel(), Y.ravel()).bed.reshape(dom.shape)
+    bed = np.where(inside, bed, np.where(np.isfinite(raw), raw, fill))
     u = np.where(inside & (h > DRY_DEPTH), np.nan_to_num(smp.u.reshape(dom.shape)), 0.0)
     v = np.where(inside & (h > DRY_DEPTH), np.nan_to_num(smp.v.reshape(dom.shape)), 0.0)
     dom.bed = bed
