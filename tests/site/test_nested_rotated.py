@@ -358,3 +358,27 @@ def test_nested_on_the_crs_axes_is_unchanged_and_a_box_window_is_refused_when_tu
             continue
         with pytest.raises(InputError, match=r"\[hydro\] window = .* box on the CRS axes.*31\.0° from the CRS x axis"):
             closure_setup(load_scenario(sc))
+
+
+def test_a_regional_model_in_another_crs_than_the_terrain_is_refused(tmp_path):
+    """The user's ADH model with a .prj of another CRS than the site's terrain (EPSG:32615) would put the
+    breach in the wrong place: a clear InputError naming both; the same files with the terrain's CRS run."""
+    scene = replace(demo_breach(), levee_length_each_side=20.0, flood_side_extent=20.0, protected_side_extent=20.0)
+    X, Y = np.meshgrid(np.arange(-25.5, 26.0, 1.0), np.arange(-19.5, 20.0, 1.0))
+    from breachflow.hydro.io import grid_to_mesh
+    from breachflow.hydro.snapshot import grid_snapshot
+
+    bed = levee_bed(scene, X, Y)
+    regional = grid_snapshot(X[0], Y[:, 0], bed, np.maximum(3.0 - bed, 0.0), np.zeros_like(bed), np.zeros_like(bed))
+    angle = 31.0
+    files = export_files(turned_mesh(grid_to_mesh(regional), angle), tmp_path, "adh")
+    prj = [p for p in files if p.suffix == ".prj"]
+    assert prj, "the ADH export writes its .prj"
+    dem = write_dem(scene, angle, tmp_path / "dem.nc", half=30.0, spacing=0.5)
+    sc = tmp_path / "s.toml"
+    sc.write_text(site_table(scene, angle, dem, files) + 'resolution = "1 m"\nt_max_initial = "5 s"\n')
+    assert closure_setup(load_scenario(sc)).solver.frame is not None  # same CRS: accepted
+    prj[0].write_text(CRS.from_epsg(32616).to_wkt())  # the next UTM zone
+    with pytest.raises(InputError, match=r"regional model .* is in 'WGS 84 / UTM zone 16N' but the site's terrain "
+                                         r"\(.*dem\.nc\) is in 'WGS 84 / UTM zone 15N'"):
+        closure_setup(load_scenario(sc))

@@ -475,6 +475,8 @@ def closure_setup(scenario, *, overrides: dict | None = None):
                               t_max_initial=hydro.t_max_initial, t_max=hydro.t_max, frame=frame)
         if nested.domain.crs_wkt is None:  # regional files without a CRS (e.g. ADH without its .prj): the site's
             nested.domain.crs_wkt = dom.crs_wkt
+        elif built is not None and hydro.refine is None:
+            _check_regional_crs(nested.domain.crs_wkt, dom.crs_wkt, nested.source, built.terrain.path)
         if hydro.refine is not None:
             nested.source = f"breachflow swe steady state at {hydro.resolution:g} m cells (coarse domain)"
             nested.section = (xc - half, xc + half, yc)
@@ -627,3 +629,20 @@ def _crs_wkt(crs: str | None) -> str:
     if not crs:
         return local_crs_wkt()
     return resolve_crs(crs, where="[site] crs", data_unit="m")
+
+
+def _check_regional_crs(regional_wkt: str, site_wkt: str, regional_name: str, terrain_path) -> None:
+    """A regional model in another CRS than the site's terrain would put the breach in the wrong place:
+    refuse it. Both CRSs must be metric for the comparison (an ingested model in feet was converted to
+    metres at ingest, but its CRS still names feet: not compared)."""
+    from pyproj import CRS
+
+    try:
+        reg, site = CRS.from_user_input(regional_wkt), CRS.from_user_input(site_wkt)
+    except Exception:  # noqa: BLE001 - an unreadable CRS is reported where it is read, not here
+        return
+    metric = all(c.axis_info and all(a.unit_name in ("metre", "meter") for a in c.axis_info) for c in (reg, site))
+    if metric and not reg.equals(site, ignore_axis_order=True):
+        raise InputError(f"[hydro] snapshots: the regional model ({regional_name}) is in {reg.name!r} but the "
+                         f"site's terrain ({terrain_path}) is in {site.name!r}; re-project one of them (e.g. "
+                         f"`gdalwarp -t_srs` for the terrain) so both use the same CRS")
