@@ -23,6 +23,22 @@ from .integrators import drift, kick, predict_extrapolated
 DONE, REBUILD, LEFT, BAD, WAKE, SLEEP, CONVERGED = range(7)
 
 
+@numba.njit(cache=True)
+def still_active(idx, active):
+    """The entries of *idx* whose particles are still active (those that left the domain were retired)."""
+    keep = 0
+    for k in range(idx.shape[0]):
+        if active[idx[k]]:
+            keep += 1
+    out = np.empty(keep, np.int64)
+    keep = 0
+    for k in range(idx.shape[0]):
+        if active[idx[k]]:
+            out[keep] = idx[k]
+            keep += 1
+    return out
+
+
 @numba.njit(cache=True, error_model="numpy")
 def verlet_steps(nmax, t, idx, pos, vel, omega, vel_prev, omega_prev, force, torque, fp, tp, vp, wp, inv_m, inv_i,
                  lmask, rmask, dt, predict, extrapolate, lo, hi, pa, pb, hist, rhist, touch, radius, mass, inertia,
@@ -49,17 +65,7 @@ def verlet_steps(nmax, t, idx, pos, vel, omega, vel_prev, omega_prev, force, tor
             stats[3] = bad
             return done, BAD, t
         if nleft:  # forces are computed without them (as after_drift)
-            keep = 0
-            for k in range(idx.shape[0]):
-                if active[idx[k]]:
-                    keep += 1
-            new = np.empty(keep, np.int64)
-            keep = 0
-            for k in range(idx.shape[0]):
-                if active[idx[k]]:
-                    new[keep] = idx[k]
-                    keep += 1
-            idx = new
+            idx = still_active(idx, active)
         if predict:
             predict_extrapolated(kicked, vel, omega, force, torque, fp, tp, inv_m, inv_i, h, extrapolate, lmask,
                                  rmask, vp, wp)

@@ -32,7 +32,7 @@ from .contacts import (displacement_since, heightfield_forces, pair_forces_windo
                        wrap_and_check)
 from .forces import _add_gravity, add_global_damping, zero_rows
 from .integrators import drift, kick, predict_extrapolated
-from .steploop import BAD, CONVERGED, DONE, LEFT, REBUILD, SLEEP, WAKE
+from .steploop import BAD, CONVERGED, DONE, LEFT, REBUILD, SLEEP, WAKE, still_active
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -86,17 +86,7 @@ def fluid_verlet_steps(nmax, t, idx, pos, vel, omega, vel_prev, omega_prev, forc
             stats[3] = bad
             return done, BAD, t
         if nleft:  # forces are computed without them (as after_drift)
-            keep = 0
-            for k in range(idx.shape[0]):
-                if active[idx[k]]:
-                    keep += 1
-            new = np.empty(keep, np.int64)
-            keep = 0
-            for k in range(idx.shape[0]):
-                if active[idx[k]]:
-                    new[keep] = idx[k]
-                    keep += 1
-            idx = new
+            idx = still_active(idx, active)
         if predict:
             predict_extrapolated(kicked, vel, omega, force, torque, fp, tp, inv_m, inv_i, h, extrapolate, lmask,
                                  rmask, vp, wp)
