@@ -40,6 +40,55 @@ def still_active(idx, active):
 
 
 @numba.njit(cache=True, error_model="numpy")
+def first_half(idx, pos, vel, omega, force, torque, fp, tp, vp, wp, inv_m, inv_i, lmask, rmask, h, dt, predict,
+               extrapolate, geom, periodic, box, use_box, active, awake, left_ids):
+    """A Verlet step up to its force evaluation: kick, drift, wrap / retire leavers, drop them from *idx*,
+    predict. Returns (bad id or -1, #left, idx, the kicked idx, velocities for the forces (ve, we), max
+    and sum displacement)."""
+    kick(idx, vel, omega, force, torque, inv_m, inv_i, h, lmask, rmask)
+    mx, sm = drift(idx, pos, vel, dt)
+    kicked = idx  # the step's particles: retired ones still get the closing kick, as in the integrators
+    nleft, bad = wrap_and_check(idx, pos, vel, omega, geom, periodic, box, use_box, active, awake, left_ids)
+    if bad >= 0:
+        return bad, nleft, idx, kicked, vel, omega, mx, sm
+    if nleft:  # forces are computed without them (as after_drift)
+        idx = still_active(idx, active)
+    if predict:
+        predict_extrapolated(kicked, vel, omega, force, torque, fp, tp, inv_m, inv_i, h, extrapolate, lmask,
+                             rmask, vp, wp)
+        return bad, nleft, idx, kicked, vp, wp, mx, sm
+    return bad, nleft, idx, kicked, vel, omega, mx, sm
+
+
+@numba.njit(cache=True, error_model="numpy")
+def step_event(done, mx, sm, nc, nleft, e_tol, crit, ok, consecutive, stats, sleeping, n_wake, idx, vel, omega,
+               vel_prev, omega_prev, radius, v_sleep, n_sleep, sleep_count, awake, sleep_ids, step0, sleep_check):
+    """After a finished step: record *stats*, count steps below *e_tol*, and return (the event that ends the
+    compiled call — LEFT, WAKE, SLEEP, CONVERGED — or -1 to go on, updated ok)."""
+    stats[0] = mx
+    stats[1] = sm
+    stats[2] = nc
+    if e_tol >= 0.0:
+        ok = ok + 1 if (mx if crit == 0 else sm) < e_tol else 0
+        stats[4] = ok
+    if nleft:
+        stats[3] = nleft
+        return LEFT, ok
+    if sleeping:
+        if n_wake[0] > 0:
+            stats[3] = n_wake[0]
+            return WAKE, ok
+        ns = sleep_update(idx, vel, omega, vel_prev, omega_prev, radius, v_sleep, n_sleep, sleep_count, awake,
+                          sleep_ids, (step0 + done) % sleep_check == 0)
+        if ns:
+            stats[3] = ns
+            return SLEEP, ok
+    if e_tol >= 0.0 and ok >= consecutive:
+        return CONVERGED, ok
+    return -1, ok
+
+
+@numba.njit(cache=True, error_model="numpy")
 def verlet_steps(nmax, t, idx, pos, vel, omega, vel_prev, omega_prev, force, torque, fp, tp, vp, wp, inv_m, inv_i,
                  lmask, rmask, dt, predict, extrapolate, lo, hi, pa, pb, hist, rhist, touch, radius, mass, inertia,
                  props, awake, active, geom, periodic, wake_speed, wake, wake_ids, n_wake, pl_point, pl_normal,
@@ -57,21 +106,12 @@ def verlet_steps(nmax, t, idx, pos, vel, omega, vel_prev, omega_prev, force, tor
         if displacement_since(idx, pos, pos_build, geom, periodic) > half_skin:
             return done, REBUILD, t
         n_wake[0] = 0
-        kick(idx, vel, omega, force, torque, inv_m, inv_i, h, lmask, rmask)
-        mx, sm = drift(idx, pos, vel, dt)
-        kicked = idx  # the step's particles: retired ones still get the closing kick, as in the integrators
-        nleft, bad = wrap_and_check(idx, pos, vel, omega, geom, periodic, box, use_box, active, awake, left_ids)
+        bad, nleft, idx, kicked, ve, we, mx, sm = first_half(idx, pos, vel, omega, force, torque, fp, tp, vp, wp,
+                                                             inv_m, inv_i, lmask, rmask, h, dt, predict, extrapolate,
+                                                             geom, periodic, box, use_box, active, awake, left_ids)
         if bad >= 0:
             stats[3] = bad
             return done, BAD, t
-        if nleft:  # forces are computed without them (as after_drift)
-            idx = still_active(idx, active)
-        if predict:
-            predict_extrapolated(kicked, vel, omega, force, torque, fp, tp, inv_m, inv_i, h, extrapolate, lmask,
-                                 rmask, vp, wp)
-            ve, we = vp, wp
-        else:
-            ve, we = vel, omega
         zero_rows(idx, force, torque)
         nc = pair_forces_window(pa, pb, hist, rhist, touch, pos, ve, we, vel, omega, predict, radius, mass, inertia,
                                 props, awake, active, geom, periodic, dt, wake_speed, force, torque, wake, wake_ids,
@@ -86,26 +126,11 @@ def verlet_steps(nmax, t, idx, pos, vel, omega, vel_prev, omega_prev, force, tor
         kick(kicked, vel, omega, force, torque, inv_m, inv_i, h, lmask, rmask)
         t += dt
         done += 1
-        stats[0] = mx
-        stats[1] = sm
-        stats[2] = nc
-        if e_tol >= 0.0:
-            ok = ok + 1 if (mx if crit == 0 else sm) < e_tol else 0
-            stats[4] = ok
-        if nleft:
-            stats[3] = nleft
-            return done, LEFT, t
-        if sleeping:
-            if n_wake[0] > 0:
-                stats[3] = n_wake[0]
-                return done, WAKE, t
-            ns = sleep_update(idx, vel, omega, vel_prev, omega_prev, radius, v_sleep, n_sleep, sleep_count, awake,
-                              sleep_ids, (step0 + done) % sleep_check == 0)
-            if ns:
-                stats[3] = ns
-                return done, SLEEP, t
-        if e_tol >= 0.0 and ok >= consecutive:
-            return done, CONVERGED, t
+        reason, ok = step_event(done, mx, sm, nc, nleft, e_tol, crit, ok, consecutive, stats, sleeping, n_wake, idx,
+                                vel, omega, vel_prev, omega_prev, radius, v_sleep, n_sleep, sleep_count, awake,
+                                sleep_ids, step0, sleep_check)
+        if reason >= 0:
+            return done, reason, t
     return done, DONE, t
 
 

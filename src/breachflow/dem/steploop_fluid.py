@@ -28,11 +28,10 @@ import numba
 import numpy as np
 
 from ..fluid.compiled import apparent_mass, grid_added_masses, grid_fluid_forces_phi
-from .contacts import (displacement_since, heightfield_forces, pair_forces_window, plane_forces, sleep_update,
-                       wrap_and_check)
+from .contacts import displacement_since, heightfield_forces, pair_forces_window, plane_forces
 from .forces import _add_gravity, add_global_damping, zero_rows
-from .integrators import drift, kick, predict_extrapolated
-from .steploop import BAD, CONVERGED, DONE, LEFT, REBUILD, SLEEP, WAKE, still_active
+from .integrators import kick
+from .steploop import BAD, DONE, REBUILD, first_half, step_event
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -78,21 +77,12 @@ def fluid_verlet_steps(nmax, t, idx, pos, vel, omega, vel_prev, omega_prev, forc
         if displacement_since(idx, pos, pos_build, geom, periodic) > half_skin:
             return done, REBUILD, t
         n_wake[0] = 0
-        kick(idx, vel, omega, force, torque, inv_m, inv_i, h, lmask, rmask)
-        mx, sm = drift(idx, pos, vel, dt)
-        kicked = idx  # the step's particles: retired ones still get the closing kick, as in the integrators
-        nleft, bad = wrap_and_check(idx, pos, vel, omega, geom, periodic, box, use_box, active, awake, left_ids)
+        bad, nleft, idx, kicked, ve, we, mx, sm = first_half(idx, pos, vel, omega, force, torque, fp, tp, vp, wp,
+                                                             inv_m, inv_i, lmask, rmask, h, dt, predict, extrapolate,
+                                                             geom, periodic, box, use_box, active, awake, left_ids)
         if bad >= 0:
             stats[3] = bad
             return done, BAD, t
-        if nleft:  # forces are computed without them (as after_drift)
-            idx = still_active(idx, active)
-        if predict:
-            predict_extrapolated(kicked, vel, omega, force, torque, fp, tp, inv_m, inv_i, h, extrapolate, lmask,
-                                 rmask, vp, wp)
-            ve, we = vp, wp
-        else:
-            ve, we = vel, omega
         zero_rows(idx, force, torque)
         nc = pair_forces_window(pa, pb, hist, rhist, touch, pos, ve, we, vel, omega, predict, radius, mass, inertia,
                                 props, awake, active, geom, periodic, dt, wake_speed, force, torque, wake, wake_ids,
@@ -125,26 +115,11 @@ def fluid_verlet_steps(nmax, t, idx, pos, vel, omega, vel_prev, omega_prev, forc
             _inverse_masses(idx, mass, radius, phi, xi, rho_w, rho_am, inv_m)
         t += dt
         done += 1
-        stats[0] = mx
-        stats[1] = sm
-        stats[2] = nc
-        if e_tol >= 0.0:
-            ok = ok + 1 if (mx if crit == 0 else sm) < e_tol else 0
-            stats[4] = ok
-        if nleft:
-            stats[3] = nleft
-            return done, LEFT, t
-        if sleeping:
-            if n_wake[0] > 0:
-                stats[3] = n_wake[0]
-                return done, WAKE, t
-            ns = sleep_update(idx, vel, omega, vel_prev, omega_prev, radius, v_sleep, n_sleep, sleep_count, awake,
-                              sleep_ids, (step0 + done) % sleep_check == 0)
-            if ns:
-                stats[3] = ns
-                return done, SLEEP, t
-        if e_tol >= 0.0 and ok >= consecutive:
-            return done, CONVERGED, t
+        reason, ok = step_event(done, mx, sm, nc, nleft, e_tol, crit, ok, consecutive, stats, sleeping, n_wake, idx,
+                                vel, omega, vel_prev, omega_prev, radius, v_sleep, n_sleep, sleep_count, awake,
+                                sleep_ids, step0, sleep_check)
+        if reason >= 0:
+            return done, reason, t
     return done, DONE, t
 
 
