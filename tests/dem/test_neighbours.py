@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from breachflow.dem import DemSimulation, Material, ParticleState
-from breachflow.dem import contacts
+from breachflow.dem import contacts, neighbours
 
 
 def brute_pairs(pos, radius, reach_extra, periods=(None, None)):
@@ -139,3 +139,117 @@ def test_history_survives_neighbour_list_rebuilds_and_sleep():
     sim._rebuild()
     assert sim._hist.shape[0] == 1
     np.testing.assert_allclose(sim._hist[0], [0.0, 2e-4, 0.0])
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_sort_and_carry_equals_a_global_sort_and_key_lookup(seed):
+    """The CSR rebuild (counting sort by a, short rows by b, one merge walk for the histories) gives the
+    order of ``np.sort`` of the keys ``a << 32 | b`` and each pair's old history (zero when new), against a
+    dictionary lookup."""
+    rng = np.random.default_rng(seed)
+    npart = 300
+    def random_pairs(m):
+        a = rng.integers(0, npart - 1, m)
+        b = a + 1 + (rng.integers(0, 40, m) % (npart - 1 - a))
+        return np.unique((a << 32) | b)
+    old_keys = random_pairs(900)
+    new_keys = np.union1d(rng.choice(old_keys, old_keys.size // 2, replace=False), random_pairs(400))
+    cand = rng.permutation(new_keys)  # the search's order is arbitrary
+    old_h = rng.normal(size=(old_keys.size, 3))
+    old_r = rng.normal(size=(old_keys.size, 3))
+    n = cand.size
+    out = [np.empty(n + 5, np.int64), np.empty(n + 5, np.int64), np.empty((n + 5, 3)), np.empty((n + 5, 3))]
+    neighbours.sort_and_carry(n, cand >> 32, cand & 0xFFFFFFFF, old_keys >> 32, old_keys & 0xFFFFFFFF, old_h, old_r,
+                              npart, *out)
+    np.testing.assert_array_equal((out[0][:n] << 32) | out[1][:n], np.sort(cand))
+    old = {int(k): (h, r) for k, h, r in zip(old_keys, old_h, old_r)}
+    for k, key in enumerate(np.sort(cand)):
+        h, r = old.get(int(key), (np.zeros(3), np.zeros(3)))
+        np.testing.assert_array_equal(out[2][k], h)
+        np.testing.assert_array_equal(out[3][k], r)
+    assert 0 < np.isin(new_keys, old_keys).sum() < n  # carried and new pairs both present
+
+
+def test_relist_grows_its_buffers_and_alternates_them():
+    """From empty buffers the capacity grows to hold the list, later rebuilds reuse it (no new arrays), the
+    new list never lives in the buffer the old one is read from, and histories carry over."""
+    rng = np.random.default_rng(4)
+    n, L, skin = 400, 8.0, 0.1
+    pos = rng.uniform(0, L, (n, 3))
+    radius = np.full(n, 0.5)
+    geom = np.array([0, 0, 0, 1.1, 1.1, 1.1, 1.0, 1.0])
+    per, ncell, idx = np.zeros(2, np.int64), np.ones(2, np.int64), np.arange(n)
+    pb_ = np.zeros((n, 3))
+    bufs = neighbours.empty_buffers()
+    lst = (np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, 3)), np.zeros((0, 3)))
+    ids = []
+    for it in range(6):
+        *new, touch, bufs = neighbours.relist(idx, pos, radius, 0.5 * skin, geom, per, ncell, *lst, pb_, bufs)
+        keys = (new[0] << 32) | new[1]
+        assert set(zip(new[0].tolist(), new[1].tolist())) == brute_pairs(pos, radius, skin)
+        assert np.all(np.diff(keys) > 0) and not touch.any()
+        np.testing.assert_array_equal(pb_, pos)
+        for a in new:
+            assert not any(np.may_share_memory(a, b) for b in lst)
+        old = {int(k): h for k, h in zip((lst[0] << 32) | lst[1], lst[2])}
+        for k, h in zip(keys, new[2]):
+            np.testing.assert_array_equal(h, old.get(int(k), np.zeros(3)))
+        new[2][:] = rng.normal(size=new[2].shape)  # histories to carry over
+        lst = tuple(new)
+        ids.append(tuple(id(b) for b in bufs))
+        pos = pos + rng.normal(0, 0.03, pos.shape)
+    assert bufs[0].shape[0] >= lst[0].size and bufs[2].shape[0] >= lst[0].size
+    assert ids[2] == ids[4] and ids[3] == ids[5]  # capacity reused: the two sets alternate
+
+
+def sheared_pair(skin, tracer_speed, compiled, periodic):
+    """Two spheres meeting obliquely with spin (a long sticking / sliding contact that winds up the
+    tangential spring) in zero gravity, and a far tracer whose speed sets when the skin check fires."""
+    mat = Material(kn=1e6, ks=1e6, friction=0.4, c_cn=1e3, c_cs=5e2, rolling_friction=0.05)
+    kw = dict(periodic_x=(-150.0, 150.0)) if periodic else {}
+    x0 = 149.55 if periodic else 0.0  # the contact straddles the periodic seam
+    sim = DemSimulation(gravity=(0, 0, 0), sleeping=False, integrator="velocity_verlet", dt=2e-4, skin=skin, **kw)
+    sim.compiled = compiled
+    sim.add_particles([[x0, 0.0, 0.0], [x0 + 0.9, 0.3, -0.05], [x0 - 40.0, 20.0, 0.0]], 0.5, mat,
+                      vel=[[0.0, 0.0, 0.0], [-0.15, -1.0, 0.4], [tracer_speed, 0.0, 0.0]],
+                      omega=[[0.0, 0.0, 3.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]])
+    return sim
+
+
+@pytest.mark.parametrize("periodic", [False, True])
+@pytest.mark.parametrize("tracer_speed", [13.0, 17.0, 23.5, 31.0])
+def test_sheared_contact_keeps_its_spring_across_rebuilds(tracer_speed, periodic, monkeypatch):
+    """A contact whose list is rebuilt while it is loaded keeps its tangential and rolling springs
+    exactly: the same run with a skin so large that the list is never rebuilt gives bit-identical
+    springs and motion at every step. The tracer speed shifts the rebuilds to other phases of the
+    contact; both the step-by-step path and the compiled many-steps loop (which rebuilds inside the
+    compiled call) are checked."""
+    calls = []
+    real = DemSimulation._rebuild
+    monkeypatch.setattr(DemSimulation, "_rebuild", lambda self: calls.append(id(self)) or real(self))
+    ref = sheared_pair(60.0, tracer_speed, False, periodic)
+    sims = [sheared_pair(None, tracer_speed, False, periodic), sheared_pair(None, tracer_speed, True, periodic)]
+    rebuilds_loaded = 0
+    spring = 0.0
+    for step in range(400):
+        build = sims[0]._pos_build.copy()
+        ref.step(1)
+        sims[0].step(1)
+        touching = ref._pa.size and np.any(ref._hist != 0.0)
+        k = np.flatnonzero((ref._pa == 0) & (ref._pb == 1))
+        kk = np.flatnonzero((sims[0]._pa == 0) & (sims[0]._pb == 1))
+        if touching and not np.array_equal(build, sims[0]._pos_build):
+            rebuilds_loaded += 1
+        if k.size:
+            spring = max(spring, float(np.linalg.norm(ref._hist[k])))
+            np.testing.assert_array_equal(sims[0]._hist[kk], ref._hist[k])
+            np.testing.assert_array_equal(sims[0]._rhist[kk], ref._rhist[k])
+        np.testing.assert_array_equal(sims[0].state.pos, ref.state.pos)
+        np.testing.assert_array_equal(sims[0].state.omega, ref.state.omega)
+    assert rebuilds_loaded >= 3  # rebuilds happened while the spring was wound up
+    assert spring > 1e-4  # m: a wound-up tangential spring (overlaps are ~1e-3 m)
+    assert calls.count(id(ref)) == 1 and calls.count(id(sims[0])) >= 15  # ref: built once, never rebuilt
+    sims[1].step(400)  # one compiled call: its rebuilds run inside it
+    assert calls.count(id(sims[1])) == 1
+    for name in ("pos", "vel", "omega"):
+        np.testing.assert_array_equal(getattr(sims[1].state, name), getattr(ref.state, name), err_msg=name)

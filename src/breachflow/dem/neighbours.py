@@ -146,7 +146,10 @@ def _scan(i, lo, hi, pos, radius, margin, geom, periodic, ncell, start, ent_p, e
 @numba.njit(cache=True, error_model="numpy")
 def _find_pairs_dense(search_idx, pos, radius, margin, geom, periodic, ncell, out_a, out_b):
     """:func:`_find_pairs_half` on a dense cell array over the particles' bounding box (counting sort, as
-    LAMMPS' bins); returns -1 when that box holds more than 27 cells per particle (sparse: use the hash)."""
+    LAMMPS' bins), scanned cell by cell on a binned copy of the positions and reaches (contiguous in cell
+    order: each cell's 13 forward neighbours are found once per cell, the candidates read from consecutive
+    memory); own-cell pairs are met once by bin position. Returns the pair count, or -1 when that box holds
+    more than 27 cells per particle (sparse: use the hash). The pair order is the scan's (callers sort)."""
     n = search_idx.shape[0]
     cell = np.empty((n, 3), np.int64)
     lo = np.zeros(3, np.int64)
@@ -161,7 +164,7 @@ def _find_pairs_dense(search_idx, pos, radius, margin, geom, periodic, ncell, ou
             if k == 0 or c < lo[d]:
                 lo[d] = c
             if k == 0 or c > dim[d]:
-                dim[d] = c  # the largest cell for now
+                dim[d] = c
     for d in range(3):
         dim[d] = dim[d] - lo[d] + 1
     for d in range(2):
@@ -180,36 +183,68 @@ def _find_pairs_dense(search_idx, pos, radius, margin, geom, periodic, ncell, ou
     for c in range(total):
         start[c + 1] += start[c]
     fill = start[:total].copy()
-    order = np.empty(n, np.int64)
+    bid = np.empty(n, np.int64)
+    bp = np.empty((n, 4))
     for k in range(n):
-        order[fill[home[k]]] = search_idx[k]
-        fill[home[k]] += 1
-    n_out = 0
-    for k in range(n):
+        e = fill[home[k]]
         i = search_idx[k]
-        for oz in range(0, 2):
-            z = cell[k, 2] - lo[2] + oz
-            if z >= dim[2]:
-                continue
-            for oy in range(-1 if oz else 0, 2):
-                y = cell[k, 1] - lo[1] + oy
-                if periodic[1]:
-                    y = _wrap_cell(y, dim[1], 1)
-                elif y < 0 or y >= dim[1]:
+        bid[e] = i
+        bp[e, 0] = pos[i, 0]
+        bp[e, 1] = pos[i, 1]
+        bp[e, 2] = pos[i, 2]
+        bp[e, 3] = radius[i] + margin
+        fill[home[k]] = e + 1
+    Lx = geom[6]
+    Ly = geom[7]
+    px = periodic[0]
+    py = periodic[1]
+    cap = out_a.shape[0]
+    n_out = 0
+    for z in range(dim[2]):
+        for y in range(dim[1]):
+            for x in range(dim[0]):
+                c = (z * dim[1] + y) * dim[0] + x
+                s0 = start[c]
+                e0 = start[c + 1]
+                if s0 == e0:
                     continue
-                for ox in range(-1 if (oz or oy) else 0, 2):
-                    x = cell[k, 0] - lo[0] + ox
-                    if periodic[0]:
-                        x = _wrap_cell(x, dim[0], 1)
-                    elif x < 0 or x >= dim[0]:
+                for oz in range(0, 2):
+                    z2 = z + oz
+                    if z2 >= dim[2]:
                         continue
-                    own = ox == 0 and oy == 0 and oz == 0
-                    c = (z * dim[1] + y) * dim[0] + x
-                    for e in range(start[c], start[c + 1]):
-                        j = order[e]
-                        if own and j <= i:
+                    for oy in range(-1 if oz else 0, 2):
+                        y2 = y + oy
+                        if py:
+                            y2 = _wrap_cell(y2, dim[1], 1)
+                        elif y2 < 0 or y2 >= dim[1]:
                             continue
-                        n_out = _append_if_near(i, j, pos, radius, margin, geom, periodic, out_a, out_b, n_out)
+                        for ox in range(-1 if (oz or oy) else 0, 2):
+                            x2 = x + ox
+                            if px:
+                                x2 = _wrap_cell(x2, dim[0], 1)
+                            elif x2 < 0 or x2 >= dim[0]:
+                                continue
+                            own = ox == 0 and oy == 0 and oz == 0
+                            c2 = (z2 * dim[1] + y2) * dim[0] + x2
+                            s2 = start[c2]
+                            e2 = start[c2 + 1]
+                            for e in range(s0, e0):
+                                xi = bp[e, 0]
+                                yi = bp[e, 1]
+                                zi = bp[e, 2]
+                                ri = bp[e, 3]
+                                for f in range(e + 1 if own else s2, e2):
+                                    dx = min_image(bp[f, 0] - xi, Lx, px)
+                                    dy = min_image(bp[f, 1] - yi, Ly, py)
+                                    dz = bp[f, 2] - zi
+                                    reach = ri + bp[f, 3]
+                                    if dx * dx + dy * dy + dz * dz < reach * reach:
+                                        if n_out < cap:
+                                            a = bid[e]
+                                            b = bid[f]
+                                            out_a[n_out] = min(a, b)
+                                            out_b[n_out] = max(a, b)
+                                        n_out += 1
     return n_out
 
 
@@ -293,3 +328,104 @@ def displacement_since(idx, pos, pos_ref, geom, periodic):
         if d2 > m:
             m = d2
     return math.sqrt(m)
+
+
+@numba.njit(cache=True, error_model="numpy")
+def search_awake(idx, pos, radius, margin, geom, periodic, ncell, out_a, out_b):
+    """:func:`find_pairs` for one cell per particle and no sleeping grid (the half stencil): on the dense cell
+    array when compact, else on the hashed grid, which is then the only one built (same table size as the
+    driver's ``DemSimulation._grid``)."""
+    n = _find_pairs_dense(idx, pos, radius, margin, geom, periodic, ncell, out_a, out_b)
+    if n >= 0:
+        return n
+    est = max(1024, 16 * idx.shape[0])
+    bits = 0
+    while (1 << bits) < est:
+        bits += 1
+    start, ent_p, ent_c = build_grid(idx, pos, radius, margin, geom, periodic, ncell, bits, True)
+    return _find_pairs_half(idx, pos, radius, margin, geom, periodic, ncell, start, ent_p, ent_c, (1 << bits) - 1,
+                            out_a, out_b)
+
+
+@numba.njit(cache=True, error_model="numpy")
+def sort_and_carry(n, cand_a, cand_b, pa, pb, hist, rhist, npart, new_a, new_b, new_h, new_r):
+    """Order the *n* found pairs ``(cand_a < cand_b)`` by key ``(a, b)`` into *new_a*, *new_b* — a counting
+    sort by ``a`` (CSR rows), then an insertion sort of each short row by ``b`` — and carry the shear /
+    rolling histories over from the old list (*pa*, *pb*, *hist*, *rhist*, sorted by the same key) in one
+    merge walk: O(n + old + npart), no global sort. Pairs new to the list start with zero histories."""
+    row = np.zeros(npart + 1, np.int64)
+    for k in range(n):
+        row[cand_a[k] + 1] += 1
+    for i in range(npart):
+        row[i + 1] += row[i]
+    for k in range(n):  # row[a] ends as the end of row a (the start of row a + 1)
+        a = cand_a[k]
+        s = row[a]
+        new_a[s] = a
+        new_b[s] = cand_b[k]
+        row[a] = s + 1
+    begin = 0
+    for i in range(npart):
+        end = row[i]
+        for s in range(begin + 1, end):
+            b = new_b[s]
+            r = s - 1
+            while r >= begin and new_b[r] > b:
+                new_b[r + 1] = new_b[r]
+                r -= 1
+            new_b[r + 1] = b
+        begin = end
+    o = 0
+    nold = pa.shape[0]
+    for k in range(n):
+        a = new_a[k]
+        b = new_b[k]
+        while o < nold and (pa[o] < a or (pa[o] == a and pb[o] < b)):
+            o += 1
+        if o < nold and pa[o] == a and pb[o] == b:
+            for d in range(3):
+                new_h[k, d] = hist[o, d]
+                new_r[k, d] = rhist[o, d]
+        else:
+            for d in range(3):
+                new_h[k, d] = 0.0
+                new_r[k, d] = 0.0
+
+
+def empty_buffers():
+    """Zero-capacity pair buffers for :func:`relist`: (candidates a, b; spare list a, b, shear, rolling,
+    touch; other list a, b, shear, rolling, touch)."""
+    i, f, t = np.zeros(0, np.int64), np.zeros((0, 3)), np.zeros(0, np.bool_)
+    return (i, i.copy(), i.copy(), i.copy(), f, f.copy(), t, i.copy(), i.copy(), f.copy(), f.copy(), t.copy())
+
+
+@numba.njit(cache=True, error_model="numpy")
+def relist(idx, pos, radius, half_skin, geom, periodic, ncell, pa, pb, hist, rhist, pos_build, bufs):
+    """Rebuild the awake particles' pair list (one cell per particle, no sleeping grid) into the spare set
+    of *bufs* (:func:`empty_buffers`; capacities grow geometrically, never shrink), carrying the histories
+    over from the current list *pa*, *pb*, *hist*, *rhist* (:func:`sort_and_carry`), and record the build
+    positions. The order equals sorting the keys ``a << 32 | b``. Returns the new list (views into the spare
+    set: pa, pb, hist, rhist, touch) and the buffers with spare and other swapped (the current list must not
+    live in the spare set)."""
+    cand_a, cand_b, xa, xb, xh, xr, xt, ya, yb, yh, yr, yt = bufs
+    while True:
+        n = search_awake(idx, pos, radius, half_skin, geom, periodic, ncell, cand_a, cand_b)
+        if n <= cand_a.shape[0]:
+            break
+        cap = max(2 * cand_a.shape[0], n + n // 4 + 64)
+        cand_a = np.empty(cap, np.int64)
+        cand_b = np.empty(cap, np.int64)
+    if n > xa.shape[0]:
+        cap = max(2 * xa.shape[0], n + n // 4 + 64)
+        xa = np.empty(cap, np.int64)
+        xb = np.empty(cap, np.int64)
+        xh = np.empty((cap, 3))
+        xr = np.empty((cap, 3))
+        xt = np.empty(cap, np.bool_)
+    sort_and_carry(n, cand_a, cand_b, pa, pb, hist, rhist, pos.shape[0], xa, xb, xh, xr)
+    xt[:n] = False
+    for k in range(idx.shape[0]):
+        i = idx[k]
+        for d in range(3):
+            pos_build[i, d] = pos[i, d]
+    return xa[:n], xb[:n], xh[:n], xr[:n], xt[:n], (cand_a, cand_b, ya, yb, yh, yr, yt, xa, xb, xh, xr, xt)

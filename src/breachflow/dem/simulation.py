@@ -36,7 +36,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from ..errors import InputError, PhysicsError
-from . import contacts, memory, steploop
+from . import contacts, memory, neighbours, steploop
 from .boundaries import Boundary, Plane
 from .contact_laws import resolve as resolve_contact_law
 from .forces import G, ForceModel, Gravity, add_global_damping, zero_rows
@@ -362,7 +362,30 @@ class DemSimulation:
             self._sleep_grid_dirty = True
 
     # ------------------------------------------------------------------ neighbour list
+    def relist_inline(self) -> bool:
+        """Whether the pair list can be rebuilt by :func:`.neighbours.relist` (also inside the compiled
+        many-steps loops): one cell per particle, no sleeping particle and no parked history, so the list
+        is the awake particles' half-stencil search alone."""
+        s = self.state
+        return bool(self.single_bin and self._frozen_keys.size == 0 and not (s.active & ~s.awake).any())
+
+    def _relist(self):
+        """The common-case rebuild (:meth:`relist_inline`): the same compiled :func:`.neighbours.relist` as
+        the many-steps loops, so the pair order is the same on both paths."""
+        s = self.state
+        if self._sleep_grid_dirty:
+            self._sgrid = self._grid(_EMPTY_I)
+        self._agrid = None
+        bufs = getattr(self, "_pbufs", None) or neighbours.empty_buffers()
+        self._pa, self._pb, self._hist, self._rhist, self._touch, self._pbufs = neighbours.relist(
+            self.idx, s.pos, s.radius, 0.5 * self.skin, self.geom, self.periodic, self.ncell, self._pa, self._pb,
+            self._hist, self._rhist, self._pos_build, bufs)
+        self._dirty = False
+        self._sleep_grid_dirty = False
+
     def _rebuild(self):
+        if self.relist_inline():
+            return self._relist()
         s = self.state
         events = self._sleep_grid_dirty
         if events:
@@ -810,6 +833,10 @@ class DemSimulation:
             if g is not None:
                 total += sum(a.nbytes for a in g[:3])
         total += sum(b.hist.nbytes + b.rhist.nbytes for b in self.boundaries)
+        bufs = getattr(self, "_pbufs", ())  # the list's capacity: the live list may be a view into it
+        total += sum(a.nbytes for a in bufs)
+        total -= sum(getattr(self, name).nbytes for name in ("_pa", "_pb", "_hist", "_rhist", "_touch")
+                     if any(np.may_share_memory(getattr(self, name), a) for a in bufs))
         return total
 
 

@@ -4,10 +4,13 @@
 ``predicted_verlet``, :mod:`.integrators`) for a scene of spheres, fixed planes, gravity and global damping
 (no force models) in one numba loop: the same kernels in the same order as the step-by-step path of
 ``DemSimulation._one_step``, so the results are bit-identical
-(tests/dem/test_steploop.py), without a Python round trip per step. It stops, handing back to Python,
-before a step that needs a neighbour-list rebuild (some awake particle moved more than ``skin/2`` since
-the last build, as LAMMPS' ``neigh_modify check yes``), and after a step with an event the driver handles
-in Python: a particle left the domain, a sleeping particle was touched by a moving one, particles fell
+(tests/dem/test_steploop.py), without a Python round trip per step. Before a step that needs a
+neighbour-list rebuild (some awake particle moved more than ``skin/2`` since the last build, as LAMMPS'
+``neigh_modify check yes``) it returns REBUILD; :func:`verlet_steps_relisting` then rebuilds inside the
+compiled call (:func:`.neighbours.relist`, the same function as the driver's rebuild, so the pair order is
+the same on both paths) when the list is the awake particles' alone (no sleepers, no parked histories,
+one cell per particle: ``DemSimulation.relist_inline``); otherwise the driver rebuilds in Python. It stops
+after a step with an event the driver handles in Python: a particle left the domain, a sleeping particle was touched by a moving one, particles fell
 asleep, the equilibrium criterion was met, or a non-finite position (the driver raises).
 """
 from __future__ import annotations
@@ -18,6 +21,7 @@ import numpy as np
 from .contacts import displacement_since, pair_forces_window, plane_forces, sleep_update, wrap_and_check
 from .forces import _add_gravity, add_global_damping, zero_rows
 from .integrators import drift, kick, predict_extrapolated
+from .neighbours import relist
 
 #: why :func:`verlet_steps` returned
 DONE, REBUILD, LEFT, BAD, WAKE, SLEEP, CONVERGED = range(7)
@@ -134,6 +138,35 @@ def verlet_steps(nmax, t, idx, pos, vel, omega, vel_prev, omega_prev, force, tor
     return done, DONE, t
 
 
+@numba.njit(cache=True, error_model="numpy")
+def verlet_steps_relisting(nmax, t, idx, pos, vel, omega, vel_prev, omega_prev, force, torque, fp, tp, vp, wp, inv_m,
+                           inv_i, lmask, rmask, dt, predict, extrapolate, lo, hi, pa, pb, hist, rhist, touch, radius,
+                           mass, inertia, props, awake, active, geom, periodic, wake_speed, wake, wake_ids, n_wake,
+                           pl_point, pl_normal, pl_vel, pl_props, pl_hist, pl_rhist, pl_reaction, g, c_gn, c_gw, box,
+                           use_box, left_ids, pos_build, half_skin, sleeping, v_sleep, n_sleep, sleep_count,
+                           sleep_ids, sleep_check, step0, e_tol, crit, consecutive, ok, stats, law, ncell, bufs):
+    """:func:`verlet_steps` that rebuilds the pair list in place of returning REBUILD
+    (:func:`.neighbours.relist`, the driver's ``DemSimulation._relist``; only when
+    ``DemSimulation.relist_inline``); returns (steps done, reason, time, the list pa, pb, hist, rhist,
+    touch, the pair buffers)."""
+    done = 0
+    while True:
+        k, why, t = verlet_steps(nmax - done, t, idx, pos, vel, omega, vel_prev, omega_prev, force, torque, fp, tp, vp,
+                                 wp, inv_m, inv_i, lmask, rmask, dt, predict, extrapolate, lo, hi, pa, pb, hist, rhist,
+                                 touch, radius, mass, inertia, props, awake, active, geom, periodic, wake_speed, wake,
+                                 wake_ids, n_wake, pl_point, pl_normal, pl_vel, pl_props, pl_hist, pl_rhist,
+                                 pl_reaction, g, c_gn, c_gw, box, use_box, left_ids, pos_build, half_skin, sleeping,
+                                 v_sleep, n_sleep, sleep_count, sleep_ids, sleep_check, step0 + done, e_tol, crit,
+                                 consecutive, ok, stats, law)
+        done += k
+        if e_tol >= 0.0 and k:
+            ok = int(stats[4])
+        if why != REBUILD:
+            return done, why, t, pa, pb, hist, rhist, touch, bufs
+        pa, pb, hist, rhist, touch, bufs = relist(idx, pos, radius, half_skin, geom, periodic, ncell, pa, pb, hist,
+                                                  rhist, pos_build, bufs)
+
+
 def eligible(sim) -> bool:
     """Whether :func:`run` can advance *sim*: a fixed-step Verlet integrator, fixed planes only, no force
     models, awake particles and known forces (otherwise the driver steps in Python)."""
@@ -175,7 +208,8 @@ def run(sim, nmax: int, e_tol: float = -1.0, crit: int = 0, consecutive: int = 1
     sim._n_wake = np.zeros(1, np.int64)
     stats = np.zeros(5)
     n0 = sim.idx.size
-    done, why, t = verlet_steps(
+    inline = sim.relist_inline()
+    done, why, t, *pairs = (verlet_steps_relisting if inline else verlet_steps)(
         int(nmax), sim.t, sim.idx, s.pos, s.vel, s.omega, s.vel_prev, s.omega_prev, sim.force, sim.torque, w["fp"],
         w["tp"], w["v"], w["w"], sim._inv_m, sim._inv_i, sim.lmask, sim.rmask, dt, bool(integ.predict_velocity),
         float(integ.extrapolate), integ.force_window[0] * dt, integ.force_window[1] * dt, sim._pa, sim._pb,
@@ -184,8 +218,23 @@ def run(sim, nmax: int, e_tol: float = -1.0, crit: int = 0, consecutive: int = 1
         pl_hist, pl_rhist, reaction, sim.gravity.g, s.c_gn, s.c_gw, sim._box, sim._use_box, sim._tmp_ids,
         sim._pos_build, 0.5 * sim.skin, sim.sleeping, sim.sleep_velocity, sim.sleep_steps, sim._sleep_count,
         sim._tmp_ids, sim.sleep_check, sim.steps, float(e_tol), int(crit), int(consecutive), int(ok), stats,
-        sim._law)
+        sim._law, *(relist_args(sim) if inline else ()))
+    store_list(sim, pairs)
     return finish(sim, planes, pl_hist, pl_rhist, reaction, done, why, t, stats, n0, e_tol, ok)
+
+
+def relist_args(sim):
+    """The extra arguments of the relisting loops: cells per period and the pair buffers."""
+    from .neighbours import empty_buffers
+
+    bufs = getattr(sim, "_pbufs", None) or empty_buffers()
+    return sim.ncell, bufs
+
+
+def store_list(sim, pairs):
+    """Keep the pair list and buffers a relisting loop returned (nothing for the plain loops)."""
+    if pairs:
+        sim._pa, sim._pb, sim._hist, sim._rhist, sim._touch, sim._pbufs = pairs
 
 
 def finish(sim, planes, pl_hist, pl_rhist, reaction, done, why, t, stats, n0, e_tol, ok):

@@ -31,6 +31,7 @@ from ..fluid.compiled import apparent_mass, grid_added_masses, grid_fluid_forces
 from .contacts import displacement_since, heightfield_forces, pair_forces_window, plane_forces
 from .forces import _add_gravity, add_global_damping, zero_rows
 from .integrators import kick
+from .neighbours import relist
 from .steploop import BAD, DONE, REBUILD, first_half, step_event
 
 
@@ -123,6 +124,33 @@ def fluid_verlet_steps(nmax, t, idx, pos, vel, omega, vel_prev, omega_prev, forc
     return done, DONE, t
 
 
+@numba.njit(cache=True, error_model="numpy")
+def fluid_verlet_steps_relisting(nmax, t, idx, pos, vel, omega, vel_prev, omega_prev, force, torque, fp, tp, vp, wp,
+                                 inv_m, inv_i, lmask, rmask, dt, predict, extrapolate, lo, hi, pa, pb, hist, rhist,
+                                 touch, radius, mass, inertia, props, awake, active, geom, periodic, wake_speed, wake,
+                                 wake_ids, n_wake, planes, hf_at, hf, fluid_on, field, fluid, fm, tm, g, c_gn, c_gw,
+                                 box, use_box, left_ids, pos_build, half_skin, sleeping, v_sleep, n_sleep, sleep_count,
+                                 sleep_ids, sleep_check, step0, e_tol, crit, consecutive, ok, stats, law, ncell, bufs):
+    """:func:`fluid_verlet_steps` that rebuilds the pair list in place of returning REBUILD, as
+    :func:`.steploop.verlet_steps_relisting` (same extra arguments and results)."""
+    done = 0
+    while True:
+        k, why, t = fluid_verlet_steps(nmax - done, t, idx, pos, vel, omega, vel_prev, omega_prev, force, torque, fp,
+                                       tp, vp, wp, inv_m, inv_i, lmask, rmask, dt, predict, extrapolate, lo, hi, pa, pb,
+                                       hist, rhist, touch, radius, mass, inertia, props, awake, active, geom, periodic,
+                                       wake_speed, wake, wake_ids, n_wake, planes, hf_at, hf, fluid_on, field, fluid,
+                                       fm, tm, g, c_gn, c_gw, box, use_box, left_ids, pos_build, half_skin, sleeping,
+                                       v_sleep, n_sleep, sleep_count, sleep_ids, sleep_check, step0 + done, e_tol,
+                                       crit, consecutive, ok, stats, law)
+        done += k
+        if e_tol >= 0.0 and k:
+            ok = int(stats[4])
+        if why != REBUILD:
+            return done, why, t, pa, pb, hist, rhist, touch, bufs
+        pa, pb, hist, rhist, touch, bufs = relist(idx, pos, radius, half_skin, geom, periodic, ncell, pa, pb, hist,
+                                                  rhist, pos_build, bufs)
+
+
 def _fluid_model(sim):
     """The simulation's one fused ``FluidForces`` model, None without models, False if not eligible."""
     from ..fluid.forces import FluidForces
@@ -201,7 +229,8 @@ def run(sim, nmax: int, e_tol: float = -1.0, crit: int = 0, consecutive: int = 1
     sim._n_wake = np.zeros(1, np.int64)
     stats = np.zeros(5)
     n0 = sim.idx.size
-    done, why, t = fluid_verlet_steps(
+    inline = sim.relist_inline()
+    done, why, t, *pairs = (fluid_verlet_steps_relisting if inline else fluid_verlet_steps)(
         int(nmax), sim.t, sim.idx, s.pos, s.vel, s.omega, s.vel_prev, s.omega_prev, sim.force, sim.torque, w["fp"],
         w["tp"], w["v"], w["w"], inv_m, sim._inv_i, sim.lmask, sim.rmask, dt, bool(integ.predict_velocity),
         float(integ.extrapolate), integ.force_window[0] * dt, integ.force_window[1] * dt, sim._pa, sim._pb,
@@ -210,7 +239,9 @@ def run(sim, nmax: int, e_tol: float = -1.0, crit: int = 0, consecutive: int = 1
         (pl[0], pl[1], pl[2], pl[3], pl_hist, pl_rhist, reaction), hf_at, hf, model is not None, field, fluid,
         sim._fm, sim._tm, sim.gravity.g, s.c_gn, s.c_gw, sim._box, sim._use_box, sim._tmp_ids, sim._pos_build,
         0.5 * sim.skin, sim.sleeping, sim.sleep_velocity, sim.sleep_steps, sim._sleep_count, sim._tmp_ids,
-        sim.sleep_check, sim.steps, float(e_tol), int(crit), int(consecutive), int(ok), stats, sim._law)
+        sim.sleep_check, sim.steps, float(e_tol), int(crit), int(consecutive), int(ok), stats, sim._law,
+        *(steploop.relist_args(sim) if inline else ()))
+    steploop.store_list(sim, pairs)
     if model is not None:
         model.evaluations += done
     return steploop.finish(sim, planes, pl_hist, pl_rhist, reaction, done, why, t, stats, n0, e_tol, ok)
