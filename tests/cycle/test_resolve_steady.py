@@ -62,4 +62,6 @@ def test_warm_resolve_of_the_default_scene_matches_a_long_resolve_and_a_cold_sol
     assert abs(q_long / q_cold - 1.0) < 1e-3
     # the breach discharge is part of the steady-state criterion and recorded
     assert np.isfinite(sim.history.section_discharge).all()
-    assert abs(sim.history.section_discharge[-1] - q) < 1e-9 * abs(q)
+    # (the solver monitors the levee-line row, SWESimulation.section_discharge; the closure reports the
+    # median over the opening's rows, which a row through the pile exceeds — here by 10 %: issue 16)
+    assert abs(sim.history.section_discharge[-1] - sim.section_discharge(warm.section)) < 1e-9 * abs(q)

@@ -422,9 +422,9 @@ def closure_setup(scenario, *, overrides: dict | None = None):
     attrs = {}
     metadata = {}
     if hasattr(site, "build"):  # a terrain site (breachflow.site)
-        # the embedded and nested solvers run on a grid along the levee (any direction); a frozen ingested
-        # field (or a plug-in's) is served on the CRS axes
-        built = site.build(hydro.resolution, align=hydro.solver in ("swe", "nested"))
+        # the embedded, nested and frozen-snapshot solvers run on a grid along the levee (any direction;
+        # a frozen field is served on it); a plug-in's field stays on the CRS axes
+        built = site.build(hydro.resolution, align=hydro.solver in ("swe", "nested", "snapshot", "snapshot_frozen"))
         dom = built.domain
         (xc, yc), half = built.centre, 0.5 * built.breach.length
         flood_level, bottom = built.flood_level, built.breach.bottom
@@ -497,8 +497,9 @@ def closure_setup(scenario, *, overrides: dict | None = None):
 
         with warnings.catch_warnings():  # the deprecation was reported where the scenario was parsed
             warnings.simplefilter("ignore", DeprecationWarning)
-            solver = (get_solver(hydro.solver, snapshots=hydro.snapshots) if hydro.solver in ("snapshot", "snapshot_frozen")
-                      else get_solver(hydro.solver))
+            turned = built.frame if built is not None and built.frame.rotated else None
+            solver = (get_solver(hydro.solver, snapshots=hydro.snapshots, domain=dom, frame=turned)
+                      if hydro.solver in ("snapshot", "snapshot_frozen") else get_solver(hydro.solver))
     if getattr(solver, "responds_to_pile", True) is False:
         from ..errors import BreachflowWarning
         from ..hydro.solvers import FROZEN_NOTE

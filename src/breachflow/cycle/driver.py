@@ -414,7 +414,10 @@ class ClosureRun:
         # 4. remap and re-solve
         dom = s.domain
         top = self._pile.update(st.pos, st.radius, resting)
-        obstacle, bed = remap_top(top, dom.bed, snapshot["water_surface"].values, s.remap_mode)
+        # emergent (blocked) where the top reaches the flood-side level, the highest level a steady flow fed
+        # from there can back up to: not the previous surface, which the pile itself raised (and which is
+        # the old top in the cells it blocked), so a blocked cell stayed blocked only by chance (issue 16)
+        obstacle, bed = remap_top(top, dom.bed, np.full(dom.shape, float(s.flood_level)), s.remap_mode)
         pile = None
         if s.remap_mode == "porous":
             pile = porous_pile(dom.x, dom.y, dom.bed, st.pos, st.radius, resting, law=s.porous_law)

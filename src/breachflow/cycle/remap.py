@@ -6,7 +6,9 @@ Two modes, chosen by name:
   sphere becomes an impervious obstacle cell.
 * ``"raised_bed"``: the pile raises the bed to the top of the spheres above each cell centre,
   ``z_top = z_c + sqrt(r² − d²)`` (d the plan distance); where that top reaches the water surface
-  the cell is blocked (an emergent pile), otherwise water flows over the raised bed.
+  the cell is blocked (an emergent pile), otherwise water flows over the raised bed. The closure
+  cycle passes the flood level as that surface (the highest a steady flow fed from the flood side
+  backs up to; the previous surface, raised by the pile itself, let blocked cells open again: issue 16).
 * ``"porous"``: the pile stays in the water column: per cell its height above the bed (the highest
   sphere top over k × k sub-points of the cell), its porosity ``n = 1 - V_solid / V_pile`` from the DEM
   packing (``V_solid`` the sphere volume inside the cell's column, by the mean chord length over the

@@ -192,6 +192,28 @@ def nested_domain(regional: xr.Dataset, window, resolution: float, manning=0.025
     return dom, (h, h * u, h * v)
 
 
+def frame_snapshot(snapshot: xr.Dataset, domain: Domain, frame) -> xr.Dataset:
+    """*snapshot* (an ingested field on the CRS axes: grid or mesh) on the cells of *domain*, a grid in the
+    turned *frame*'s coordinates (:class:`~breachflow.site.frame.GridFrame`): sampled at the cells' map
+    positions as :func:`nested_domain` builds its local model (bed, depth, velocity turned into the grid;
+    cells outside the field or in its no-flow cells are obstacles), georeferenced (``map_x``, ``u_east``, ...)."""
+    from .snapshot import grid_snapshot
+
+    x, y = np.asarray(domain.x, float), np.asarray(domain.y, float)
+    dx, dy = domain.dx, domain.dy
+    window = (x[0] - 0.5 * dx, x[-1] + 0.5 * dx, y[0] - 0.5 * dy, y[-1] + 0.5 * dy)
+    local, (h, hu, hv) = nested_domain(snapshot, window, dx, frame=frame)
+    if local.shape != domain.shape or not (np.allclose(local.x, x) and np.allclose(local.y, y)):
+        raise InputError(f"snapshot on a turned grid: cells {local.shape} do not match the domain {domain.shape}")
+    wet = h > DRY_DEPTH
+    u = np.where(wet, hu / np.where(wet, h, 1.0), 0.0)
+    v = np.where(wet, hv / np.where(wet, h, 1.0), 0.0)
+    crs = snapshot["crs"].attrs.get("crs_wkt") if "crs" in snapshot else getattr(domain, "crs_wkt", None)
+    ds = grid_snapshot(x, y, local.bed, h, u, v, obstacle=local.obstacle, crs_wkt=crs,
+                       source=f"{snapshot.attrs.get('source', 'ingested snapshot')} on the breach-aligned grid")
+    return frame.georeference(ds)
+
+
 def edge_conditions(bed, h, u, v, inside, dom: Domain, relaxation=None, leaving_level: bool = False) -> dict:
     """Boundary conditions per side of *dom* from a surrounding field on its edge cells (bed, depth, velocity
     ``(ny, nx)`` arrays; *inside* False = wall): where water enters the absorbing level (supercritical: level

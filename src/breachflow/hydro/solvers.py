@@ -65,12 +65,17 @@ class SnapshotSolver:
     *snapshots*: a Dataset, a NetCDF path, or a sequence of them; a Dataset with a ``time`` dimension
     is a sequence of its time steps. After the last one the last is repeated (with a warning).
     The domain, obstacles and initial state are ignored: the external model already contains them.
+
+    *frame* (:class:`~breachflow.site.frame.GridFrame`, turned) and *domain*: a site whose levee runs in
+    any direction has its grid along the levee; each snapshot (on the CRS axes) is then served on that
+    grid, sampled at the cells' map positions with velocities turned into the grid
+    (:func:`~breachflow.hydro.nested.frame_snapshot`); otherwise it is served as ingested.
     """
 
     responds_to_pile = False
     mode = "snapshot_frozen"
 
-    def __init__(self, snapshots=None, *, repeat_last: bool = True):
+    def __init__(self, snapshots=None, *, repeat_last: bool = True, domain=None, frame=None):
         if snapshots is None:
             raise InputError("snapshot solver: give snapshots= (a Dataset, a NetCDF path or a list of them)")
         items = list(snapshots) if isinstance(snapshots, (list, tuple)) else [snapshots]
@@ -85,6 +90,13 @@ class SnapshotSolver:
                 seq.append(ds.isel(time=0) if "time" in ds.dims else ds)
         if not seq:
             raise InputError("snapshot solver: empty sequence of snapshots")
+        self.frame = frame if frame is not None and frame.rotated else None
+        if self.frame is not None:
+            if domain is None:
+                raise InputError("snapshot solver: a turned grid frame needs the domain to serve the snapshots on")
+            from .nested import frame_snapshot
+
+            seq = [frame_snapshot(ds, domain, self.frame) for ds in seq]
         for ds in seq:  # marked in place: the served Dataset is the ingested one itself
             ds.attrs.update(hydro_mode=self.mode, flow_responds_to_pile=0, hydro_note=FROZEN_NOTE)
         self.sequence = seq

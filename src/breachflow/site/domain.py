@@ -155,7 +155,7 @@ def build_site(spec: SiteSpec, resolution: float, *, align: bool = True) -> Site
             raise InputError(f"{levee.source}: the levee runs at {skew:.1f}° to the x axis of the CRS at the breach "
                              f"(chainage {breach.s_c:.1f} m); this flow solver serves its field on the CRS axes and "
                              f"needs the levee within {MAX_SKEW_DEG:g}° of east–west there (the 'swe' solver takes "
-                             f"any direction, and so does 'nested')")
+                             f"any direction, and so do 'nested' and 'snapshot_frozen')")
         frame = GridFrame(0.0, (xc, yc))
     fl, fr = footprint_half_width(levee, terrain, breach.s_c, breach.bottom)
     widths = [w for w in (fl, fr) if np.isfinite(w)]
