@@ -1,17 +1,30 @@
-"""Cost of the DEM contact loop per listed pair against a bare Hooke normal-force loop (issue 16).
+"""Cost of the DEM contact kernels per listed pair against a bare Hooke normal-force loop, and of each pass
+of a compiled step (issue 16).
 
-    python3 tasks.py bench dem_kernel [--n 1000] [--calls 2000] [--reps 5]
+    python3 tasks.py bench dem_kernel [--scene bed|pour] [--n 1000] [--calls 2000] [--reps 5] [--old <src>]
+    python3 tasks.py bench dem_kernel --phases [--scene bed|pour] [--n 1000] [--calls 300] [--reps 3]
 
-On the settled bed of benchmarks/bench_dem.py (n spheres), times ``contacts.pair_forces_window`` (the
-window-averaged spring–dashpot law with shear history, as the Verlet integrators call it) and a loop over
-the same pair list that only adds ``k_N overlap`` along the normal (what any contact code must do at
-least), in CPU ns per listed pair; best of ``--reps``, interleaved. The same kernel with
-``contact_law = "hooke_history"`` (LAMMPS' point-evaluated law) is timed too.
+On the settled bed (or the poured pile) of benchmarks/bench_dem.py (n spheres), times
+``contacts.pair_forces_window`` with the window-averaged law as ``predicted_verlet`` (dashpots at predicted
+velocities) and ``velocity_verlet`` call it, and with ``contact_law = "hooke_history"`` (LAMMPS'
+point-evaluated law), in CPU ns per listed pair; ``contacts.plane_forces`` (the floor) in ns per particle;
+and a loop over the same pair list that only adds ``k_N overlap`` along the normal (what any contact code
+must do at least). Each kernel is called ``--calls`` times inside one compiled loop; best and median of
+``--reps``, interleaved in alternating order. ``--old <src>``: the same kernels of another source tree
+(``dem/contacts.py`` with its ``contact_law.py`` and ``neighbours.py``, imported under another name), timed
+in the same process, with the old/new ratios (best, and mean ± sd of the paired repeats; identical trees
+give 0.97-1.05 on this loaded machine).
+
+``--phases``: the cost of each pass of one step of the compiled loop (``dem/steploop.py::verlet_steps``)
+in CPU ns per particle: every kernel is called ``--calls`` times inside one compiled loop (no dispatch
+cost) on its own copy of the arrays it writes, best of ``--reps``; the sum is set against the whole step
+measured with ``sim.step`` (the rest: dispatch, neighbour-list rebuilds, events), and one rebuild is timed.
 """
 from __future__ import annotations
 
 import argparse
 import math
+import statistics as st
 import sys
 import time
 from pathlib import Path
@@ -49,45 +62,191 @@ def bare_hooke(pa, pb, pos, radius, kn, geom, periodic, force):
     return nc
 
 
+@numba.njit
+def _repeat(calls, fn, args):
+    """Call fn(*args) *calls* times inside compiled code."""
+    for _ in range(calls):
+        fn(*args)
+
+
+def _writable(args):
+    """The arguments with their arrays copied (each timed kernel writes into its own copies)."""
+    return tuple(a.copy() if isinstance(a, np.ndarray) else a for a in args)
+
+
+def phases(a) -> int:
+    """Per-pass CPU cost of a step of the compiled Verlet loop (see the module docstring)."""
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    import bench_dem
+
+    import importlib
+
+    from breachflow.dem import contacts, forces, steploop
+
+    integrators = importlib.import_module("breachflow.dem.integrators")  # the package exports the registry
+
+    sim0, L = bench_dem.settled_bed(a.n) if a.scene == "bed" else bench_dem.poured_pile(a.n)
+    s0 = sim0.state
+    for integ, law in (("predicted_verlet", "window_averaged"), ("velocity_verlet", "window_averaged"),
+                       ("velocity_verlet", "hooke_history")):
+        sim = bench_dem.make_sim(s0.pos.copy(), s0.vel.copy(), L, integ, omega=s0.omega.copy(), law=law)
+        sim.step(20)
+        c = time.process_time()
+        sim.step(a.steps)
+        whole = (time.process_time() - c) / a.steps / sim.state.n * 1e9
+        sim._rebuild()
+        s, w, it, dt = sim.state, sim.work, sim.integrator, sim.dt
+        idx = sim.idx
+        n = idx.size
+        h = 0.5 * dt
+        lo, hi = it.force_window[0] * dt, it.force_window[1] * dt
+        pl = sim.boundaries[0]
+        pred = bool(it.predict_velocity)
+        wake = (sim._wake_flag, sim._wake_ids, np.zeros(1, np.int64))
+        ve, we = (w["v"], w["w"]) if pred else (s.vel, s.omega)
+        if pred:
+            integrators.predict_extrapolated(idx, s.vel, s.omega, sim.force, sim.torque, w["fp"].copy(),
+                                             w["tp"].copy(), sim._inv_m, sim._inv_i, h, it.extrapolate,
+                                             sim.lmask, sim.rmask, ve, we)
+        box = (sim.geom, sim.periodic, sim._box, sim._use_box, s.active.copy(), s.awake.copy(), sim._tmp_ids)
+        ph = {
+            "displacement check": (contacts.displacement_since, (idx, s.pos, sim._pos_build, sim.geom, sim.periodic)),
+            "kick": (integrators.kick, (idx, s.vel, s.omega, sim.force, sim.torque, sim._inv_m, sim._inv_i, h,
+                                        sim.lmask, sim.rmask)),
+            "drift": (integrators.drift, (idx, s.pos, s.vel, dt)),
+            "wrap_and_check": (contacts.wrap_and_check, (idx, s.pos, s.vel, s.omega) + box),
+        }
+        if pred:
+            ph["predict"] = (integrators.predict_extrapolated,
+                             (idx, s.vel, s.omega, sim.force, sim.torque, w["fp"], w["tp"], sim._inv_m, sim._inv_i,
+                              h, it.extrapolate, sim.lmask, sim.rmask, w["v"], w["w"]))
+        ph["zero_rows"] = (forces.zero_rows, (idx, sim.force, sim.torque))
+        ph["pair forces"] = (contacts.pair_forces_window,
+                             (sim._pa, sim._pb, sim._hist, sim._rhist, sim._touch, s.pos, ve, we, s.vel, s.omega, pred,
+                              s.radius, s.mass, s.inertia, s._props, s.awake, s.active, sim.geom, sim.periodic, dt,
+                              sim.wake_velocity, sim.force, sim.torque) + wake + (lo, hi, sim._law))
+        ph["plane forces"] = (contacts.plane_forces,
+                              (idx, pl.point, pl.normal, pl.velocity, pl.props, pl.hist, pl.rhist, s.pos, ve, we,
+                               s.radius, s.mass, s.inertia, s._props, dt, sim.force, sim.torque, pl.reaction, lo, hi,
+                               s.vel, s.omega, sim._law))
+        ph["gravity"] = (forces._add_gravity, (idx, s.mass, sim.gravity.g, sim.force))
+        ph["global damping"] = (forces.add_global_damping, (idx, ve, we, s.c_gn, s.c_gw, 1.0, sim.force, sim.torque))
+        ph["kick (2nd)"] = ph["kick"]
+        ph["sleep/step stats"] = (steploop.step_event,
+                                  (1, 0.0, 0.0, 0, 0, -1.0, 0, 0, 1, np.zeros(5), False, np.zeros(1, np.int64), idx,
+                                   s.vel, s.omega, s.vel_prev, s.omega_prev, s.radius, 0.0, 1, sim._sleep_count,
+                                   s.awake, sim._tmp_ids, 0, 1))
+        best = {}
+        for name, (fn, args) in ph.items():
+            _repeat(1, fn, _writable(args))  # compile
+            b = math.inf
+            for _ in range(a.reps):
+                wargs = _writable(args)
+                c = time.process_time()
+                _repeat(a.calls, fn, wargs)
+                b = min(b, (time.process_time() - c) / a.calls)
+            best[name] = b / n * 1e9
+        c = time.process_time()
+        for _ in range(3):
+            sim._rebuild()
+        reb = (time.process_time() - c) / 3 / n * 1e9
+        print(f"{a.scene}, N = {n}, {integ}, {law}: {sim._pa.size} listed pairs, {sim.n_contacts} contacts")
+        for name, ns in best.items():
+            print(f"  {name:24s} {ns:7.1f} ns per particle")
+        tot = sum(best.values())
+        print(f"  {'sum of passes':24s} {tot:7.1f}\n  {'whole step (sim.step)':24s} {whole:7.1f}  "
+              f"(one rebuild: {reb:.0f} ns per particle)")
+    return 0
+
+
 def main(argv) -> int:
     ap = argparse.ArgumentParser(prog="bench dem_kernel", description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--n", type=int, default=1000)
     ap.add_argument("--calls", type=int, default=2000)
     ap.add_argument("--reps", type=int, default=5)
+    ap.add_argument("--phases", action="store_true", help="cost of each pass of a compiled Verlet step")
+    ap.add_argument("--scene", default="bed", choices=("bed", "pour"))
+    ap.add_argument("--old", help="src directory of another tree: its pair and plane kernels timed interleaved")
+    ap.add_argument("--steps", type=int, default=300, help="--phases: steps timed for the whole step")
     a = ap.parse_args(argv)
+    if a.phases:
+        return phases(a)
     sys.path.insert(0, str(Path(__file__).resolve().parent))
     import bench_dem
 
     from breachflow.dem import contacts
 
-    sim, _ = bench_dem.settled_bed(a.n)
+    mods = {"": contacts}
+    if a.old:
+        mods["old "] = _old_contacts(a.old)
+    sim, _ = bench_dem.settled_bed(a.n) if a.scene == "bed" else bench_dem.poured_pile(a.n)
     sim.step(5)
     s = sim.state
     f, t = sim.force.copy(), sim.torque.copy()
     dt = sim.dt
-    law = (sim._pa, sim._pb, sim._hist.copy(), sim._rhist.copy(), sim._touch.copy(), s.pos, s.vel, s.omega, s.vel,
-           s.omega, False, s.radius, s.mass, s.inertia, s._props, s.awake, s.active, sim.geom, sim.periodic, dt,
-           sim.wake_velocity, f, t, sim._wake_flag, sim._wake_ids, np.zeros(1, np.int64), -0.5 * dt, 0.5 * dt)
-    bare = (sim._pa, sim._pb, s.pos, s.radius, float(s.kn[0]), sim.geom, sim.periodic, f)
-    # LAMMPS' law, point values (contact_law hooke_history), on its own copy of the histories
-    law_h = law[:2] + (law[2].copy(), law[3].copy(), law[4].copy()) + law[5:-2] + (0.0, 0.0, contacts.HOOKE_HISTORY)
-    kernels = {"pair_forces_window": (contacts.pair_forces_window, law),
-               "  hooke_history law": (contacts.pair_forces_window, law_h), "bare Hooke": (bare_hooke, bare)}
-    best = {k: math.inf for k in kernels}
+    vp, wp = s.vel + 1e-4, s.omega + 1e-4  # predicted velocities (predicted_verlet: split)
+
+    def pair_args(ve, we, split, law_code):
+        return (sim._pa, sim._pb, sim._hist.copy(), sim._rhist.copy(), sim._touch.copy(), s.pos, ve, we, s.vel,
+                s.omega, split, s.radius, s.mass, s.inertia, s._props, s.awake, s.active, sim.geom, sim.periodic, dt,
+                sim.wake_velocity, f, t, sim._wake_flag, sim._wake_ids, np.zeros(1, np.int64),
+                *((-0.5 * dt, 0.5 * dt) if law_code == 0 else (0.0, 0.0)), law_code)
+
+    pl = sim.boundaries[0]
+
+    def plane_args(law_code):
+        return (sim.idx, pl.point, pl.normal, pl.velocity, pl.props, pl.hist.copy(), pl.rhist.copy(), s.pos, s.vel,
+                s.omega, s.radius, s.mass, s.inertia, s._props, dt, f, t, pl.reaction.copy(),
+                *((-0.5 * dt, 0.5 * dt) if law_code == 0 else (0.0, 0.0)), s.vel, s.omega, law_code)
+
+    kernels = {}
+    for tag, mod in mods.items():
+        kernels[tag + "window, predicted"] = (mod.pair_forces_window, pair_args(vp, wp, True, 0))
+        kernels[tag + "window, velocity"] = (mod.pair_forces_window, pair_args(s.vel, s.omega, False, 0))
+        kernels[tag + "hooke_history"] = (mod.pair_forces_window, pair_args(s.vel, s.omega, False, 1))
+        kernels[tag + "plane, window"] = (mod.plane_forces, plane_args(0))
+        kernels[tag + "plane, hooke"] = (mod.plane_forces, plane_args(1))
+    kernels["bare Hooke"] = (bare_hooke, (sim._pa, sim._pb, s.pos, s.radius, float(s.kn[0]), sim.geom, sim.periodic,
+                                          f))
+    times = {k: [] for k in kernels}
     for fn, args in kernels.values():
-        fn(*args)
-    for _ in range(a.reps):
-        for name, (fn, args) in kernels.items():
+        _repeat(1, fn, args)
+    for rep in range(a.reps):
+        order = list(kernels.items())
+        for name, (fn, args) in (order if rep % 2 == 0 else order[::-1]):  # alternate: no order bias
             c = time.process_time()
-            for _ in range(a.calls):
-                fn(*args)
-            best[name] = min(best[name], (time.process_time() - c) / a.calls)
-    npairs, ntouch = sim._pa.size, int(bare_hooke(*bare))
-    print(f"{a.n} spheres: {npairs} listed pairs, {ntouch} in contact")
-    for name, sec in best.items():
-        print(f"{name:20s} {sec * 1e6:8.1f} CPU us per call, {sec / npairs * 1e9:6.1f} ns per listed pair")
+            _repeat(a.calls, fn, args)
+            times[name].append((time.process_time() - c) / a.calls)
+    npairs, ntouch = sim._pa.size, int(bare_hooke(*kernels["bare Hooke"][1]))
+    print(f"{a.scene}, {a.n} spheres: {npairs} listed pairs, {ntouch} in contact; CPU ns per listed pair "
+          f"(planes: per particle), best and median of {a.reps}")
+    for name, sec in times.items():
+        per = s.n if "plane" in name else npairs
+        print(f"{name:26s} {min(sec) / per * 1e9:6.1f}  {st.median(sec) / per * 1e9:6.1f}")
+    if a.old:
+        for name in [k for k in kernels if not k.startswith("old ") and "old " + k in kernels]:
+            r = [o / n for o, n in zip(times["old " + name], times[name])]
+            print(f"old/new {name:18s} best {min(times['old ' + name]) / min(times[name]):.3f}, paired "
+                  f"{st.mean(r):.3f} ± {st.stdev(r) if len(r) > 1 else float('nan'):.3f}")
     return 0
+
+
+def _old_contacts(src):
+    """dem/contacts.py of another source tree (*src*: its ``src`` directory), imported under another name
+    (it imports only .contact_law and .neighbours)."""
+    import importlib
+    import shutil
+    import tempfile
+
+    tmp = Path(tempfile.mkdtemp())
+    pkg = tmp / "old_breachflow_dem"
+    pkg.mkdir()
+    (pkg / "__init__.py").write_text("")
+    for name in ("contacts.py", "contact_law.py", "neighbours.py"):
+        shutil.copy(Path(src) / "breachflow" / "dem" / name, pkg / name)
+    sys.path.insert(0, str(tmp))
+    return importlib.import_module("old_breachflow_dem.contacts")
 
 
 if __name__ == "__main__":
