@@ -74,3 +74,37 @@ def test_far_field_models_and_options():
         CoarseFarField(None, factor=1)
     with pytest.raises(InputError, match="far-field"):
         far_fields.get("regional")
+
+
+def test_the_coarse_far_field_keeps_a_lake_at_rest():
+    """Still water behind a wall with a level boundary at the same level: a pile (raised bed) in the middle
+    changes nothing, exactly (well-balanced); the coarse far field's level change is zero and the window
+    re-solve with it returns the lake at rest."""
+    import xarray as xr
+
+    from breachflow.hydro.swe.solver import SWESolver
+    from breachflow.hydro.window import WindowResolver
+
+    d = _domain(nx=36, ny=28, dx=1.3, x0=-23.1, y0=-18.5)
+    X, Y = np.meshgrid(d.x, d.y)
+    d.bed = 0.5 + 0.03 * X + 0.02 * np.sin(0.3 * Y)
+    level = 2.0
+    d.boundaries = {"south": [BoundaryCondition.water_level(level, absorbing=20.0)]}
+    h = np.maximum(level - d.bed, 0.0)
+    zeros = np.zeros(d.shape)
+    prev = xr.Dataset({"depth": (("y", "x"), h), "u": (("y", "x"), zeros), "v": (("y", "x"), zeros),
+                       "bed_elevation": (("y", "x"), d.bed.copy()),
+                       "obstacle": (("y", "x"), np.zeros(d.shape, "i1"))}, coords={"x": d.x, "y": d.y})
+    piled = d.with_raised_bed((np.abs(X - 1.7) < 3.0) & (np.abs(Y + 0.4) < 2.0), 1.4)
+    full = SWESolver(tolerance=1e-4, t_max=60.0, section=(-5.0, 5.0, 0.0))
+    far = CoarseFarField(full, factor=2)
+    changed = np.abs(piled.bed - d.bed) > 0
+    jj, ii = np.nonzero(changed)
+    d_eta = far.level_change(piled, prev, None, (jj.min(), jj.max() + 1, ii.min(), ii.max() + 1))
+    assert np.max(np.abs(d_eta)) < 1e-9
+    assert far.scale(0.0, 0.0) is None  # no discharge to scale by
+    win = WindowResolver(full, margin=4.0, far="coarse", far_factor=2)
+    ds = win.solve(piled, initial=prev)
+    wet = ds.depth.values > 1e-3
+    np.testing.assert_allclose((ds.bed_elevation.values + ds.depth.values)[wet], level, atol=1e-9)
+    assert np.max(np.hypot(ds.u.values, ds.v.values)) < 1e-9

@@ -210,7 +210,7 @@ class CoarseFarField:
         flow less than the fine one). Clipped to [0, 4]; None when the coarse discharge hardly changed."""
         qc0, qc1 = self._q_coarse
         den = qc0 * abs(qc0) - qc1 * abs(qc1)
-        if not np.isfinite(den) or abs(den) < 1e-3 * qc0 * qc0:
+        if not np.isfinite(den) or abs(den) <= 1e-3 * qc0 * qc0:
             return None
         return float(np.clip((q_previous * abs(q_previous) - q_window * abs(q_window)) / den, 0.0, 4.0))
 
