@@ -33,6 +33,7 @@ SCENARIO = """
 name = "work-precision"
 [site]
 preset = "{scene}"
+{site}
 [hydro]
 resolution = "{res:g} m"
 tolerance = "{tol:g} 1/s"
@@ -56,6 +57,8 @@ def main(argv) -> int:
     ap.add_argument("--reference-t-max", type=float, default=1500.0, help="t_max (s) of the reference re-solve")
     ap.add_argument("--cold", type=float, default=2e-4, help="tolerance (1/s) of the open-breach cold solve")
     ap.add_argument("--margin", default=None, help="resolve_margin, e.g. '120 m' (default 2 B)")
+    ap.add_argument("--site", default="", help="extra [site] keys, e.g. 'levee_length_each_side = \"54 m\"'"
+                    " (';' separates keys)")
     ap.add_argument("--far", default="frozen", help="far-field models of the window re-solve, comma-separated")
     ap.add_argument("--factor", type=int, default=4, help="coarsening of the 'coarse' far field")
     a = ap.parse_args(argv)
@@ -65,7 +68,7 @@ def main(argv) -> int:
 
     def setup_at(tol, tmax=300.0):
         return closure_setup(parse_scenario(SCENARIO.format(scene=a.scene, res=a.resolution, tol=tol, tmax=tmax,
-                                                            margin=margin)))
+                                                            margin=margin, site="\n".join(a.site.split(";")))))
 
     base = setup_at(a.reference, a.reference_t_max)
     dom = base.domain

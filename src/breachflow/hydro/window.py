@@ -221,7 +221,8 @@ class WindowResolver:
             ncell = dom.shape[0] * dom.shape[1]
             region = None if self.full.region is None else _mask(self.full.region, dom)
             box = self._box(dom, changed, margin)
-            d_eta = self.far.level_change(dom, initial, self._pile, box)
+            fits = (box[1] - box[0]) * (box[3] - box[2]) <= self.max_fraction * ncell
+            d_eta = self.far.level_change(dom, initial, self._pile, box) if fits else None  # else: full at once
             q_prev = _section_discharge(initial, sec) if sec is not None else None
             scale, passes, grown, state = 1.0, 0, 0, initial
             far_info = {}
