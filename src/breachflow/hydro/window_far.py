@@ -23,7 +23,7 @@ its porous pile), *box* the window ``(j0, j1, i0, i1)``:
   A coarse solve costs about ``factor^-3`` of a fine one (``factor^2`` fewer cells, ``factor`` times
   longer time steps).
 
-Measured (issue 16; ``python3 tasks.py bench window --far frozen,coarse --factor 2``), ``coarse`` does not
+Measured (issue 16; ``python3 tasks.py bench window_far``), ``coarse`` does not
 beat the full re-solve: the steady states of the pool judged near the breach still drift by centimetres
 far from it, in the fine and in the coarse model alike, so the coarse level change outside the window is
 not the fine one (on the scene of ``tests/cycle/test_window_resolve.py``, 1.5–1.7 m cells, 6 m margin:
