@@ -95,3 +95,10 @@ def test_resolve_options_are_checked():
         parse_scenario(SCENE.replace('resolve = "window"', 'resolve = "local"'))
     with pytest.raises(ParseError, match="refine"):
         parse_scenario(SCENE + 'refine = "2 m"\n')
+    with pytest.raises(ParseError, match="resolve_far.*coarse"):
+        parse_scenario(SCENE + 'resolve_far = "regional"\n')
+    with pytest.raises(ParseError, match="resolve_far_factor"):
+        parse_scenario(SCENE + 'resolve_far = "coarse"\nresolve_far_factor = 1\n')
+    setup = closure_setup(parse_scenario(SCENE + 'resolve_far = "coarse"\nresolve_far_factor = 3\n'))
+    assert setup.solver.window.far_name == "coarse" and setup.solver.window.far.factor == 3
+

@@ -137,7 +137,9 @@ class HydroSection:
     ``resolve`` (``full`` | ``window``): a warm re-solve of the ``swe`` solver over the whole domain, or
     only in a window around the cells the remap changed, ``resolve_margin`` (default 2 B) beyond them and
     the breach, the rest frozen at the previous steady state, grown when the water level at its edge moves
-    by more than ``resolve_edge_level`` (:mod:`breachflow.hydro.window`). ``refine`` (a length, with
+    by more than ``resolve_edge_level`` (:mod:`breachflow.hydro.window`); ``resolve_far`` (``frozen`` |
+    ``coarse``, :mod:`breachflow.hydro.window_far`) how the domain outside the window follows the pile,
+    ``resolve_far_factor`` the coarsening of ``coarse`` (default 2). ``refine`` (a length, with
     ``solver = "swe"``): a nested fine grid of that cell size around the breach (``window``, default the
     breach ± (B/2 + 3 B) along the levee, ± 3 B across) inside the coarse domain at ``resolution``: the
     coarse open-breach steady state is solved once and is the regional field of the ``nested`` local model
@@ -157,13 +159,15 @@ class HydroSection:
     resolve: str = "full"
     resolve_margin: float | None = None
     resolve_edge_level: float = 0.03
+    resolve_far: str = "frozen"
+    resolve_far_factor: int = 2
     refine: float | None = None
 
     @classmethod
     def from_table(cls, table, ctx):
         ctx.check_keys(table, {"solver", "resolution", "order", "courant", "tolerance", "t_max_initial", "t_max",
                                "monitor_radius", "snapshots", "window", "threads", "resolve", "resolve_margin",
-                               "resolve_edge_level", "refine"})
+                               "resolve_edge_level", "resolve_far", "resolve_far_factor", "refine"})
         out = cls(
             solver=ctx.raw(table, "solver", default="swe"),
             resolution=ctx.quantity(table, "resolution", "length", default="1 m", positive=True),
@@ -177,6 +181,8 @@ class HydroSection:
             threads=ctx.raw(table, "threads", types=(int,), default=1),
             resolve=ctx.raw(table, "resolve", default="full"),
             resolve_edge_level=ctx.quantity(table, "resolve_edge_level", "length", default="0.03 m", positive=True),
+            resolve_far=ctx.raw(table, "resolve_far", default="frozen"),
+            resolve_far_factor=ctx.raw(table, "resolve_far_factor", types=(int,), default=2),
         )
         if out.threads < 1:
             raise ctx.error(f"threads = {out.threads}: needs at least 1", "threads")
@@ -192,6 +198,12 @@ class HydroSection:
             out.window = tuple(vals)
         if out.resolve not in RESOLVE_MODES:
             raise ctx.error(f"resolve = {out.resolve!r}; use one of {list(RESOLVE_MODES)}", "resolve")
+        from ..hydro.window_far import far_fields
+
+        if out.resolve_far not in far_fields:
+            raise ctx.error(f"resolve_far = {out.resolve_far!r}; use one of {far_fields.available()}", "resolve_far")
+        if out.resolve_far_factor < 2:
+            raise ctx.error(f"resolve_far_factor = {out.resolve_far_factor}: needs at least 2", "resolve_far_factor")
         if out.refine is not None:
             if out.solver != "swe":
                 raise ctx.error(f"refine (a nested fine grid around the breach) needs solver = 'swe', not {out.solver!r}",
@@ -585,7 +597,9 @@ class _WarmStartSWE:
         if hydro.resolve == "window":
             from ..hydro.window import WindowResolver
 
-            self.window = WindowResolver(self.warm, margin=hydro.resolve_margin, edge_level=hydro.resolve_edge_level)
+            self.window = WindowResolver(self.warm, margin=hydro.resolve_margin, edge_level=hydro.resolve_edge_level,
+                                         far=hydro.resolve_far,
+                                         far_factor=hydro.resolve_far_factor if hydro.resolve_far == "coarse" else None)
 
     def solve(self, domain, obstacles=None, initial=None):
         if initial is None:

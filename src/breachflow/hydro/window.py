@@ -15,7 +15,11 @@ the previous steady state:
 * growth: after the solve the water level in the outer ``band`` cells of every interior window side is
   compared with the previous state; where it moved by more than ``edge_level`` (m) the change reached
   the edge, the window's margin is doubled and the solve re-run (warm, from the merged state);
-* fall back to the full domain when the window would hold more than ``max_fraction`` of its cells.
+* fall back to the full domain when the window would hold more than ``max_fraction`` of its cells;
+* the far field (``far``, :mod:`breachflow.hydro.window_far`): ``frozen`` keeps the previous state
+  outside the window; ``coarse`` adds the level change of a coarse full-domain solve to the previous
+  state — the window's edge levels, its warm start and the merged state outside it — so that the rise
+  of the whole flood-side pool when the pile cuts the flow reaches the window's edges.
 
 The returned snapshot is the full domain: the window's state merged into the frozen previous one, with
 ``hydro_window`` (the window and its growth) in its attributes.
@@ -121,6 +125,27 @@ def changed_cells(domain: Domain, previous: xr.Dataset, previous_pile=None) -> n
     return ch
 
 
+def _shifted(previous: xr.Dataset, d_eta: np.ndarray) -> xr.Dataset:
+    """*previous* with its water level raised by *d_eta* (m) on its wet cells (velocities kept)."""
+    h = np.asarray(previous["depth"].values, float)
+    out = previous.copy()
+    out["depth"] = previous["depth"].copy(data=np.where(h > 1e-3, np.maximum(h + d_eta, 0.0), h))
+    return out
+
+
+def _section_discharge(ds: xr.Dataset, section) -> float:
+    """Discharge (m³/s) of the snapshot *ds* across *section* ``(x0, x1, y)`` as
+    :meth:`~breachflow.hydro.swe.solver.SWESimulation.section_discharge` (the grid row nearest y)."""
+    x0, x1, y = (float(v) for v in section)
+    xs, ys = ds.x.values, ds.y.values
+    j = int(np.argmin(np.abs(ys - y)))
+    cols = (xs >= x0) & (xs <= x1)
+    if "obstacle" in ds:
+        cols &= ~np.asarray(ds["obstacle"].values[j]).astype(bool)
+    h = np.asarray(ds["depth"].values[j], float)
+    return float((h * np.asarray(ds["v"].values[j], float))[cols].sum() * (xs[1] - xs[0]))
+
+
 class WindowResolver:
     """Re-solve a warm start in a local window (module docstring); a drop-in for the warm
     :class:`~breachflow.hydro.swe.solver.SWESolver` *full* (its options, tolerance, t_max, region and
@@ -129,11 +154,15 @@ class WindowResolver:
     *margin* (m) around the changed cells (default ``2 B``, B the breach section's length, else 20 cells);
     *edge_level* (m) the level change in the outer *band* cells of an interior side that grows the window;
     *max_fraction* of the domain's cells above which the full domain is solved instead; *max_grow* the
-    number of growths before falling back to the full domain.
+    number of growths before falling back to the full domain; *far* the far-field model (a name in
+    :data:`~breachflow.hydro.window_far.far_fields`), *far_factor* the coarsening of ``coarse``.
     ``last_info`` describes the last solve (window, cells, growths)."""
 
     def __init__(self, full, margin: float | None = None, edge_level: float = 0.03, band: int = 2,
-                 max_fraction: float = 0.5, max_grow: int = 3):
+                  max_fraction: float = 0.5, max_grow: int = 3, far: str = "frozen", far_factor: int | None = None,
+                 far_passes: int = 3, far_level: float = 0.002):
+        from .window_far import far_fields
+
         if margin is not None and not margin > 0:
             raise InputError(f"window re-solve: margin must be > 0 m, got {margin!r}")
         if not edge_level > 0:
@@ -142,6 +171,9 @@ class WindowResolver:
             raise InputError(f"window re-solve: max_fraction must be in (0, 1], got {max_fraction!r}")
         self.full, self.margin, self.edge_level, self.band = full, margin, edge_level, int(band)
         self.max_fraction, self.max_grow = max_fraction, int(max_grow)
+        self.far = far_fields.get(far)(full, **({} if far_factor is None else {"factor": far_factor}))
+        self.far_name = far
+        self.far_passes, self.far_level = int(far_passes), float(far_level)
         self.last = None
         self.last_info: dict = {}
         self._pile = None
@@ -188,47 +220,70 @@ class WindowResolver:
                 DEFAULT_MARGIN_B * abs(float(sec[1]) - float(sec[0])) if sec is not None else 20.0 * domain.dx)
             ncell = dom.shape[0] * dom.shape[1]
             region = None if self.full.region is None else _mask(self.full.region, dom)
-            h0 = np.asarray(initial["depth"].values, float)
-            eta0 = np.asarray(initial["bed_elevation"].values, float) + h0
-            state = initial
-            grown = 0
-            while True:
-                box = self._box(dom, changed, margin)
-                j0, j1, i0, i1 = box
-                if (j1 - j0) * (i1 - i0) > self.max_fraction * ncell or grown > self.max_grow:
-                    why = (f"window {i1 - i0} x {j1 - j0} cells > {self.max_fraction:g} of the domain"
-                           if grown <= self.max_grow else f"change still at the window edge after {self.max_grow} growths")
-                    return self._full(dom, None, state, why, getattr(self, "_edge_change", None) if grown else None)
-                sub = window_domain(dom, initial, box)
-                sl = (slice(j0, j1), slice(i0, i1))
-                reg = None
-                if region is not None and region[sl].any():
-                    reg = region[sl]
-                sim = SWESimulation(sub, self.full.options, initial=state.isel(y=sl[0], x=sl[1]))
-                sim.run_to_steady(self.full.tolerance, self.full.t_max, self.full.check_interval, region=reg,
-                                  section=sec)
-                h_new = h0.copy()
-                hu_new = h0 * np.asarray(initial["u"].values, float)
-                hv_new = h0 * np.asarray(initial["v"].values, float)
-                if state is not initial:
-                    hs = np.asarray(state["depth"].values, float)
-                    h_new, hu_new, hv_new = hs, hs * state["u"].values, hs * state["v"].values
-                h_new, hu_new, hv_new = h_new.copy(), hu_new.copy(), hv_new.copy()
-                h_new[sl], (hu_new[sl], hv_new[sl]) = sim.depth, sim.discharge
-                merged = self._snapshot(dom, sim, (h_new, hu_new, hv_new))
-                if not self._edge_moved(dom, box, sim, eta0[sl], h0[sl]):
+            box = self._box(dom, changed, margin)
+            fits = (box[1] - box[0]) * (box[3] - box[2]) <= self.max_fraction * ncell
+            d_eta = self.far.level_change(dom, initial, self._pile, box) if fits else None  # else: full at once
+            q_prev = _section_discharge(initial, sec) if sec is not None else None
+            scale, passes, grown, state = 1.0, 0, 0, initial
+            far_info = {}
+            while True:  # passes: the far field's level change rescaled to the window's breach discharge
+                base = initial if d_eta is None else _shifted(initial, scale * d_eta)
+                h0 = np.asarray(base["depth"].values, float)
+                eta0 = np.asarray(base["bed_elevation"].values, float) + h0
+                if state is initial:
+                    state = base
+                while True:  # growth of the window while the change reaches its edge
+                    box = self._box(dom, changed, margin)
+                    j0, j1, i0, i1 = box
+                    if (j1 - j0) * (i1 - i0) > self.max_fraction * ncell or grown > self.max_grow:
+                        why = (f"window {i1 - i0} x {j1 - j0} cells > {self.max_fraction:g} of the domain"
+                               if grown <= self.max_grow else f"change still at the window edge after {self.max_grow} growths")
+                        out = self._full(dom, None, state, why, getattr(self, "_edge_change", None) if grown else None)
+                        self.last_info.update(far_info)
+                        self.far.accept(out)
+                        return out
+                    sub = window_domain(dom, base, box)
+                    sl = (slice(j0, j1), slice(i0, i1))
+                    reg = None
+                    if region is not None and region[sl].any():
+                        reg = region[sl]
+                    sim = SWESimulation(sub, self.full.options, initial=state.isel(y=sl[0], x=sl[1]))
+                    sim.run_to_steady(self.full.tolerance, self.full.t_max, self.full.check_interval, region=reg,
+                                      section=sec)
+                    # outside the window the (shifted) previous state; every earlier window lies inside this one
+                    h_new = h0.copy()
+                    hu_new = h0 * np.asarray(base["u"].values, float)
+                    hv_new = h0 * np.asarray(base["v"].values, float)
+                    h_new[sl], (hu_new[sl], hv_new[sl]) = sim.depth, sim.discharge
+                    merged = self._snapshot(dom, sim, (h_new, hu_new, hv_new))
+                    state = merged
+                    if not self._edge_moved(dom, box, sim, eta0[sl], h0[sl]):
+                        break
+                    grown += 1
+                    margin *= 2.0
+                if d_eta is None:
                     break
-                grown += 1
-                margin *= 2.0
-                state = merged
+                passes += 1
+                far_info = {"far": self.far_name, "far_cpu": self.far.last_cpu, "far_scale": scale, "far_passes": passes,
+                            "far_max_level_change": float(np.max(np.abs(scale * d_eta)))}
+                new_scale = self.far.scale(q_prev, sim.section_discharge(sec)) if sec is not None else None
+                if new_scale is None or passes >= self.far_passes:
+                    break
+                step = abs(new_scale - scale) * float(np.max(np.abs(d_eta[sl])))
+                scale = new_scale
+                if step < self.far_level:
+                    break
             self.last = sim
             self.last_info = {"mode": "window", "box": box, "edge_change": dict(self._edge_change), "cells": (j1 - j0) * (i1 - i0), "grown": grown,
-                              "fraction": (j1 - j0) * (i1 - i0) / ncell}
+                              "fraction": (j1 - j0) * (i1 - i0) / ncell, **far_info}
             merged.attrs["hydro_window"] = (
                 f"x {dom.x[i0] - 0.5 * dom.dx:g}..{dom.x[i1 - 1] + 0.5 * dom.dx:g}, y {dom.y[j0] - 0.5 * dom.dy:g}.."
                 f"{dom.y[j1 - 1] + 0.5 * dom.dy:g} m ({i1 - i0} x {j1 - j0} cells, "
                 f"{100 * (j1 - j0) * (i1 - i0) / ncell:.1f} % of the domain; grown {grown} times; edge level "
-                f"change {max(self._edge_change.values(), default=0.0):.3f} m)")
+                f"change {max(self._edge_change.values(), default=0.0):.3f} m"
+                + (f"; far field {self.far_name}, level change up to {far_info['far_max_level_change']:.3f} m"
+                   if far_info else "") + ")")
+            self.far.accept(merged)
             return merged
         finally:
             self._pile = pile
