@@ -125,3 +125,36 @@ def test_large_masses_in_shallow_water_feel_less_than_their_centre_value(name):
         f_w = float(drag_factors(name, r, r, h, 0.066))
         assert f_w < f_c
         assert f_w == pytest.approx(quad_factor(name, 0.0, min(h, D), r, r, h, 0.066), rel=1e-3)
+
+
+@pytest.mark.parametrize("compiled", [True, False])
+@pytest.mark.parametrize("name", ["log", "power"])
+def test_drag_on_resting_masses_over_a_sweep_of_heights(compiled, name):
+    """FluidForces (fused kernel and step path) on a mass at rest in a grid field, drag law with constant C_D:
+    ``phi 1/2 rho C_D A (U F)^2`` with F from quad over the wetted chord, for centres pressed into the bed, on
+    it, inside the water, just below, at and above the surface (partly emerged) and a sliver in the water."""
+    from breachflow.dem.state import ParticleState
+    from breachflow.fluid.drag import get_drag_law
+    from breachflow.fluid.forces import FluidForces
+    from breachflow.hydro.snapshot import grid_snapshot
+
+    x = np.arange(-20.0, 20.01, 1.0)
+    X, Y = np.meshgrid(x, x)
+    bed = 1e-3 * X  # non-uniform: the closure's path (fused kernel)
+    h, U, D, ks = 3.0, 4.0, 2.4, 0.066
+    snap = grid_snapshot(x, x, bed, h - bed, U * (1.0 + 1e-3 * X), np.zeros(X.shape))  # U at x = 0
+    ff = FluidForces(snap, velocity_profile=name, roughness=ks, drag_law="constant", air=None, xi=0.0,
+                     torque=False, compiled=compiled)
+    assert (ff._fused is not None) is compiled
+    cd = float(get_drag_law("constant").cd(1e5))
+    a = 0.5 * D
+    cap = lambda t: math.pi * t * t * (3 * a - t) / 3  # noqa: E731
+    for zc in (a - 0.03, a, 1.5, h - a, h - 0.3, h, h + 0.4, h + a - 0.1):
+        st = ParticleState.spheres(np.array([[0.0, 0.0, zc]]), a)
+        f = np.zeros((1, 3))
+        ff.accumulate(st, st.pos, st.vel, st.omega, 0.0, f, np.zeros((1, 3)))
+        lo, hi = max(0.0, zc - a), min(h, zc + a)
+        F = quad_factor(name, lo, hi, zc, a, h, ks)
+        phi = (cap(min(max(h - (zc - a), 0.0), D)) - cap(min(max(-(zc - a), 0.0), D))) / (4 / 3 * math.pi * a ** 3)
+        drag = phi * 0.5 * 1000.0 * cd * math.pi * a * a * (U * F) ** 2
+        assert f[0, 0] == pytest.approx(drag, rel=2e-3), zc

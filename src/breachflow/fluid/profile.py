@@ -107,11 +107,13 @@ def factors(name_or_code, z_above_bed, depth, k_s) -> np.ndarray:
 # -- the profile averaged over a mass's wetted height ---------------------------------------------------
 #: Gauss–Legendre points of :func:`drag_factor`'s rule. Against ``scipy.integrate.quad`` over 400 random
 #: cases (centre on / pressed into the bed, across the surface, inside the water, anywhere; h 0.3–10 m,
-#: r 0.05–3 m, k_s 0.005–0.5 m, 0.066 m and 2r) the largest relative error of the factor is 2.1e-3 /
-#: 1.2e-3 / 4.9e-4 / 2.1e-4 (log) and 2.1e-3 / 1.4e-3 / 6.7e-4 / 3.9e-4 (power) for 5 / 6 / 8 / 10 points
-#: (tests/fluid/test_wetted_drag.py): 8 keeps the drag (the factor squared) within 0.15 %, far below the
-#: drag law's own uncertainty (SPEC §6), at about 40 ns per point. The error is largest where the log law's
-#: ``z0`` cut or the power law's ``z^(1/7)`` sits at the bottom of a mass resting on the bed.
+#: r 0.05–3 m, k_s 0.005–0.5 m, 0.066 m and 2r) the largest relative error of the factor is
+#: 1.8e-3 / 1.0e-3 / 3.7e-4 / 1.4e-4 (log) and 2.5e-3 / 1.6e-3 / 8.1e-4 / 4.7e-4 (power) for 5 / 6 / 8 / 10
+#: points, the median 5e-10 (log) and 3e-9 (power) at 8 (``benchmarks/bench_drag_points.py``; the test
+#: ``tests/fluid/test_wetted_drag.py`` holds 1e-3): 8 keeps the drag (the factor squared) within 0.16 %,
+#: far below the drag law's own uncertainty (SPEC §6), at 130 ns per call (the point value: 9 ns). The
+#: error is largest where the log law's ``z0`` cut or the power law's ``z^(1/7)`` meets the bottom of a
+#: mass resting on the bed (an algebraic end behaviour the rule does not resolve).
 DRAG_POINTS = 8
 _GL_T, _GL_W = np.polynomial.legendre.leggauss(DRAG_POINTS)
 
@@ -137,6 +139,15 @@ def _segment(x):
 
 
 @numba.njit(cache=True, nogil=True)
+def _node(t_k, w_k, t_lo, t_hi):
+    """Node and weight of the Gauss–Legendre point ``(t_k, w_k)`` of ``[-1, 1]`` mapped as :func:`chord_node`."""
+    half = 0.5 * (t_hi - t_lo)
+    t = 0.5 * (t_hi + t_lo) + half * t_k
+    q = 1.0 - t * t
+    return 0.5 * t * (3.0 - t * t), 1.5 * half * w_k * q * q * math.sqrt(4.0 - t * t)
+
+
+@numba.njit(cache=True, nogil=True)
 def chord_node(k, t_lo, t_hi):
     """Node ``x_k`` and weight ``W_k`` of ``int_{x_lo}^{x_hi} g(x) 2 sqrt(1 - x^2) dx ~ sum_k W_k g(x_k)``.
 
@@ -144,10 +155,7 @@ def chord_node(k, t_lo, t_hi):
     ``x = (3t - t^3)/2`` turns ``2 sqrt(1 - x^2) dx`` into ``1.5 (1 - t^2)^2 sqrt(4 - t^2) dt`` (smooth), and
     :data:`DRAG_POINTS`-point Gauss–Legendre in ``t`` over ``[t_lo, t_hi]`` (``x(t_lo) = x_lo``) does the rest.
     """
-    half = 0.5 * (t_hi - t_lo)
-    t = 0.5 * (t_hi + t_lo) + half * _GL_T[k]
-    q = 1.0 - t * t
-    return 0.5 * t * (3.0 - t * t), 1.5 * half * _GL_W[k] * q * q * math.sqrt(4.0 - t * t)
+    return _node(_GL_T[k], _GL_W[k], t_lo, t_hi)
 
 
 @numba.njit(cache=True, nogil=True)
@@ -164,6 +172,13 @@ def drag_factor(code, z_lo, z_hi, z_c, r, depth, k_s):
     Returns 1 where :func:`profile_factor` is 1 everywhere (uniform profile, dry cell, no log layer), and the
     point value at ``z_c`` for ``r <= 0`` or an empty wetted part.
     """
+    return drag_factor_rule(code, z_lo, z_hi, z_c, r, depth, k_s, _GL_T, _GL_W)
+
+
+@numba.njit(cache=True, nogil=True)
+def drag_factor_rule(code, z_lo, z_hi, z_c, r, depth, k_s, nodes, weights):
+    """:func:`drag_factor` with the Gauss–Legendre rule *nodes*, *weights* on ``[-1, 1]`` (any number of
+    points; ``benchmarks/bench_drag_points.py`` compares them)."""
     if code == 0 or depth <= 0.0:
         return 1.0
     cut = 0.0
@@ -185,8 +200,8 @@ def drag_factor(code, z_lo, z_hi, z_c, r, depth, k_s):
     t_lo = _cubic_t((start - z_c) / r)
     t_hi = _cubic_t(x_hi)
     s = 0.0
-    for k in range(DRAG_POINTS):
-        x, wk = chord_node(k, t_lo, t_hi)
+    for k in range(nodes.size):
+        x, wk = _node(nodes[k], weights[k], t_lo, t_hi)
         f = profile_factor(code, z_c + r * x, depth, k_s)
         s += wk * f * abs(f)
     m = s / area
