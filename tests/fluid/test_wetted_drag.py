@@ -158,3 +158,46 @@ def test_drag_on_resting_masses_over_a_sweep_of_heights(compiled, name):
         phi = (cap(min(max(h - (zc - a), 0.0), D)) - cap(min(max(-(zc - a), 0.0), D))) / (4 / 3 * math.pi * a ** 3)
         drag = phi * 0.5 * 1000.0 * cd * math.pi * a * a * (U * F) ** 2
         assert f[0, 0] == pytest.approx(drag, rel=2e-3), zc
+
+
+def _rolling_threshold(D, h, ks, rho=2650.0, mu_r=0.3):
+    """Depth-averaged speed U at which a lone sphere resting on a flat bed in water h rolls, by hand: the drag
+    phi 1/2 rho_w C_D(Re) A (U F)^2 (F the wetted log-law factor by quad, Re = U F D / nu) equals mu_r times
+    the submerged weight (rho_s V - rho_w phi V) g (the rolling-resistance moment mu_r R F_N against F_D R);
+    phi the submerged volume fraction (a cap for h < D)."""
+    from breachflow.fluid.drag import get_drag_law
+
+    a = 0.5 * D
+    F = quad_factor("log", 0.0, min(h, D), a, a, h, ks)
+    s = min(h, D)
+    phi = math.pi * s * s * (3 * a - s) / 3 / (4 / 3 * math.pi * a ** 3)
+    vol, area = 4 / 3 * math.pi * a ** 3, math.pi * a * a
+    weight = mu_r * 9.80665 * (rho - 1000.0 * phi) * vol
+    u = 5.0
+    for _ in range(100):
+        u = math.sqrt(weight / (phi * 0.5 * 1000.0 * float(get_drag_law("report").cd(u * D / 1e-6)) * area))
+    return u / F
+
+
+@pytest.mark.parametrize("ratio,rolls", [(0.95, False), (1.05, True)])
+def test_a_partly_emerged_sphere_on_the_bed_rolls_at_the_wetted_average_threshold(ratio, rolls):
+    """The DEM with the log profile (the closure's default) agrees with the hand threshold built on the wetted
+    average: a 2 m sphere on a flat bed in 1 m of water (h/D = 0.5) stays at 0.95 U_c and rolls at 1.05 U_c.
+    With the centre value (the old model) the threshold was 11 % lower, so it rolled at 0.95 U_c."""
+    from breachflow.dem import DemSimulation, HeightField, Material
+    from breachflow.fluid.field import UniformWater
+    from breachflow.fluid.forces import FluidForces
+
+    D, h, ks = 2.0, 1.0, 0.066
+    u_c = _rolling_threshold(D, h, ks)
+    mat = Material(density=2650.0, kn=2.0e7, friction=0.6, rolling_friction=0.3).with_restitution(
+        0.3, 2650.0 * math.pi / 6 * D ** 3)
+    x = np.linspace(-50.0, 50.0, 11)
+    bed = HeightField(x, x, np.zeros((11, 11)), mat)
+    water = UniformWater(surface=h, u=ratio * u_c, v=0.0, bed=0.0)
+    model = FluidForces(water, air=None, velocity_profile="log", roughness=ks)
+    sim = DemSimulation(boundaries=[bed], models=[model], sleeping=False, static_models=True)
+    sim.add_particles(np.array([[0.0, 0.0, 0.5 * D - 2e-3]]), 0.5 * D, mat)
+    sim.step(int(math.ceil(8.0 / sim.dt)))
+    moved = float(np.hypot(*sim.state.pos[0, :2]))
+    assert (moved > 0.5 * D) is rolls, moved
