@@ -109,3 +109,30 @@ def test_breach_discharge_is_the_channel_flux_not_a_row_through_the_pile():
     # without walls beside the opening the section is the levee line's row alone
     ds["obstacle"] = (("y", "x"), np.zeros_like(wall, "i1"), {"units": "1"})
     assert c.evaluate(ctx(ds)).value == pytest.approx(2.0 * 0.8 * DX * (21 + 0.6 * 5))
+
+
+@pytest.mark.parametrize("levee_row_factor", [0.97, 1.0, 1.03])
+def test_seepage_and_overflow_are_in_the_breach_discharge_section(levee_row_factor):
+    """A porous pile the water passes through only: in the levee row (where the seepage is split per cell)
+    all of the row's discharge is seepage, so nothing flows over the crest — whatever the channel's other
+    rows read (a few % apart at the default scene, where the overflow limit is 0.5 of ~25 m³/s). The
+    seepage is carried into the breach discharge's section, so breach discharge - seepage = overflow."""
+    from breachflow.cycle.criteria import row_discharge, section_discharge, seepage_in_section
+
+    ds = field(depth=2.0, u=0.0, v=0.8)
+    x, y = ds.x.values, ds.y.values
+    wall = (np.abs(y)[:, None] <= 2.0) & (np.abs(x)[None, :] > 5.0)
+    ds["obstacle"] = (("y", "x"), wall.astype("i1"), {"units": "1"})
+    j = int(np.argmin(np.abs(y)))
+    v = ds["v"].values.copy()
+    v[j, :] *= levee_row_factor
+    ds["v"] = (("y", "x"), v, ds["v"].attrs)
+    q_row = 2.0 * 0.8 * levee_row_factor * 21 * DX
+    q = 2.0 * 0.8 * 21 * DX  # the channel's flux (every other row)
+    assert row_discharge(ds, (-5.0, 5.0), 0.0) == pytest.approx(q_row)
+    assert section_discharge(ds, (-5.0, 5.0), 0.0) == pytest.approx(q)
+    c = criteria.get("overflow_discharge")("0.5 m^3/s")
+    for share in (1.0, 0.5, 0.0):
+        seep = seepage_in_section(ds, (-5.0, 5.0), 0.0, share * q_row)
+        assert seep == pytest.approx(share * q) if share else seep == 0.0
+        assert c.evaluate(ctx(ds, seepage_discharge=seep)).value == pytest.approx((1.0 - share) * q, abs=1e-9)

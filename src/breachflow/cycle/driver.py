@@ -33,7 +33,7 @@ from ..hydro.snapshot import DRY_DEPTH
 from ..schemas import validate
 from ..output import RunDirectory, particles_dataset, trajectories_dataset
 from ..output.cf import pad_particles
-from .criteria import CycleContext, EndCriteria, gap_section_speeds, section_discharge
+from .criteria import CycleContext, EndCriteria, gap_section_speeds, section_discharge, seepage_in_section
 from .losses import LOSS_LIMIT, gap_speed, gap_speed_and_depth, losses_flagged, not_closable_verdict, rolling_speed
 from .placement import PlacementPlan
 from .strategies import PileView
@@ -570,7 +570,7 @@ class ClosureRun:
         sel = (x >= s.breach_x[0]) & (x <= s.breach_x[1])
         frac_y = np.where(speed[j] > 0, v[j] / np.where(speed[j] > 0, speed[j], 1.0), 0.0)
         dx = abs(x[1] - x[0]) if x.size > 1 else 1.0
-        return float(np.sum((q_seep[j] * frac_y)[sel]) * dx)
+        return seepage_in_section(snapshot, s.breach_x, s.levee_y, float(np.sum((q_seep[j] * frac_y)[sel]) * dx))
 
     def _field_dataset(self, snapshot, st, placed_cycle, resting, rep) -> xr.Dataset:
         grid = self._grid_only(snapshot)
