@@ -136,7 +136,7 @@ def test_the_verdict_says_which_speed_governs_and_counts_older_masses():
     v = not_closable_verdict(2, 14, 20, 1243.2, 1776.0, np.full(20, 4.0), np.full(20, 2650.0), 8.46,
                              lost_placed=0, roll_speed=8.05, bed_factor=1.05)
     assert "14 masses (1243.2 t), 0 of them placed in this cycle," in v and "(20 masses, 1776.0 t placed in it)" in v
-    assert "8.46 m/s (depth-averaged; 8.88 m/s felt by the drag of a mass on the bed) is below the Izbash" in v
+    assert "8.46 m/s (depth-averaged; 8.88 m/s at the centre of a mass on the bed) is below the Izbash" in v
     assert "above the 8.05 m/s at which a lone mass rolls on the bare bed" in v and v.endswith("which governs here")
     fast = not_closable_verdict(1, 14, 20, 155.4, 222.0, np.full(20, 2.0), np.full(20, 2650.0), 7.93,
                                 lost_placed=14, roll_speed=5.7)

@@ -141,9 +141,9 @@ def test_fused_forces_with_a_velocity_profile_match_the_step_by_step_path(profil
 
 
 def test_fused_profile_uses_the_one_profile_definition():
-    """A still sphere in the fused path feels U * wetted_factor(z - bed, a, h, k_s): its drag equals the
+    """A still sphere in the fused path feels U * profile_factor(z - bed, h, k_s): its drag equals the
     uniform profile's drag in a field scaled by that factor (constant C_D: drag ∝ |u| u)."""
-    from breachflow.fluid.profile import drag_factors
+    from breachflow.fluid.profile import factors
 
     from breachflow.hydro.sampling import FieldSampler
 
@@ -153,7 +153,7 @@ def test_fused_profile_uses_the_one_profile_definition():
     bed, h = float(s.bed[0]), float(s.depth[0])
     st.pos[0, 2] = bed + 0.3
     for profile in ("log", "power"):
-        f = float(drag_factors(profile, 0.3, 0.05, h, 0.066))
+        f = float(factors(profile, 0.3, h, 0.066))
         assert 0.3 < f < 1.0
         scaled = snap.copy()
         scaled["u"] = snap["u"] * f

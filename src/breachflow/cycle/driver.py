@@ -27,7 +27,8 @@ import xarray as xr
 from ..dem import DemSimulation, HeightField, Material
 from ..errors import InputError
 from ..fluid.forces import FluidForces
-from ..fluid.profile import drag_factors, roughness_from_manning
+from ..fluid.profile import factors as profile_factors
+from ..fluid.profile import roughness_from_manning
 from ..hydro.sampling import FieldSampler
 from ..hydro.snapshot import DRY_DEPTH
 from ..schemas import validate
@@ -506,13 +507,13 @@ class ClosureRun:
 
     def _verdict(self, g, lost_now, new_ids, lost_t, placed_t, rel, snapshot, area) -> str:
         """The "not closable" statement (:func:`~breachflow.cycle.losses.not_closable_verdict`) for the field
-        *snapshot* the masses felt: the gap speed, the speed the drag of a mass on the bed feels there and
+        *snapshot* the masses felt: the gap speed, the profile's speed at a mass's centre on the bed there and
         the speed at which a lone mass rolls on the bare bed."""
         d = self.setup.dem
         diam = float(np.median(2.0 * rel.radius))
         rho = float(np.median(rel.density))
         speed, depth = gap_speed_and_depth(snapshot, area)
-        factor = float(drag_factors(d.velocity_profile, 0.5 * diam, 0.5 * diam, depth, self._fluid_roughness()))
+        factor = float(profile_factors(d.velocity_profile, 0.5 * diam, depth, self._fluid_roughness()))
         roll = rolling_speed(diam, rho, d.material.rolling_friction, d.drag_law)
         return not_closable_verdict(g, lost_now.size, len(new_ids), lost_t, placed_t, 2.0 * rel.radius, rel.density,
                                     speed, lost_placed=int(np.isin(lost_now, new_ids).sum()), roll_speed=roll,

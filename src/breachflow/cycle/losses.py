@@ -28,8 +28,7 @@ of all placed tonnage over the run are flagged in the summary even when the brea
 Izbash's speeds are for a stone in a bed of stones. The first masses of a closure land on the bare
 breach floor, where a lone sphere is held by nothing but its rolling resistance: it rolls once the drag
 exceeds ``mu_r`` times its submerged weight (:mod:`breachflow.dem.contact_law`, the moment
-``mu_r R F_N`` against the drag's ``F R``), i.e. at the speed (the one its drag feels: the profile averaged
-over its wetted height, :func:`~breachflow.fluid.profile.wetted_factor`)
+``mu_r R F_N`` against the drag's ``F R``), i.e. at the speed (at its centre height)
 
     u_roll = sqrt(mu_r (rho_s - rho_w) g V / (1/2 rho_w C_D(Re) A)),   V = pi D^3/6, A = pi D^2/4
 
@@ -37,7 +36,7 @@ over its wetted height, :func:`~breachflow.fluid.profile.wetted_factor`)
 spheres (``mu_r`` 0.3) this lies below Izbash's exposed-stone speed (D = 4 m, report drag law: 8.05
 against 9.78 m/s), so masses can be carried off a bare floor by a flow slower than Izbash's speed. The
 verdict names both and which one the flow exceeds, with the depth-averaged gap speed converted to the
-speed the drag of a mass on the bed feels by the run's velocity profile; it counts the masses lost in the
+speed at a mass's centre on the bed by the run's velocity profile; it counts the masses lost in the
 cycle separately from those placed in it (masses still rolling at the end of a cycle may leave in the
 next one).
 """
@@ -120,9 +119,8 @@ def not_closable_verdict(cycle: int, lost: int, placed: int, lost_t: float, plac
 
     *lost* masses (*lost_t* t) left the breach area in *cycle*, *lost_placed* of them placed in it (None:
     not known); *placed* masses (*placed_t* t) were placed. *speed* is the gap speed (depth-averaged) of the
-    field the masses felt; *bed_factor* the velocity profile's factor over the wetted height of a mass
-    resting on the bed there (:func:`~breachflow.fluid.profile.wetted_factor`; the speed its drag feels is
-    ``bed_factor * speed``); *roll_speed* the speed at which a lone
+    field the masses felt; *bed_factor* the velocity profile's factor at the centre of a mass resting on
+    the bed there (the speed it feels is ``bed_factor * speed``); *roll_speed* the speed at which a lone
     mass rolls on the bare bed (:func:`rolling_speed`; None: not stated)."""
     d = np.asarray(diameters, float)
     rho = float(np.median(density))
@@ -137,12 +135,12 @@ def not_closable_verdict(cycle: int, lost: int, placed: int, lost_t: float, plac
             f"of the breach area ({placed} masses, {placed_t:.1f} t placed in it); gap speed {speed:.2f} m/s "
             f"(depth-averaged")
     if abs(bed_factor - 1.0) > 1e-9:
-        text += f"; {felt:.2f} m/s felt by the drag of a mass on the bed"
+        text += f"; {felt:.2f} m/s at the centre of a mass on the bed"
     text += (f") {cmp} the Izbash critical speed {lo:.2f}-{hi:.2f} m/s for D = {float(np.median(d)):.3g} m "
              f"(C = {IZBASH_C[0]}-{IZBASH_C[1]}, a stone in a bed of stones)")
     if roll_speed is not None:
         rel = "above" if felt > roll_speed else "below"
-        text += (f"; the speed its drag feels is {rel} the {roll_speed:.2f} m/s at which a lone mass rolls "
+        text += (f"; the speed at a mass's centre is {rel} the {roll_speed:.2f} m/s at which a lone mass rolls "
                  f"on the bare bed (drag > rolling friction x submerged weight)")
         if felt <= lo and felt > roll_speed:
             text += ", which governs here"

@@ -10,9 +10,9 @@ from the grid arrays (:func:`~breachflow.hydro.sampling.grid_bilinear_point` or
 :func:`~breachflow.hydro.sampling.grid_neighbourhood_point`, the sampler's own point kernels), and
 buoyancy, drag, the convective apparent-mass force (Fig 4.3 Step 7H) and the gridpoint torque (Step 7E)
 use the per-term kernels of :mod:`breachflow.fluid.kernels`, and the water velocity a particle feels is
-the sampled depth-averaged one times :func:`~breachflow.fluid.profile.wetted_factor` over its wetted
-height (the vertical profile, ``uniform`` | ``log`` | ``power``, averaged as ``u|u|`` over the wetted
-projected area) — the physics stays in one place, only the loop is fused. :func:`grid_added_masses` is the same for the apparent mass. Both reproduce the
+the sampled depth-averaged one times :func:`~breachflow.fluid.profile.profile_factor` at its centre
+height (the vertical profile, ``uniform`` | ``log`` | ``power``) — the physics stays in one place, only
+the loop is fused. :func:`grid_added_masses` is the same for the apparent mass. Both reproduce the
 step-by-step path to round-off (``tests/fluid/test_compiled_forces.py``).
 
 Used by ``FluidForces`` automatically for grid snapshots without the Basset term and with a non-uniform
@@ -27,7 +27,7 @@ import numpy as np
 
 from ..hydro.sampling import grid_bilinear_point, grid_neighbourhood_point
 from . import kernels as K
-from .profile import wetted_factor
+from .profile import profile_factor
 
 BILINEAR, NEIGHBOURHOOD = 0, 1
 
@@ -42,12 +42,11 @@ def _sample(method, bed, depth, u, v, x0, y0, dx, dy, smax, x, y, radius):
 
 
 @numba.njit(cache=True, inline="always")
-def _profiled(code, k_s, z, a, b, h, uu, vv):
-    """``(u, v)`` times the vertical profile's factor over the wetted height of a sphere of radius *a* centred
-    ``z - b`` above the bed in water ``h`` (as ``FluidForces._profiled``)."""
+def _profiled(code, k_s, z, b, h, uu, vv):
+    """``(u, v)`` times the vertical profile factor at height ``z - b`` in water ``h`` (as ``FluidForces._profiled``)."""
     if code == 0:
         return uu, vv
-    f = wetted_factor(code, z - b, a, (b + h) - b, k_s)
+    f = profile_factor(code, z - b, (b + h) - b, k_s)
     return uu * f, vv * f
 
 
@@ -91,8 +90,8 @@ def grid_fluid_forces(idx, pos, vel, omega, state_pos, awake, radius, method, be
     ``FluidForces.accumulate`` with ``basset=False`` on a non-uniform grid field: outside the field a
     particle sees air (``outside_air``) or the call returns the position in *idx* of the first one outside
     before anything is added. The water velocity is the depth-averaged one times the vertical profile
-    factor (*profile* code of :data:`~breachflow.fluid.profile.PROFILES`, roughness *k_s*) over the
-    particle's wetted height (:func:`~breachflow.fluid.profile.wetted_factor`), here and at the predicted position of the convective term (the gridpoint
+    factor (*profile* code of :data:`~breachflow.fluid.profile.PROFILES`, roughness *k_s*) at the
+    particle's centre height, here and at the predicted position of the convective term (the gridpoint
     torque uses the depth-averaged gridpoint velocities, as the step path). ``time_step`` 0 means the
     default horizon of the convective term, ``0.125 max(s_max, 1e-3) / max |v_h|``. Returns -1 on success.
     """
@@ -133,7 +132,7 @@ def grid_fluid_forces_phi(idx, pos, vel, omega, state_pos, awake, radius, method
         ins_[k] = ins
         if ins:
             phi[k] = K.submerged_fraction(px[k, 2], radius[i], b + h, b)
-            su[k], sv[k] = _profiled(profile, k_s, px[k, 2], radius[i], b, h, uu, vv)
+            su[k], sv[k] = _profiled(profile, k_s, px[k, 2], b, h, uu, vv)
         else:
             if not outside_air:
                 return k
@@ -183,7 +182,7 @@ def grid_fluid_forces_phi(idx, pos, vel, omega, state_pos, awake, radius, method
             ay = px[k, 1] + pv[k, 1] * horizon
             ins1, b1, h1, u1, v1 = _sample(method, bed, depth, u, v, x0, y0, dx, dy, smax, ax, ay, a)
             if ins1:
-                u1, v1 = _profiled(profile, k_s, px[k, 2] + pv[k, 2] * horizon, a, b1, h1, u1, v1)
+                u1, v1 = _profiled(profile, k_s, px[k, 2] + pv[k, 2] * horizon, b1, h1, u1, v1)
             if not (ins1 and ins_[k]):
                 u1 = su[k]
                 v1 = sv[k]

@@ -10,15 +10,12 @@ Per particle, with ``V_sub`` the submerged volume (spherical cap while straddlin
   integrators add to ``m``; :meth:`FluidForces.accumulate` adds the convective part ``xi rho_W V_sub (u(x_pred) - u(x)) / dt``
   with ``x_pred = x + v dt`` in the frozen field (Fig 4.3 Step 7H);
 * fluid torque from the gridpoints in the particle's neighbourhood (Step 7E, Fig 4.4);
-* the water velocity at a particle is the depth-averaged one times the vertical profile's factor over the
-  particle's wetted height (``velocity_profile``: ``uniform`` (this class's default, the report), ``log``
+* the water velocity at a particle is the depth-averaged one times the vertical profile factor at the
+  particle's centre height (``velocity_profile``: ``uniform`` (this class's default, the report), ``log``
   (the closure run's default, ``[fluid] velocity_profile``), ``power``;
-  :func:`breachflow.fluid.profile.wetted_factor`: the signed root of the mean of ``f|f|`` over the wetted
-  projected area ``max(bed, z - a) .. min(surface, z + a)``, so that a mass at rest feels the drag
-  ``1/2 rho C_D int u|u| dA`` of the profile over its wetted area, not the profile at its centre, which
-  overstates it for masses as large as the depth); the drag, the Basset history and the convective
-  apparent-mass term use it; buoyancy and apparent mass do not depend on it, and the gridpoint torque
-  still uses the depth-averaged gridpoint velocities;
+  :mod:`breachflow.fluid.profile`; the drag, the Basset history and the convective apparent-mass term use
+  it; buoyancy and apparent mass do not depend on it, and the gridpoint torque still uses the
+  depth-averaged gridpoint velocities);
 * optional (``basset=True``) Basset history force ``-phi 6 a^2 sqrt(pi rho_W mu_W) int r_W' / sqrt(t - tau)``
   (eq 3.13, :mod:`breachflow.fluid.basset`); the history advances through :meth:`FluidForces.commit`, which
   the DEM and the free-flight integrators call once per accepted step, and is saved with the DEM state
@@ -52,7 +49,8 @@ from . import kernels as K
 from .basset import BassetHistory, basset_coefficient
 from .drag import DragLaw, get_drag_law
 from .field import as_field
-from .profile import drag_factors, profile_code, roughness_from_manning
+from .profile import factors as profile_factors_np
+from .profile import profile_code, roughness_from_manning
 
 #: standard gravity (m/s^2); the DEM's ``breachflow.dem.forces.G`` is the same value
 G = 9.80665
@@ -110,8 +108,7 @@ class FluidForces:
         ``g`` (m/s^2) for buoyancy.
     velocity_profile
         ``uniform`` | ``log`` | ``power`` (:mod:`breachflow.fluid.profile`): the water velocity a particle
-        of radius ``a`` centred ``z - z_bed`` above the bed feels is ``U * wetted_factor(...)``, the profile
-        averaged (as ``u|u|``) over its wetted projected area.
+        feels at its centre height ``z - z_bed`` is ``U * profile_factor(...)``.
     roughness, manning
         Roughness height ``k_s`` (m) of the log law; ``None`` derives it from Manning's *manning*
         (Manning–Strickler, :func:`~breachflow.fluid.profile.roughness_from_manning`).
@@ -221,16 +218,15 @@ class FluidForces:
             u = np.where(inside, u, 0.0)
             v = np.where(inside, v, 0.0)
         if self.profile_code != 0:
-            u, v = self._profiled(pos, radius, surface, bed, u, v)
+            u, v = self._profiled(pos, surface, bed, u, v)
         return surface, bed, u, v, inside
 
-    def _profiled(self, pos, radius, surface, bed, u, v):
-        """``(u, v)`` times the vertical profile's factor over the particles' wetted heights
-        (:func:`~breachflow.fluid.profile.wetted_factor`)."""
+    def _profiled(self, pos, surface, bed, u, v):
+        """``(u, v)`` times the vertical profile factor at the particles' centre heights."""
         with np.errstate(invalid="ignore"):  # outside the field: surface = bed = -inf
             depth = np.where(np.isfinite(surface) & np.isfinite(bed), surface - bed, 0.0)
             z = np.where(np.isfinite(bed), pos[:, 2] - bed, 0.0)
-        f = drag_factors(self.profile_code, z, radius, depth, self.roughness)
+        f = profile_factors_np(self.profile_code, z, depth, self.roughness)
         return u * f, v * f
 
     def submerged_fraction(self, pos, radius) -> np.ndarray:
@@ -361,7 +357,7 @@ class FluidForces:
         ok = np.asarray(s1.inside, bool) & inside
         su, sv = np.asarray(s1.u, float), np.asarray(s1.v, float)
         if self.profile_code != 0:
-            su, sv = self._profiled(ahead, rad, np.asarray(s1.surface, float), np.asarray(s1.bed, float), su, sv)
+            su, sv = self._profiled(ahead, np.asarray(s1.surface, float), np.asarray(s1.bed, float), su, sv)
         u1 = np.where(ok, su, u)
         v1 = np.where(ok, sv, v)
         K.convective_added_mass(rad, phi, u, v, u1, v1, horizon, self.water.rho, self.xi, f)

@@ -31,8 +31,7 @@ comparison with Izbash uses for the profiles (README table).
 Drag at the centre height vs over the stone's height: with the drag of the mean ``u|u|`` over the
 stone's projected area (Wiberg & Smith 1987, Water Resour. Res. 23(8)), the log-law effective velocity of
 this bed stone is 0.97 times its centre value (the lowest ~5 % of its height lies below ``z0 = k_s/30``,
-where the log law has no flow); the model uses that average over the wetted height
-(:func:`breachflow.fluid.profile.wetted_factor`).
+where the log law has no flow); the model keeps the centre value (:mod:`breachflow.fluid.profile`).
 """
 from __future__ import annotations
 
