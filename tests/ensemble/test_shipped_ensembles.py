@@ -53,3 +53,24 @@ def test_a_closure_ensemble_without_a_window_is_told_feasibility_cannot_be_judge
     _, _, _, tasks = plan(spec, out=tmp_path / "out")
     warnings = check_members(tasks[:2])
     assert any("no closure window" in w and "[flood], [polder], [breach]" in w and "2 of 2" in w for w in warnings)
+
+
+def test_typical_replicates_are_4_seeds_of_two_cells_with_a_window(tmp_path):
+    """The odd cell's spread (README): 2 sizes x 1 batch x 4 placement seeds, every member with the
+    typical breach's closure window, seeds differing between replicates and shared across the sizes."""
+    path = ROOT / "examples" / "ensembles" / "typical_replicates.toml"
+    spec = load_spec(path)
+    assert spec.runner == "closure" and spec.replicates == 4
+    members = spec.members()
+    assert len(members) == 8 and len({m.key for m in members}) == 8
+    seeds = {}
+    for m in members:
+        table = spec.member_table(m)
+        assert table["site"]["preset"] == "typical_breach" and table["placement"]["batch"] == 10
+        seeds.setdefault(m.values["mass_size"], []).append(m.seed)
+    assert sorted(seeds) == ["4 m", "5 m"] and all(len(set(v)) == 4 for v in seeds.values())
+    assert sorted(seeds["4 m"]) == sorted(seeds["5 m"])  # common random numbers across the cells
+    _, _, _, tasks = plan(path, out=tmp_path)
+    ds = closure_window(**tasks[0].scenario.scenario().window_kwargs())
+    assert float(ds["closure_window"]) == pytest.approx(4900e4 * 2.0 / 1800.0, rel=1e-3)
+    assert not any("no closure window" in w for w in check_members(tasks[:2]))
