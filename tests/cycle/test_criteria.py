@@ -91,19 +91,26 @@ def test_breach_discharge_is_depth_times_crossing_velocity_over_the_open_breach(
     assert c.evaluate(ctx(ds)).value == 0.0 and c.evaluate(ctx(ds)).satisfied
 
 
+def walled_channel(levee_row):
+    """2 m of water at 0.8 m/s across the levee, walls beside the opening (x = ±5 m) for y in [-2, 2] m; the
+    velocity on the levee line (y = 0) times ``levee_row(x)``."""
+    ds = field(depth=2.0, u=0.0, v=0.8)
+    x, y = ds.x.values, ds.y.values
+    wall = (np.abs(y)[:, None] <= 2.0) & (np.abs(x)[None, :] > 5.0)
+    ds["obstacle"] = (("y", "x"), wall.astype("i1"), {"units": "1"})
+    v = ds["v"].values.copy()
+    v[int(np.argmin(np.abs(y)))] *= levee_row(x)
+    ds["v"] = (("y", "x"), v, ds["v"].attrs)
+    return ds
+
+
 def test_breach_discharge_is_the_channel_flux_not_a_row_through_the_pile():
     """Walls beside the opening (x = ±5 m) for y in [-2, 2] m carry 2 m × 0.8 m/s × 10.5 m = 16.8 m³/s
     through every row (continuity); on the levee line a pile's raised bed makes the cell-centre momentum
     1.6 times the flux in 5 cells (what issue 16's nested closure showed: 53.3 on the pile row against
     32.6–36.0 m³/s on the others). The breach discharge is the channel's flux, not that row's."""
-    ds = field(depth=2.0, u=0.0, v=0.8)
-    x, y = ds.x.values, ds.y.values
-    wall = (np.abs(y)[:, None] <= 2.0) & (np.abs(x)[None, :] > 5.0)
-    ds["obstacle"] = (("y", "x"), wall.astype("i1"), {"units": "1"})
-    j = int(np.argmin(np.abs(y)))
-    v = ds["v"].values.copy()
-    v[j, (x >= -1.0) & (x <= 1.0)] *= 1.6
-    ds["v"] = (("y", "x"), v, ds["v"].attrs)
+    ds = walled_channel(levee_row=lambda x: np.where((x >= -1.0) & (x <= 1.0), 1.6, 1.0))
+    wall = ds["obstacle"].values
     c = criteria.get("breach_discharge")("1 m^3/s")
     assert c.evaluate(ctx(ds)).value == pytest.approx(2.0 * 0.8 * 21 * DX)
     # without walls beside the opening the section is the levee line's row alone
@@ -119,14 +126,7 @@ def test_seepage_and_overflow_are_in_the_breach_discharge_section(levee_row_fact
     seepage is carried into the breach discharge's section, so breach discharge - seepage = overflow."""
     from breachflow.cycle.criteria import row_discharge, section_discharge, seepage_in_section
 
-    ds = field(depth=2.0, u=0.0, v=0.8)
-    x, y = ds.x.values, ds.y.values
-    wall = (np.abs(y)[:, None] <= 2.0) & (np.abs(x)[None, :] > 5.0)
-    ds["obstacle"] = (("y", "x"), wall.astype("i1"), {"units": "1"})
-    j = int(np.argmin(np.abs(y)))
-    v = ds["v"].values.copy()
-    v[j, :] *= levee_row_factor
-    ds["v"] = (("y", "x"), v, ds["v"].attrs)
+    ds = walled_channel(levee_row=lambda x: levee_row_factor)
     q_row = 2.0 * 0.8 * levee_row_factor * 21 * DX
     q = 2.0 * 0.8 * 21 * DX  # the channel's flux (every other row)
     assert row_discharge(ds, (-5.0, 5.0), 0.0) == pytest.approx(q_row)
