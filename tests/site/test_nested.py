@@ -108,8 +108,14 @@ def test_nested_from_adh_and_hecras_files_reproduces_the_field_near_the_breach(t
     assert isinstance(ns, NestedSolver) and ns.regional.attrs["breachflow_reader"] == reader
     local = ns.solve()
     B = scene.breach.length
-    c = consistency(local, ns.regional, (0.0, 0.0), 2 * B)
-    print("consistency", fmt, angle, seed, json.dumps({k: round(v, 4) for k, v in c.items()}),
+    check_consistency(("consistency", fmt, angle, seed), local, ns.regional, grid, B)
+
+
+def check_consistency(label, local, regional, grid, B):
+    """The nested model's steady solution within 2 B of the breach against the regional field it was fed
+    (mean speed and depth within 5 %), printed with *label*; returns the :func:`consistency` figures."""
+    c = consistency(local, regional, (0.0, 0.0), 2 * B)
+    print(*label, json.dumps({k: round(v, 4) for k, v in c.items()}),
           f"mean speed {100 * c['mean_speed_diff'] / c['regional_mean_speed']:.2f} %",
           f"mean depth {100 * c['mean_depth_diff'] / c['regional_mean_depth']:.2f} %",
           "steady", local.attrs["steady_state"], local.attrs["simulated_time_s"])
@@ -119,6 +125,7 @@ def test_nested_from_adh_and_hecras_files_reproduces_the_field_near_the_breach(t
     assert c["mean_depth_diff"] <= 0.05 * c["regional_mean_depth"]
     # the ingested field is the written one (not a stand-in): its peak speed near the breach is the grid's
     assert c["regional_peak_speed"] == pytest.approx(float(np.hypot(grid.u, grid.v).max()), rel=0.05)
+    return c
 
 
 def test_nested_from_a_hecras_sdf_recovers_the_breach_discharge(typical_grid, tmp_path):

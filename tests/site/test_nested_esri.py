@@ -19,13 +19,14 @@ from breachflow.cycle.config import closure_setup, demo_breach
 from breachflow.cycle.main import run_closure
 from breachflow.hydro.crs import local_crs_wkt
 from breachflow.hydro.io import write_esri
-from breachflow.hydro.nested import NestedSolver, consistency, fill_obstacles
+from breachflow.hydro.nested import NestedSolver, fill_obstacles
 from breachflow.hydro.regional_grid import infer_no_flow, with_no_flow
 from breachflow.hydro.sampling import FieldSampler
 from breachflow.hydro.snapshot import grid_snapshot, set_crs
 from breachflow.scenario.config import load_scenario
 
-from .test_nested import NESTED_SCENARIO, TYPICAL_NESTED, _closure_print, demo_grid_wide, typical_grid  # noqa: F401
+from .test_nested import (NESTED_SCENARIO, TYPICAL_NESTED, _closure_print, check_consistency,  # noqa: F401
+                          demo_grid_wide, typical_grid)
 
 
 def regrid(grid, spacing: float, ox: float, oy: float) -> xr.Dataset:
@@ -106,16 +107,7 @@ def test_nested_from_esri_grids_reproduces_the_field_near_the_breach(typical_gri
     assert float(ns.regional.x[1] - ns.regional.x[0]) == pytest.approx(spacing)
     local = ns.solve()
     B = scene.breach.length
-    c = consistency(local, ns.regional, (0.0, 0.0), 2 * B)
-    print("consistency esri", spacing, ox, oy, json.dumps({k: round(v, 4) for k, v in c.items()}),
-          f"mean speed {100 * c['mean_speed_diff'] / c['regional_mean_speed']:.2f} %",
-          f"mean depth {100 * c['mean_depth_diff'] / c['regional_mean_depth']:.2f} %",
-          "steady", local.attrs["steady_state"], local.attrs["simulated_time_s"])
-    assert local.attrs["hydro_mode"] == "nested" and local.attrs["steady_state"] == 1
-    assert c["cells"] > 500
-    assert c["mean_speed_diff"] <= 0.05 * c["regional_mean_speed"]
-    assert c["mean_depth_diff"] <= 0.05 * c["regional_mean_depth"]
-    assert c["regional_peak_speed"] == pytest.approx(float(np.hypot(grid.u, grid.v).max()), rel=0.05)
+    check_consistency(("consistency esri", spacing, ox, oy), local, ns.regional, grid, B)
     # the intact levee stays dry: no local cell on its crest line (y = 0) beyond the breach walls holds water
     X, Y = np.meshgrid(local.x.values, local.y.values)
     crest = (np.abs(Y) < 0.6 * float(local.y[1] - local.y[0])) & (np.abs(X) > 0.5 * B + 8.0)
