@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-import tomllib
 from pathlib import Path
 
 import numpy as np
@@ -76,13 +75,12 @@ def scenario_text(name_or_path) -> tuple[str, str, Path | None]:
 
 def member_text(text: str, strategy: str, max_cycles: int | None = None) -> str:
     """The scenario *text* with ``[placement] positions = strategy`` (and ``[criteria] max_cycles``)."""
-    from breachflow.ensemble.spec import dump_toml
+    from breachflow.scenario.toml import scenario_with
 
-    table = tomllib.loads(text)
-    table.setdefault("placement", {})["positions"] = strategy
+    changes = {"placement.positions": strategy}
     if max_cycles is not None:
-        table.setdefault("criteria", {})["max_cycles"] = int(max_cycles)
-    return dump_toml(table)
+        changes["criteria.max_cycles"] = int(max_cycles)
+    return scenario_with(text, changes)
 
 
 def run_member(text: str, run_dir: Path) -> dict:

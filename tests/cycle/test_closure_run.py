@@ -1,4 +1,6 @@
 """The closure cycle end to end on a coarse scene: files, schemas, resume equality, crash recovery."""
+from pathlib import Path
+
 import numpy as np
 import pytest
 import xarray as xr
@@ -8,44 +10,14 @@ from breachflow.cycle.config import closure_setup
 from breachflow.cycle.driver import ClosureRun
 from breachflow.output import RunDirectory
 from breachflow.scenario.config import parse_scenario
+from breachflow.scenario.toml import scenario_with
 from breachflow.schemas import validate
 
-SCENARIO = """
-[scenario]
-name = "ci closure"
-[site]
-preset = "demo_breach"
-levee_length_each_side = "16 m"
-flood_side_extent = "20 m"
-protected_side_extent = "20 m"
-[hydro]
-resolution = "2 m"
-order = 1
-t_max_initial = "60 s"
-t_max = "20 s"
-monitor_radius = "10 m"
-[dem]
-max_time = "3 s"
-record_interval = "0.25 s"
-[placement]
-diameter = ["1.6 m", "2.0 m"]
-batch = 3
-positions = "line"
-start = ["-4 m", "0 m"]
-stop = ["4 m", "0 m"]
-release_height = "0.5 m"
-[criteria]
-mode = "any"
-max_cycles = %d
-max_speed = "0.05 m/s"
-[closure]
-remap = "%s"
-seed = 5
-"""
+CI_CLOSURE = (Path(__file__).resolve().parents[1] / "data" / "ci_closure.toml").read_text()
 
 
 def _run(path, cycles=2, remap="no_flow", resume=False, progress=None):
-    text = SCENARIO % (cycles, remap)
+    text = scenario_with(CI_CLOSURE, {"criteria.max_cycles": cycles, "closure.remap": remap})
     setup = closure_setup(parse_scenario(text))
     run = ClosureRun(setup, path, text, resume=resume, progress=progress)
     run.run()
@@ -142,7 +114,7 @@ def test_stability_rerun_of_the_resting_assembly(tmp_path):
     """Criterion 5: the cycle's resting masses, all woken and re-run in the re-solved flow, are reported
     with their largest displacement; masses that settled to equilibrium (E_TOL) in a flow that the
     placement only weakened barely move (well under their size), yet a real re-run moves them a little."""
-    text = (SCENARIO % (1, "no_flow")).replace('max_speed = "0.05 m/s"', 'max_speed = "0.05 m/s"\nstability = "0.05 m"')
+    text = scenario_with(CI_CLOSURE, {"criteria.max_cycles": 1, "closure.remap": "no_flow", "criteria.stability": "0.05 m"})
     setup = closure_setup(parse_scenario(text))
     run = ClosureRun(setup, tmp_path / "s", text)
     (rep,) = run.run()

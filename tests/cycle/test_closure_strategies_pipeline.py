@@ -7,38 +7,12 @@ import numpy as np
 import pytest
 import xarray as xr
 
-TINY = """
-[scenario]
-name = "tiny strategies"
-[site]
-preset = "demo_breach"
-levee_length_each_side = "16 m"
-flood_side_extent = "20 m"
-protected_side_extent = "20 m"
-[hydro]
-resolution = "2 m"
-order = 1
-t_max_initial = "60 s"
-t_max = "20 s"
-monitor_radius = "10 m"
-[dem]
-max_time = "3 s"
-record_interval = "0.25 s"
-[placement]
-diameter = ["1.6 m", "2.0 m"]
-density = "2650 kg/m^3"
-batch = 3
-positions = "line"
-release_height = "0.5 m"
-rate = "30 1/hr"
-[criteria]
-mode = "any"
-max_cycles = 5
-max_speed = "0.05 m/s"
-[closure]
-remap = "raised_bed"
-seed = 2
-"""
+from breachflow.scenario.toml import scenario_with
+
+CI_CLOSURE = (Path(__file__).resolve().parents[1] / "data" / "ci_closure.toml").read_text()
+TINY = scenario_with(CI_CLOSURE, {"scenario.name": "tiny strategies", "placement.density": "2650 kg/m^3",
+                                  "placement.rate": "30 1/hr", "placement.start": None, "placement.stop": None,
+                                  "criteria.max_cycles": 5, "closure.seed": 2})
 
 
 def _pipeline():

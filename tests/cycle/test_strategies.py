@@ -1,11 +1,14 @@
 """Placement strategies (issue 14): the registry, today's line/zone/list unchanged, the closure strategies
 ``vertical`` and ``horizontal`` on synthetic sills, the pile view, and resume of real runs."""
+from pathlib import Path
+
 import numpy as np
 import pytest
 
 from breachflow import InputError
 from breachflow.cycle.placement import PlacementPlan
 from breachflow.cycle.strategies import SPACING, PileView, placement_strategies
+from breachflow.scenario.toml import scenario_with
 
 
 
@@ -172,36 +175,7 @@ def test_pile_view_of_a_sphere_on_a_flat_bed():
     np.testing.assert_allclose(view.crest[np.abs(view.s - 10.0) > 1.01], -1.0)
 
 
-SCENARIO = """
-[scenario]
-name = "ci strategies"
-[site]
-preset = "demo_breach"
-levee_length_each_side = "16 m"
-flood_side_extent = "20 m"
-protected_side_extent = "20 m"
-[hydro]
-resolution = "2 m"
-order = 1
-t_max_initial = "60 s"
-t_max = "20 s"
-monitor_radius = "10 m"
-[dem]
-max_time = "%s"
-record_interval = "0.25 s"
-[placement]
-diameter = ["1.6 m", "2.0 m"]
-batch = 3
-positions = "%s"
-release_height = "0.5 m"
-[criteria]
-mode = "any"
-max_cycles = 3
-max_speed = "0.05 m/s"
-[closure]
-remap = "raised_bed"
-seed = 5
-"""
+CI_CLOSURE = (Path(__file__).resolve().parents[1] / "data" / "ci_closure.toml").read_text()
 
 
 class Crash(Exception):
@@ -229,7 +203,8 @@ def test_closure_strategies_resume_bit_identically(tmp_path, positions):
     from breachflow.output import RunDirectory
     from breachflow.scenario.config import parse_scenario
 
-    text = SCENARIO % ("4 s", positions)
+    text = scenario_with(CI_CLOSURE, {"scenario.name": "ci strategies", "dem.max_time": "4 s", "placement.positions": positions,
+                                       "placement.start": None, "placement.stop": None, "criteria.max_cycles": 3})
 
     def run(path, resume=False, progress=None):
         r = ClosureRun(closure_setup(parse_scenario(text)), path, text, resume=resume, progress=progress)

@@ -4,6 +4,8 @@ entering the water, crossing the surface, resting on the terrain (dry bank and r
 box (lost), sleeping, woken by a changed field and by new masses dropped on them; both Verlet
 integrators, every velocity profile, both samplers, with and without air / apparent mass; and a whole
 closure run with the porous and raised-bed remaps gives the same files."""
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -14,6 +16,7 @@ from breachflow.fluid.forces import FluidForces
 from breachflow.hydro.sampling import FieldSampler
 from breachflow.hydro.snapshot import grid_snapshot
 from breachflow.scenario.config import parse_scenario
+from breachflow.scenario.toml import scenario_with
 
 ROCK = Material(density=2650, kn=2e7, friction=0.6, rolling_friction=0.3, c_cn=3e4)
 
@@ -144,38 +147,7 @@ def test_ineligible_cycle_scenes_step_in_python():
     assert steploop.runner(sim_with(boundaries=two)) is None
 
 
-SCENARIO = """
-[scenario]
-name = "ci closure"
-[site]
-preset = "demo_breach"
-levee_length_each_side = "16 m"
-flood_side_extent = "20 m"
-protected_side_extent = "20 m"
-[hydro]
-resolution = "2 m"
-order = 1
-t_max_initial = "60 s"
-t_max = "20 s"
-monitor_radius = "10 m"
-[dem]
-max_time = "3 s"
-record_interval = "0.25 s"
-[placement]
-diameter = ["1.6 m", "2.0 m"]
-batch = 3
-positions = "line"
-start = ["-4 m", "0 m"]
-stop = ["4 m", "0 m"]
-release_height = "0.5 m"
-[criteria]
-mode = "any"
-max_cycles = 2
-max_speed = "0.05 m/s"
-[closure]
-remap = "%s"
-seed = 5
-"""
+CI_CLOSURE = (Path(__file__).resolve().parents[1] / "data" / "ci_closure.toml").read_text()
 
 
 def _same_nc(a, b):
@@ -198,7 +170,7 @@ def _same_nc(a, b):
 def test_closure_run_files_are_identical_with_the_compiled_dem(remap, tmp_path, monkeypatch):
     """A closure run (default integrator and log velocity profile) with the compiled DEM loop writes the same
     cycle fields, restart records and trajectories as with the DEM stepped in Python."""
-    text = SCENARIO % remap
+    text = scenario_with(CI_CLOSURE, {"closure.remap": remap})
     done = []
     monkeypatch.setattr(steploop_fluid, "run", _counting(steploop_fluid.run, done))
     ClosureRun(closure_setup(parse_scenario(text)), tmp_path / "new", text).run()

@@ -1,5 +1,6 @@
 """Vertical velocity profiles, the stone-size estimate and the DEM stone stability vs Izbash/Shields."""
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -11,6 +12,7 @@ from breachflow.fluid.forces import FluidForces
 from breachflow.fluid.profile import factors, profile_code, roughness_from_manning
 from breachflow.scenario.stone import (fill_volume, izbash_diameter, izbash_velocity, shields_diameter,
                                        shields_velocity, stone_size)
+from breachflow.scenario.toml import scenario_with
 
 
 @pytest.mark.parametrize("name", ["log", "power", "uniform"])
@@ -208,32 +210,10 @@ def test_closure_cycle_runs_with_the_log_profile(tmp_path):
     from breachflow.cycle.driver import ClosureRun
     from breachflow.scenario.config import parse_scenario
 
-    text = """
-[site]
-preset = "demo_breach"
-levee_length_each_side = "16 m"
-flood_side_extent = "20 m"
-protected_side_extent = "20 m"
-[hydro]
-resolution = "2 m"
-order = 1
-t_max_initial = "60 s"
-t_max = "20 s"
-monitor_radius = "10 m"
-[dem]
-max_time = "3 s"
-[placement]
-diameter = ["1.6 m", "2.0 m"]
-batch = 3
-start = ["-4 m", "0 m"]
-stop = ["4 m", "0 m"]
-release_height = "0.5 m"
-[criteria]
-max_cycles = 1
-max_speed = "0.05 m/s"
-[fluid]
-velocity_profile = "log"
-"""
+    ci = (Path(__file__).resolve().parents[1] / "data" / "ci_closure.toml").read_text()
+    text = scenario_with(ci, {"scenario.name": None, "dem.record_interval": None, "placement.positions": None,
+                              "criteria.mode": None, "criteria.max_cycles": 1, "closure.remap": None, "closure.seed": None,
+                              "fluid.velocity_profile": "log"})
     run = ClosureRun(closure_setup(parse_scenario(text)), tmp_path / "log", text)
     (rep,) = run.run()
     assert rep.masses == 3

@@ -46,6 +46,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import InputError, ParseError, UnitError
+from ..scenario.toml import dump_toml  # noqa: F401  (re-exported: the spec's own writer)
 from ..units import Q_
 
 #: Canonical SI unit text (UDUNITS-parsable) per dimensionality, for coordinates and results.
@@ -53,7 +54,6 @@ SI_UNIT_TEXT = ("m", "m^2", "m^3", "s", "m/s", "m^3/s", "m^2/s", "kg", "kg/m^3",
                 "kg/s", "N*m", "J", "W", "K", "rad", "1")
 
 _NUMBER_START = re.compile(r"^\s*[-+]?(\d|\.\d)")
-_BARE_KEY = re.compile(r"^[A-Za-z0-9_-]+$")
 _DIM_NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 ENSEMBLE_KEYS = {"name", "description", "runner", "base", "design", "seed", "output", "workers", "scheduler",
                  "vary", "members", "options", "replicates"}
@@ -498,63 +498,3 @@ def as_spec(spec) -> EnsembleSpec:
 
 
 # ------------------------------------------------------------------------------------------ TOML writer
-def dump_toml(data: dict, sections: list[str] | None = None) -> str:
-    """Minimal TOML writer for scenario tables (scalars, lists, nested tables). Each top-level table is a
-    self-contained block, so the text of a subset of *sections* is a prefix of the text of all of them
-    when those come first (line numbers in parse errors stay right)."""
-    order = list(sections) if sections is not None else list(data)
-    blocks = []
-    for name in order:
-        value = data[name]
-        if not isinstance(value, dict):
-            raise InputError(f"scenario: top-level key {name!r} is not a table")
-        blocks.append(_dump_table((name,), value))
-    return "\n".join(blocks)
-
-
-def _dump_table(path: tuple[str, ...], table: dict) -> str:
-    lines = [f"[{'.'.join(_key(p) for p in path)}]"]
-    subs = []
-    arrays_of_tables = []
-    for k, v in table.items():
-        if isinstance(v, dict):
-            subs.append((k, v))
-        elif isinstance(v, list) and v and all(isinstance(x, dict) for x in v):
-            arrays_of_tables.append((k, v))
-        else:
-            lines.append(f"{_key(k)} = {_value(v)}")
-    text = "\n".join(lines) + "\n"
-    for k, v in subs:
-        text += "\n" + _dump_table(path + (k,), v)
-    for k, items in arrays_of_tables:
-        for item in items:
-            head = f"[[{'.'.join(_key(p) for p in path + (k,))}]]"
-            body = "\n".join(f"{_key(a)} = {_value(b)}" for a, b in item.items())
-            text += f"\n{head}\n{body}\n"
-    return text
-
-
-def _key(k: str) -> str:
-    return k if _BARE_KEY.match(k) else json.dumps(k)
-
-
-def _value(v) -> str:
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, int):
-        return str(v)
-    if isinstance(v, float):
-        if math.isnan(v):
-            return "nan"
-        if math.isinf(v):
-            return "inf" if v > 0 else "-inf"
-        return repr(v)
-    if isinstance(v, str):
-        return json.dumps(v, ensure_ascii=False)
-    if isinstance(v, list):
-        return "[" + ", ".join(_value(x) for x in v) + "]"
-    if isinstance(v, dict):
-        return "{" + ", ".join(f"{_key(a)} = {_value(b)}" for a, b in v.items()) + "}"
-    if hasattr(v, "isoformat"):
-        return v.isoformat()
-    raise InputError(f"cannot write {v!r} to TOML")
