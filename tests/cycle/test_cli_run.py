@@ -114,14 +114,14 @@ from breachflow.cycle.main import default_scenario_text, run_closure  # noqa: E4
 from breachflow.errors import InputError, ParseError  # noqa: E402
 from breachflow.scenario.config import parse_scenario  # noqa: E402
 
-from .test_closure_run import SCENARIO  # noqa: E402
+from .test_closure_run import ci_scene  # noqa: E402
 
 
 def test_a_users_run_is_never_replaced_without_overwrite(tmp_path):
     """`run my.toml --out D`, then `run --out D` (scenario forgotten) used to replace the user's run with the
     default scenario (rc 0). Now it is refused, names the flags, and leaves the run as it was."""
     out = tmp_path / "mine"
-    text = SCENARIO % (2, "no_flow")
+    text = ci_scene(2, "no_flow")
     (tmp_path / "mine.toml").write_text(text)
     RunDirectory(out).start(text, seed=5, metadata={"scenario_path": str(tmp_path / "mine.toml")})
     before = (out / "manifest.json").read_bytes()
@@ -151,7 +151,7 @@ def test_resume_without_a_scenario_uses_the_stored_one_sweeps_and_logs(tmp_path)
     `run --out D --resume` alone, from the scenario.toml stored in D, says where it resumes, sweeps the
     temp file, and logs the console output to D/run.log."""
     scen = tmp_path / "mine.toml"
-    scen.write_text(SCENARIO % (2, "no_flow"))
+    scen.write_text(ci_scene(2, "no_flow"))
     out = tmp_path / "mine"
 
     class Stop(Exception):
@@ -178,7 +178,7 @@ def test_resume_without_a_scenario_uses_the_stored_one_sweeps_and_logs(tmp_path)
 
 def test_a_bad_placement_leaves_no_run_directory(tmp_path):
     scen = tmp_path / "far.toml"
-    scen.write_text((SCENARIO % (2, "no_flow")).replace('start = ["-4 m", "0 m"]', 'start = ["-400 m", "0 m"]'))
+    scen.write_text(ci_scene(2, "no_flow", {"placement.start": ["-400 m", "0 m"]}))
     out = tmp_path / "far"
     res = runner.invoke(app, ["run", str(scen), "--out", str(out)])
     assert res.exit_code != 0
@@ -188,7 +188,7 @@ def test_a_bad_placement_leaves_no_run_directory(tmp_path):
 
 @pytest.mark.parametrize("key, bad", [("batch", '"five"'), ("batch", "2.5"), ("max_cycles", '"ten"')])
 def test_type_errors_name_the_key_and_line(tmp_path, key, bad):
-    text = SCENARIO % (2, "no_flow")
+    text = ci_scene(2, "no_flow")
     line = next(i for i, l in enumerate(text.splitlines(), 1) if l.startswith(f"{key} ="))
     text = "\n".join(f"{key} = {bad}" if i == line else l for i, l in enumerate(text.splitlines(), 1))
     with pytest.raises(ParseError) as info:

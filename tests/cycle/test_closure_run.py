@@ -16,8 +16,13 @@ from breachflow.schemas import validate
 CI_CLOSURE = (Path(__file__).resolve().parents[1] / "data" / "ci_closure.toml").read_text()
 
 
+def ci_scene(cycles=2, remap="no_flow", changes=None) -> str:
+    """The CI closure scene (tests/data/ci_closure.toml) with *cycles*, *remap* and dotted-key *changes*."""
+    return scenario_with(CI_CLOSURE, {"criteria.max_cycles": cycles, "closure.remap": remap, **(changes or {})})
+
+
 def _run(path, cycles=2, remap="no_flow", resume=False, progress=None):
-    text = scenario_with(CI_CLOSURE, {"criteria.max_cycles": cycles, "closure.remap": remap})
+    text = ci_scene(cycles, remap)
     setup = closure_setup(parse_scenario(text))
     run = ClosureRun(setup, path, text, resume=resume, progress=progress)
     run.run()
@@ -114,7 +119,7 @@ def test_stability_rerun_of_the_resting_assembly(tmp_path):
     """Criterion 5: the cycle's resting masses, all woken and re-run in the re-solved flow, are reported
     with their largest displacement; masses that settled to equilibrium (E_TOL) in a flow that the
     placement only weakened barely move (well under their size), yet a real re-run moves them a little."""
-    text = scenario_with(CI_CLOSURE, {"criteria.max_cycles": 1, "closure.remap": "no_flow", "criteria.stability": "0.05 m"})
+    text = ci_scene(1, "no_flow", {"criteria.stability": "0.05 m"})
     setup = closure_setup(parse_scenario(text))
     run = ClosureRun(setup, tmp_path / "s", text)
     (rep,) = run.run()

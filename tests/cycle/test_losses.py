@@ -11,10 +11,10 @@ from breachflow.cycle.losses import breach_area, izbash_speed
 from breachflow.cycle.config import demo_breach
 from breachflow.scenario.config import parse_scenario
 
-from .test_closure_run import SCENARIO
+from .test_closure_run import ci_scene
 
 
-ROLLING = "rolling_friction = 0\nfriction = 0.3"
+ROLLING = {"dem.rolling_friction": 0, "dem.friction": 0.3}
 
 
 def test_izbash_speed_matches_the_published_coefficient():
@@ -31,15 +31,12 @@ def test_breach_area_is_the_levee_footprint_over_the_breach_plus_one_diameter():
     assert breach_area(sc, 2.0) == pytest.approx((-8.0, 8.0, -(1.5 + 6.0 + 2.0), 1.5 + 6.0 + 2.0))
 
 
-def _text(diameter, cycles, extra=""):
-    """The CI closure scene with masses of *diameter*; *extra* lines go to [dem]."""
-    text = (SCENARIO % (cycles, "no_flow")).replace('diameter = ["1.6 m", "2.0 m"]', f'diameter = "{diameter}"')
-    if extra:
-        text = text.replace('max_time = "3 s"', 'max_time = "15 s"')
-    return text.replace("[dem]", "[dem]\n" + extra)
+def _text(diameter, cycles, extra=None):
+    """The CI closure scene with masses of *diameter*; *extra*: changes of [dem] (then a 15 s cycle cap)."""
+    return ci_scene(cycles, "no_flow", {"placement.diameter": diameter, **({"dem.max_time": "15 s", **extra} if extra else {})})
 
 
-def _run(path, diameter, cycles=4, extra=""):
+def _run(path, diameter, cycles=4, extra=None):
     text = _text(diameter, cycles, extra)
     run = ClosureRun(closure_setup(parse_scenario(text)), path, text)
     run.run()
@@ -77,13 +74,13 @@ def test_large_masses_stay_and_no_verdict(tmp_path):
 
 
 def test_loss_limit_and_area_come_from_the_scenario(tmp_path):
-    text = (SCENARIO % (1, "no_flow")).replace("[closure]", '[closure]\nloss_limit = 0.9\narea = ["-6 m", "6 m", "-8 m", "8 m"]')
+    text = ci_scene(1, "no_flow", {"closure.loss_limit": 0.9, "closure.area": ["-6 m", "6 m", "-8 m", "8 m"]})
     setup = closure_setup(parse_scenario(text))
     assert setup.loss_limit == 0.9 and setup.area == (-6.0, 6.0, -8.0, 8.0)
     from breachflow.errors import BreachflowError
 
     with pytest.raises(BreachflowError, match="area"):
-        closure_setup(parse_scenario((SCENARIO % (1, "no_flow")).replace("[closure]", '[closure]\narea = ["6 m", "-6 m", "0 m", "1 m"]')))
+        closure_setup(parse_scenario(ci_scene(1, "no_flow", {"closure.area": ["6 m", "-6 m", "0 m", "1 m"]})))
 
 
 def test_rolling_speed_balances_drag_and_rolling_resistance():

@@ -12,11 +12,11 @@ from breachflow.errors import InputError
 from breachflow.output import RunDirectory
 from breachflow.scenario.config import parse_scenario
 
-from .test_closure_run import SCENARIO, Crash, _same
+from .test_closure_run import Crash, _same, ci_scene
 
 
-def _run(path, cycles=3, remap="porous", extra="", resume=False, progress=None):
-    text = (SCENARIO % (cycles, remap)).replace('max_speed = "0.05 m/s"', 'max_speed = "0.05 m/s"' + extra)
+def _run(path, cycles=3, remap="porous", changes=None, resume=False, progress=None):
+    text = ci_scene(cycles, remap, changes)
     setup = closure_setup(parse_scenario(text))
     run = ClosureRun(setup, path, text, resume=resume, progress=progress)
     run.run()
@@ -43,8 +43,9 @@ def test_porous_pile_reports_seepage_and_leaks(tmp_path):
 
 
 def test_discharge_criteria(tmp_path):
-    run = _run(tmp_path / "c", cycles=2, extra='\nbreach_discharge = "1e4 m^3/s"\nseepage_discharge = "1e-6 m^3/s"\n'
-                                              'overflow_discharge = "1e-6 m^3/s"')
+    run = _run(tmp_path / "c", cycles=2, changes={"criteria.breach_discharge": "1e4 m^3/s",
+                                                "criteria.seepage_discharge": "1e-6 m^3/s",
+                                                "criteria.overflow_discharge": "1e-6 m^3/s"})
     rep = run.reports[0]
     by = {r.name: r for r in rep.criteria}
     assert by["breach_discharge"].satisfied and rep.closed  # the breach passes far less than 1e4 m3/s
