@@ -207,6 +207,8 @@ def main(argv) -> int:
         kernels[tag + "hooke_history"] = (mod.pair_forces_window, pair_args(s.vel, s.omega, False, 1))
         kernels[tag + "plane, window"] = (mod.plane_forces, plane_args(0))
         kernels[tag + "plane, hooke"] = (mod.plane_forces, plane_args(1))
+    if hasattr(contacts, "uniform_awake"):  # the pair kernel's per-call test for its one-material fast path
+        kernels["uniform_awake scan"] = (contacts.uniform_awake, (s._props, s.awake, s.active))
     kernels["bare Hooke"] = (bare_hooke, (sim._pa, sim._pb, s.pos, s.radius, float(s.kn[0]), sim.geom, sim.periodic,
                                           f))
     times = {k: [] for k in kernels}
@@ -220,9 +222,9 @@ def main(argv) -> int:
             times[name].append((time.process_time() - c) / a.calls)
     npairs, ntouch = sim._pa.size, int(bare_hooke(*kernels["bare Hooke"][1]))
     print(f"{a.scene}, {a.n} spheres: {npairs} listed pairs, {ntouch} in contact; CPU ns per listed pair "
-          f"(planes: per particle), best and median of {a.reps}")
+          f"(planes, scan: per particle), best and median of {a.reps}")
     for name, sec in times.items():
-        per = s.n if "plane" in name else npairs
+        per = s.n if "plane" in name or "scan" in name else npairs
         print(f"{name:26s} {min(sec) / per * 1e9:6.1f}  {st.median(sec) / per * 1e9:6.1f}")
     if a.old:
         for name in [k for k in kernels if not k.startswith("old ") and "old " + k in kernels]:

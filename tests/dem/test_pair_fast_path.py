@@ -116,6 +116,11 @@ def test_uniform_awake_detects_the_fast_path_case():
     p = props.copy()
     p[2, 1] = np.nan
     assert not contacts.uniform_awake(p, yes, yes)
+    p = props.copy()
+    p[:, 0] = 0.0
+    p[3, 0] = -0.0  # equal as floats, but min(0.0, -0.0) depends on the order: not one row bit for bit
+    assert not contacts.uniform_awake(p, yes, yes)
+    assert contacts.uniform_awake(np.asfortranarray(props), yes, yes)  # any memory layout
 
 
 @pytest.mark.parametrize("law", [WINDOW_AVERAGED, HOOKE_HISTORY])

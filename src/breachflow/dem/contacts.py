@@ -62,13 +62,22 @@ def pair_forces_window(pa, pb, hist, rhist, touching, pos, vel, omega, vel_h, om
 
 @numba.njit(cache=True, error_model="numpy")
 def uniform_awake(props, awake, active):
-    """True if there are particles, all awake and active, all with the same property row."""
-    ok = props.shape[0] > 0
-    for i in range(props.shape[0]):
-        ok &= awake[i] & active[i]
-        for k in range(props.shape[1]):
-            ok &= props[i, k] == props[0, k]
-    return ok
+    """True if there are particles, all awake and active, all with bitwise the same property row (so that
+    ``min`` of two partners' values is row 0's value, signed zeros included). Branch-free scans, about
+    1.3 ns per particle (``python3 tasks.py bench dem_kernel`` prints it)."""
+    if props.shape[0] == 0:
+        return False
+    a = np.ascontiguousarray(awake).view(np.uint8)
+    b = np.ascontiguousarray(active).view(np.uint8)
+    off = np.uint8(0)
+    for i in range(a.size):
+        off |= (a[i] & b[i]) ^ np.uint8(1)
+    x = np.ascontiguousarray(props).reshape(-1).view(np.int64)
+    y = x[props.shape[1]:]
+    bits = np.int64(0)
+    for k in range(y.size):  # each row against the one before it
+        bits |= y[k] ^ x[k]
+    return off == 0 and bits == 0
 
 
 @numba.njit(cache=True, inline="always", error_model="numpy")
