@@ -41,15 +41,17 @@ def pair_forces_rolling(pa, pb, hist, rhist, touching, pos, vel, omega, radius, 
 def pair_forces_window(pa, pb, hist, rhist, touching, pos, vel, omega, vel_h, omega_h, split, radius, mass, inertia,
                        props, awake, active, geom, periodic, dt, wake_speed, force, torque, wake, wake_ids, n_wake, lo,
                        hi, law=0):
-    """Contact forces of all listed pairs (:func:`_pair_loop`, arguments and result there).
+    """Contact forces of all listed pairs (the loop ``_pair_loop``, arguments and result there).
 
     When every particle is awake and active and all share one property row (one material, nothing asleep:
     :func:`uniform_awake`, an O(N) scan per call), a copy of the loop compiled for that case runs: the pair's
     properties are loop constants instead of ``min`` of 8 columns of both partners, and there are no sleep,
     activity or wake tests per pair; it gives the general loop's results bit for bit
     (tests/dem/test_pair_fast_path.py). ``fastmath={"contract"}`` only: ``a * b + c`` may be fused into one
-    rounding (FMA); no NaN / inf / reassociation assumptions. Pair loop on the 1000-sphere settled bed 10-18 %
-    faster than without both (26 % with ``hooke_history``), ``python3 tasks.py bench dem_kernel --old <src>``.
+    rounding (FMA); no NaN / inf / reassociation assumptions. With both, the pair loop on the 1000-sphere
+    settled bed is 1.29 / 1.41 x faster (window-averaged / ``hooke_history``) than main 187b132
+    (``python3 tasks.py bench dem_kernel --old <src>``); the one-material copy alone 11 % against a run-time
+    flag, at 7 CPU s more compile time on an empty cache (``bench dem_kernel --compile``).
     """
     if uniform_awake(props, awake, active):
         return _pair_loop(pa, pb, hist, rhist, touching, pos, vel, omega, vel_h, omega_h, split, radius, mass,
