@@ -3,6 +3,7 @@ of a compiled step (issue 16).
 
     python3 tasks.py bench dem_kernel [--scene bed|pour] [--n 1000] [--calls 2000] [--reps 5] [--old <src>]
     python3 tasks.py bench dem_kernel --phases [--scene bed|pour] [--n 1000] [--calls 300] [--reps 3]
+    python3 tasks.py bench dem_kernel --compile [--old <src>]
 
 On the settled bed (or the poured pile) of benchmarks/bench_dem.py (n spheres), times
 ``contacts.pair_forces_window`` with the window-averaged law as ``predicted_verlet`` (dashpots at predicted
@@ -169,9 +170,13 @@ def main(argv) -> int:
     ap.add_argument("--scene", default="bed", choices=("bed", "pour"))
     ap.add_argument("--old", help="src directory of another tree: its pair and plane kernels timed interleaved")
     ap.add_argument("--steps", type=int, default=300, help="--phases: steps timed for the whole step")
+    ap.add_argument("--compile", action="store_true",
+                    help="CPU seconds to compile the pair kernel on an empty numba cache (and --old's)")
     a = ap.parse_args(argv)
     if a.phases:
         return phases(a)
+    if a.compile:
+        return compile_cost(a)
     sys.path.insert(0, str(Path(__file__).resolve().parent))
     import bench_dem
 
@@ -207,6 +212,8 @@ def main(argv) -> int:
         kernels[tag + "hooke_history"] = (mod.pair_forces_window, pair_args(s.vel, s.omega, False, 1))
         kernels[tag + "plane, window"] = (mod.plane_forces, plane_args(0))
         kernels[tag + "plane, hooke"] = (mod.plane_forces, plane_args(1))
+    if hasattr(contacts, "uniform_awake"):  # the pair kernel's per-call test for its one-material fast path
+        kernels["uniform_awake scan"] = (contacts.uniform_awake, (s._props, s.awake, s.active))
     kernels["bare Hooke"] = (bare_hooke, (sim._pa, sim._pb, s.pos, s.radius, float(s.kn[0]), sim.geom, sim.periodic,
                                           f))
     times = {k: [] for k in kernels}
@@ -220,15 +227,49 @@ def main(argv) -> int:
             times[name].append((time.process_time() - c) / a.calls)
     npairs, ntouch = sim._pa.size, int(bare_hooke(*kernels["bare Hooke"][1]))
     print(f"{a.scene}, {a.n} spheres: {npairs} listed pairs, {ntouch} in contact; CPU ns per listed pair "
-          f"(planes: per particle), best and median of {a.reps}")
+          f"(planes, scan: per particle), best and median of {a.reps}")
     for name, sec in times.items():
-        per = s.n if "plane" in name else npairs
+        per = s.n if "plane" in name or "scan" in name else npairs
         print(f"{name:26s} {min(sec) / per * 1e9:6.1f}  {st.median(sec) / per * 1e9:6.1f}")
     if a.old:
         for name in [k for k in kernels if not k.startswith("old ") and "old " + k in kernels]:
             r = [o / n for o, n in zip(times["old " + name], times[name])]
             print(f"old/new {name:18s} best {min(times['old ' + name]) / min(times[name]):.3f}, paired "
                   f"{st.mean(r):.3f} ± {st.stdev(r) if len(r) > 1 else float('nan'):.3f}")
+    return 0
+
+
+_COMPILE = """
+import time, numpy as np
+c = time.process_time()
+from breachflow.dem import contacts
+c1 = time.process_time()
+n = 3
+pos = np.array([[0.0, 0, 0], [0, 0, 0.99], [0, 0, 1.98]]); z = np.zeros((n, 3)); props = np.tile([0.0, 0.5, 1e7, 1e7, 1e3, 1e3, 1e3, 0.0], (n, 1))
+contacts.pair_forces_window(np.array([0, 1]), np.array([1, 2]), np.zeros((2, 3)), np.zeros((2, 3)), np.zeros(2, bool), pos, z, z,
+    z, z, False, np.full(n, 0.5), np.ones(n), np.ones(n), props, np.ones(n, bool), np.ones(n, bool), np.zeros(8),
+    np.zeros(2, np.int64), 1e-3, 0.1, np.zeros((n, 3)), np.zeros((n, 3)), np.zeros(n, bool), np.zeros(n, np.int64),
+    np.zeros(1, np.int64), -5e-4, 5e-4, 0)
+print(contacts.__file__, f"{time.process_time() - c1:.1f}")
+"""
+
+
+def compile_cost(a) -> int:
+    """First call of ``contacts.pair_forces_window`` in a fresh process with an empty numba cache (CPU s),
+    for this tree and --old's (its whole ``breachflow`` package put first on PYTHONPATH)."""
+    import os
+    import subprocess
+    import tempfile
+
+    trees = {"new": None} | ({"old": a.old} if a.old else {})
+    for tag, src in trees.items():
+        with tempfile.TemporaryDirectory() as cache:
+            env = dict(os.environ, NUMBA_CACHE_DIR=cache)
+            if src:
+                env["PYTHONPATH"] = str(Path(src).resolve())
+            out = subprocess.run([sys.executable, "-c", _COMPILE], env=env, capture_output=True, text=True, check=True)
+            path, sec = out.stdout.split()
+            print(f"{tag}: pair_forces_window compiled in {sec} CPU s on an empty cache ({path})")
     return 0
 
 
