@@ -363,23 +363,25 @@ class DemSimulation:
 
     # ------------------------------------------------------------------ neighbour list
     def relist_inline(self) -> bool:
-        """Whether the pair list can be rebuilt by :func:`.neighbours.relist` (also inside the compiled
-        many-steps loops): one cell per particle, no sleeping particle and no parked history, so the list
-        is the awake particles' half-stencil search alone."""
+        """Whether the pair list can be rebuilt by :func:`.neighbours.rebuild` (also inside the compiled
+        many-steps loops): the sleeping grid is current (no sleep, wake or retirement since it was built),
+        or there is no sleeping particle and no parked history (then the grid is rebuilt empty), so no
+        history has to be parked or restored."""
         s = self.state
+        if not self._sleep_grid_dirty and hasattr(self, "_sgrid"):
+            return True
         return bool(self.single_bin and self._frozen_keys.size == 0 and not (s.active & ~s.awake).any())
 
     def _relist(self):
-        """The common-case rebuild (:meth:`relist_inline`): the same compiled :func:`.neighbours.relist` as
-        the many-steps loops, so the pair order is the same on both paths."""
+        """The rebuild of :meth:`relist_inline`: the same compiled :func:`.neighbours.rebuild` as the
+        many-steps loops, so the pair list is the same on both paths."""
         s = self.state
         if self._sleep_grid_dirty:
             self._sgrid = self._grid(_EMPTY_I)
-        self._agrid = None
         bufs = getattr(self, "_pbufs", None) or neighbours.empty_buffers()
-        self._pa, self._pb, self._hist, self._rhist, self._touch, self._pbufs = neighbours.relist(
-            self.idx, s.pos, s.radius, 0.5 * self.skin, self.geom, self.periodic, self.ncell, self._pa, self._pb,
-            self._hist, self._rhist, self._pos_build, bufs)
+        self._pa, self._pb, self._hist, self._rhist, self._touch, self._pbufs = neighbours.rebuild(
+            self.idx, s.pos, s.radius, 0.5 * self.skin, self.geom, self.periodic, self.ncell, bool(self.single_bin),
+            self._sgrid, self._pa, self._pb, self._hist, self._rhist, self._pos_build, bufs)
         self._dirty = False
         self._sleep_grid_dirty = False
 

@@ -7,11 +7,13 @@
 (tests/dem/test_steploop.py), without a Python round trip per step. Before a step that needs a
 neighbour-list rebuild (some awake particle moved more than ``skin/2`` since the last build, as LAMMPS'
 ``neigh_modify check yes``) it returns REBUILD; :func:`verlet_steps_relisting` then rebuilds inside the
-compiled call (:func:`.neighbours.relist`, the same function as the driver's rebuild, so the pair order is
-the same on both paths) when the list is the awake particles' alone (no sleepers, no parked histories,
-one cell per particle: ``DemSimulation.relist_inline``); otherwise the driver rebuilds in Python. It stops
-after a step with an event the driver handles in Python: a particle left the domain, a sleeping particle was touched by a moving one, particles fell
-asleep, the equilibrium criterion was met, or a non-finite position (the driver raises).
+compiled call with :func:`.neighbours.rebuild`, the driver's rebuild between events (``DemSimulation._relist``),
+so the list — awake particles with each other and with sleeping ones, histories carried over — is the same
+on both paths, with or without sleepers. It stops after a step with an event the driver handles in Python:
+a particle left the domain, a sleeping particle was touched by a moving one, particles fell asleep, the
+equilibrium criterion was met, or a non-finite position (the driver raises). The sleeping grid is rebuilt
+(and histories parked or restored) only at these events, so between two of them the DEM of the closure
+cycle, with its resting masses asleep, runs in one compiled call.
 """
 from __future__ import annotations
 
@@ -21,7 +23,7 @@ import numpy as np
 from .contacts import displacement_since, pair_forces_window, plane_forces, sleep_update, wrap_and_check
 from .forces import _add_gravity, add_global_damping, zero_rows
 from .integrators import drift, kick, predict_extrapolated
-from .neighbours import relist
+from .neighbours import rebuild
 
 #: why :func:`verlet_steps` returned
 DONE, REBUILD, LEFT, BAD, WAKE, SLEEP, CONVERGED = range(7)
@@ -144,10 +146,11 @@ def verlet_steps_relisting(nmax, t, idx, pos, vel, omega, vel_prev, omega_prev, 
                            mass, inertia, props, awake, active, geom, periodic, wake_speed, wake, wake_ids, n_wake,
                            pl_point, pl_normal, pl_vel, pl_props, pl_hist, pl_rhist, pl_reaction, g, c_gn, c_gw, box,
                            use_box, left_ids, pos_build, half_skin, sleeping, v_sleep, n_sleep, sleep_count,
-                           sleep_ids, sleep_check, step0, e_tol, crit, consecutive, ok, stats, law, ncell, bufs):
+                           sleep_ids, sleep_check, step0, e_tol, crit, consecutive, ok, stats, law, ncell, single,
+                           sgrid, bufs):
     """:func:`verlet_steps` that rebuilds the pair list in place of returning REBUILD
-    (:func:`.neighbours.relist`, the driver's ``DemSimulation._relist``; only when
-    ``DemSimulation.relist_inline``); returns (steps done, reason, time, the list pa, pb, hist, rhist,
+    (:func:`.neighbours.rebuild`, the driver's ``DemSimulation._relist``; *single*: one cell per particle,
+    *sgrid*: the current sleeping grid ``DemSimulation._sgrid``, :func:`relisting`); returns (steps done, reason, time, the list pa, pb, hist, rhist,
     touch, the pair buffers)."""
     done = 0
     while True:
@@ -163,8 +166,8 @@ def verlet_steps_relisting(nmax, t, idx, pos, vel, omega, vel_prev, omega_prev, 
             ok = int(stats[4])
         if why != REBUILD:
             return done, why, t, pa, pb, hist, rhist, touch, bufs
-        pa, pb, hist, rhist, touch, bufs = relist(idx, pos, radius, half_skin, geom, periodic, ncell, pa, pb, hist,
-                                                  rhist, pos_build, bufs)
+        pa, pb, hist, rhist, touch, bufs = rebuild(idx, pos, radius, half_skin, geom, periodic, ncell, single, sgrid,
+                                                   pa, pb, hist, rhist, pos_build, bufs)
 
 
 def eligible(sim) -> bool:
@@ -208,7 +211,7 @@ def run(sim, nmax: int, e_tol: float = -1.0, crit: int = 0, consecutive: int = 1
     sim._n_wake = np.zeros(1, np.int64)
     stats = np.zeros(5)
     n0 = sim.idx.size
-    inline = sim.relist_inline()
+    inline = relisting(sim)
     done, why, t, *pairs = (verlet_steps_relisting if inline else verlet_steps)(
         int(nmax), sim.t, sim.idx, s.pos, s.vel, s.omega, s.vel_prev, s.omega_prev, sim.force, sim.torque, w["fp"],
         w["tp"], w["v"], w["w"], sim._inv_m, sim._inv_i, sim.lmask, sim.rmask, dt, bool(integ.predict_velocity),
@@ -223,12 +226,20 @@ def run(sim, nmax: int, e_tol: float = -1.0, crit: int = 0, consecutive: int = 1
     return finish(sim, planes, pl_hist, pl_rhist, reaction, done, why, t, stats, n0, e_tol, ok)
 
 
+def relisting(sim) -> bool:
+    """Whether the relisting loops apply: the sleeping grid is current (no sleep, wake or retirement since
+    it was built; the driver rebuilds before the call when it is not), so a rebuild inside the compiled
+    call (:func:`.neighbours.rebuild`) is the driver's (``DemSimulation._relist``)."""
+    return not sim._sleep_grid_dirty and hasattr(sim, "_sgrid")
+
+
 def relist_args(sim):
-    """The extra arguments of the relisting loops: cells per period and the pair buffers."""
+    """The extra arguments of the relisting loops: cells per period, one cell per particle or not, the
+    sleeping grid and the pair buffers."""
     from .neighbours import empty_buffers
 
     bufs = getattr(sim, "_pbufs", None) or empty_buffers()
-    return sim.ncell, bufs
+    return sim.ncell, bool(sim.single_bin), sim._sgrid, bufs
 
 
 def store_list(sim, pairs):

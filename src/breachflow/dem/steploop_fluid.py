@@ -31,7 +31,7 @@ from ..fluid.compiled import apparent_mass, grid_added_masses, grid_fluid_forces
 from .contacts import displacement_since, heightfield_forces, pair_forces_window, plane_forces
 from .forces import _add_gravity, add_global_damping, zero_rows
 from .integrators import kick
-from .neighbours import relist
+from .neighbours import rebuild
 from .steploop import BAD, DONE, REBUILD, first_half, step_event
 
 
@@ -130,7 +130,8 @@ def fluid_verlet_steps_relisting(nmax, t, idx, pos, vel, omega, vel_prev, omega_
                                  touch, radius, mass, inertia, props, awake, active, geom, periodic, wake_speed, wake,
                                  wake_ids, n_wake, planes, hf_at, hf, fluid_on, field, fluid, fm, tm, g, c_gn, c_gw,
                                  box, use_box, left_ids, pos_build, half_skin, sleeping, v_sleep, n_sleep, sleep_count,
-                                 sleep_ids, sleep_check, step0, e_tol, crit, consecutive, ok, stats, law, ncell, bufs):
+                                 sleep_ids, sleep_check, step0, e_tol, crit, consecutive, ok, stats, law, ncell,
+                                 single, sgrid, bufs):
     """:func:`fluid_verlet_steps` that rebuilds the pair list in place of returning REBUILD, as
     :func:`.steploop.verlet_steps_relisting` (same extra arguments and results)."""
     done = 0
@@ -147,8 +148,8 @@ def fluid_verlet_steps_relisting(nmax, t, idx, pos, vel, omega, vel_prev, omega_
             ok = int(stats[4])
         if why != REBUILD:
             return done, why, t, pa, pb, hist, rhist, touch, bufs
-        pa, pb, hist, rhist, touch, bufs = relist(idx, pos, radius, half_skin, geom, periodic, ncell, pa, pb, hist,
-                                                  rhist, pos_build, bufs)
+        pa, pb, hist, rhist, touch, bufs = rebuild(idx, pos, radius, half_skin, geom, periodic, ncell, single, sgrid,
+                                                   pa, pb, hist, rhist, pos_build, bufs)
 
 
 def _fluid_model(sim):
@@ -229,7 +230,7 @@ def run(sim, nmax: int, e_tol: float = -1.0, crit: int = 0, consecutive: int = 1
     sim._n_wake = np.zeros(1, np.int64)
     stats = np.zeros(5)
     n0 = sim.idx.size
-    inline = sim.relist_inline()
+    inline = steploop.relisting(sim)
     done, why, t, *pairs = (fluid_verlet_steps_relisting if inline else fluid_verlet_steps)(
         int(nmax), sim.t, sim.idx, s.pos, s.vel, s.omega, s.vel_prev, s.omega_prev, sim.force, sim.torque, w["fp"],
         w["tp"], w["v"], w["w"], inv_m, sim._inv_i, sim.lmask, sim.rmask, dt, bool(integ.predict_velocity),
