@@ -386,13 +386,14 @@ class DemSimulation:
         self._sleep_grid_dirty = False
 
     def _rebuild(self):
+        """Rebuild the pair list: between events :meth:`_relist`; after a sleep, wake or retirement (the
+        sleeping grid is out of date) re-bin the sleepers, restore parked histories of pairs found again
+        and park those of pairs whose partners now both sleep."""
         if self.relist_inline():
             return self._relist()
         s = self.state
-        events = self._sleep_grid_dirty
-        if events:
-            sleep_idx = np.flatnonzero(~s.awake & s.active).astype(np.int64)
-            self._sgrid = self._grid(sleep_idx)
+        sleep_idx = np.flatnonzero(~s.awake & s.active).astype(np.int64)
+        self._sgrid = self._grid(sleep_idx)
         self._agrid = self._grid(self.idx)
         pa, pb = self._find(self.idx, self._agrid, self._sgrid)
         n = pa.size
@@ -405,7 +406,7 @@ class DemSimulation:
         new_hist = np.zeros((n, 6))
         old_keys = (self._pa << 32) | self._pb
         old_hist = np.concatenate([self._hist, self._rhist], axis=1)  # (shear, rolling) per pair
-        if events and self._frozen_keys.size:
+        if self._frozen_keys.size:
             src_keys = np.concatenate([old_keys, self._frozen_keys])
             src_hist = np.concatenate([old_hist, self._frozen_hist])
             o = np.argsort(src_keys, kind="stable")
@@ -416,17 +417,15 @@ class DemSimulation:
             loc = np.minimum(np.searchsorted(src_keys, keys), src_keys.size - 1)
             hit = src_keys[loc] == keys
             new_hist[hit] = src_hist[loc[hit]]
-        if events:
-            # park the histories of pairs that are now between two sleeping particles
-            if src_keys.size:
-                in_new = np.zeros(src_keys.size, bool)
-                if n:
-                    loc2 = np.minimum(np.searchsorted(keys, src_keys), max(n - 1, 0))
-                    in_new = keys[loc2] == src_keys
-                a, b = src_keys >> 32, src_keys & 0xFFFFFFFF
-                park = (~in_new & ~s.awake[a] & ~s.awake[b] & s.active[a] & s.active[b]
-                        & np.any(src_hist != 0.0, axis=1))
-                self._frozen_keys, self._frozen_hist = src_keys[park], src_hist[park]
+        if src_keys.size:  # park the histories of pairs that are now between two sleeping particles
+            in_new = np.zeros(src_keys.size, bool)
+            if n:
+                loc2 = np.minimum(np.searchsorted(keys, src_keys), max(n - 1, 0))
+                in_new = keys[loc2] == src_keys
+            a, b = src_keys >> 32, src_keys & 0xFFFFFFFF
+            park = (~in_new & ~s.awake[a] & ~s.awake[b] & s.active[a] & s.active[b]
+                    & np.any(src_hist != 0.0, axis=1))
+            self._frozen_keys, self._frozen_hist = src_keys[park], src_hist[park]
         self._pa, self._pb = keys >> 32, keys & 0xFFFFFFFF
         self._hist = np.ascontiguousarray(new_hist[:, :3])
         self._rhist = np.ascontiguousarray(new_hist[:, 3:])
