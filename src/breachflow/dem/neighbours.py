@@ -436,7 +436,7 @@ def _search(idx, pos, radius, half_skin, geom, periodic, ncell, single, sgrid, o
 @numba.njit(cache=True, error_model="numpy")
 def rebuild(idx, pos, radius, half_skin, geom, periodic, ncell, single, sgrid, pa, pb, hist, rhist, pos_build, bufs):
     """Rebuild the pair list of the awake particles *idx* — with each other and with the sleepers of the
-    sleeping grid *sgrid* (:func:`_search`; pairs of two sleepers are not listed) — into the spare set of
+    sleeping grid *sgrid* (``_search``; pairs of two sleepers are not listed) — into the spare set of
     *bufs* (:func:`empty_buffers`; capacities grow geometrically, never shrink), carrying the histories over
     from the current list *pa*, *pb*, *hist*, *rhist* (:func:`sort_and_carry`), and record the build
     positions. The order equals sorting the keys ``a << 32 | b``. Returns the new list (views into the spare

@@ -386,7 +386,7 @@ class DemSimulation:
         self._sleep_grid_dirty = False
 
     def _rebuild(self):
-        """Rebuild the pair list: between events :meth:`_relist`; after a sleep, wake or retirement (the
+        """Rebuild the pair list: between events ``_relist``; after a sleep, wake or retirement (the
         sleeping grid is out of date) re-bin the sleepers, restore parked histories of pairs found again
         and park those of pairs whose partners now both sleep."""
         if self.relist_inline():
