@@ -352,7 +352,8 @@ def sort_and_carry(n, cand_a, cand_b, pa, pb, hist, rhist, npart, new_a, new_b, 
     """Order the *n* found pairs ``(cand_a < cand_b)`` by key ``(a, b)`` into *new_a*, *new_b* — a counting
     sort by ``a`` (CSR rows), then an insertion sort of each short row by ``b`` — and carry the shear /
     rolling histories over from the old list (*pa*, *pb*, *hist*, *rhist*, sorted by the same key) in one
-    merge walk: O(n + old + npart), no global sort. Pairs new to the list start with zero histories."""
+    merge walk: O(n + old + npart), no global sort. Pairs new to the list start with zero histories; a pair
+    found twice (a woken particle still in the stale sleeping grid) is kept once. Returns the pair count."""
     row = np.zeros(npart + 1, np.int64)
     for k in range(n):
         row[cand_a[k] + 1] += 1
@@ -377,19 +378,26 @@ def sort_and_carry(n, cand_a, cand_b, pa, pb, hist, rhist, npart, new_a, new_b, 
         begin = end
     o = 0
     nold = pa.shape[0]
+    w = 0
     for k in range(n):
         a = new_a[k]
         b = new_b[k]
+        if w > 0 and new_b[w - 1] == b and new_a[w - 1] == a:
+            continue
+        new_a[w] = a
+        new_b[w] = b
         while o < nold and (pa[o] < a or (pa[o] == a and pb[o] < b)):
             o += 1
         if o < nold and pa[o] == a and pb[o] == b:
             for d in range(3):
-                new_h[k, d] = hist[o, d]
-                new_r[k, d] = rhist[o, d]
+                new_h[w, d] = hist[o, d]
+                new_r[w, d] = rhist[o, d]
         else:
             for d in range(3):
-                new_h[k, d] = 0.0
-                new_r[k, d] = 0.0
+                new_h[w, d] = 0.0
+                new_r[w, d] = 0.0
+        w += 1
+    return w
 
 
 def empty_buffers():
@@ -401,15 +409,42 @@ def empty_buffers():
 
 @numba.njit(cache=True, error_model="numpy")
 def relist(idx, pos, radius, half_skin, geom, periodic, ncell, pa, pb, hist, rhist, pos_build, bufs):
-    """Rebuild the awake particles' pair list (one cell per particle, no sleeping grid) into the spare set
-    of *bufs* (:func:`empty_buffers`; capacities grow geometrically, never shrink), carrying the histories
-    over from the current list *pa*, *pb*, *hist*, *rhist* (:func:`sort_and_carry`), and record the build
+    """:func:`rebuild` of a list of awake particles alone (one cell per particle, no sleeping grid)."""
+    return rebuild(idx, pos, radius, half_skin, geom, periodic, ncell, True,
+                   (np.zeros(1, np.int64), np.zeros(0, np.int64), np.zeros(0, np.int64), 0), pa, pb, hist, rhist,
+                   pos_build, bufs)
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _search(idx, pos, radius, half_skin, geom, periodic, ncell, single, sgrid, out_a, out_b):
+    """The pairs of the awake particles *idx* with gap below the skin: :func:`search_awake` when the list is
+    theirs alone (one cell per particle, empty sleeping grid), else :func:`find_pairs` over a hashed grid
+    of *idx* (the driver's ``DemSimulation._grid``) and the sleeping grid *sgrid* ``(start, entry particle,
+    entry code, table bits)``; a woken particle still in that (stale) grid may be reported twice."""
+    s_start, s_ent_p, s_ent_c, s_bits = sgrid
+    if single and s_ent_p.shape[0] == 0:
+        return search_awake(idx, pos, radius, half_skin, geom, periodic, ncell, out_a, out_b)
+    est = max(1024, 16 * idx.shape[0])
+    bits = 0
+    while (1 << bits) < est:
+        bits += 1
+    start, ent_p, ent_c = build_grid(idx, pos, radius, half_skin, geom, periodic, ncell, bits, single)
+    return find_pairs(idx, pos, radius, half_skin, geom, periodic, ncell, start, ent_p, ent_c, bits, s_start,
+                      s_ent_p, s_ent_c, s_bits, single, out_a, out_b)
+
+
+@numba.njit(cache=True, error_model="numpy")
+def rebuild(idx, pos, radius, half_skin, geom, periodic, ncell, single, sgrid, pa, pb, hist, rhist, pos_build, bufs):
+    """Rebuild the pair list of the awake particles *idx* — with each other and with the sleepers of the
+    sleeping grid *sgrid* (``_search``; pairs of two sleepers are not listed) — into the spare set of
+    *bufs* (:func:`empty_buffers`; capacities grow geometrically, never shrink), carrying the histories over
+    from the current list *pa*, *pb*, *hist*, *rhist* (:func:`sort_and_carry`), and record the build
     positions. The order equals sorting the keys ``a << 32 | b``. Returns the new list (views into the spare
     set: pa, pb, hist, rhist, touch) and the buffers with spare and other swapped (the current list must not
-    live in the spare set)."""
+    live in the spare set). Parked histories (pairs of two sleepers) are the driver's, untouched here."""
     cand_a, cand_b, xa, xb, xh, xr, xt, ya, yb, yh, yr, yt = bufs
     while True:
-        n = search_awake(idx, pos, radius, half_skin, geom, periodic, ncell, cand_a, cand_b)
+        n = _search(idx, pos, radius, half_skin, geom, periodic, ncell, single, sgrid, cand_a, cand_b)
         if n <= cand_a.shape[0]:
             break
         cap = max(2 * cand_a.shape[0], n + n // 4 + 64)
@@ -422,7 +457,7 @@ def relist(idx, pos, radius, half_skin, geom, periodic, ncell, pa, pb, hist, rhi
         xh = np.empty((cap, 3))
         xr = np.empty((cap, 3))
         xt = np.empty(cap, np.bool_)
-    sort_and_carry(n, cand_a, cand_b, pa, pb, hist, rhist, pos.shape[0], xa, xb, xh, xr)
+    n = sort_and_carry(n, cand_a, cand_b, pa, pb, hist, rhist, pos.shape[0], xa, xb, xh, xr)
     xt[:n] = False
     for k in range(idx.shape[0]):
         i = idx[k]

@@ -363,34 +363,37 @@ class DemSimulation:
 
     # ------------------------------------------------------------------ neighbour list
     def relist_inline(self) -> bool:
-        """Whether the pair list can be rebuilt by :func:`.neighbours.relist` (also inside the compiled
-        many-steps loops): one cell per particle, no sleeping particle and no parked history, so the list
-        is the awake particles' half-stencil search alone."""
+        """Whether the pair list can be rebuilt by :func:`.neighbours.rebuild` (also inside the compiled
+        many-steps loops): the sleeping grid is current (no sleep, wake or retirement since it was built),
+        or there is no sleeping particle and no parked history (then the grid is rebuilt empty), so no
+        history has to be parked or restored."""
         s = self.state
+        if not self._sleep_grid_dirty and hasattr(self, "_sgrid"):
+            return True
         return bool(self.single_bin and self._frozen_keys.size == 0 and not (s.active & ~s.awake).any())
 
     def _relist(self):
-        """The common-case rebuild (:meth:`relist_inline`): the same compiled :func:`.neighbours.relist` as
-        the many-steps loops, so the pair order is the same on both paths."""
+        """The rebuild of :meth:`relist_inline`: the same compiled :func:`.neighbours.rebuild` as the
+        many-steps loops, so the pair list is the same on both paths."""
         s = self.state
         if self._sleep_grid_dirty:
             self._sgrid = self._grid(_EMPTY_I)
-        self._agrid = None
         bufs = getattr(self, "_pbufs", None) or neighbours.empty_buffers()
-        self._pa, self._pb, self._hist, self._rhist, self._touch, self._pbufs = neighbours.relist(
-            self.idx, s.pos, s.radius, 0.5 * self.skin, self.geom, self.periodic, self.ncell, self._pa, self._pb,
-            self._hist, self._rhist, self._pos_build, bufs)
+        self._pa, self._pb, self._hist, self._rhist, self._touch, self._pbufs = neighbours.rebuild(
+            self.idx, s.pos, s.radius, 0.5 * self.skin, self.geom, self.periodic, self.ncell, bool(self.single_bin),
+            self._sgrid, self._pa, self._pb, self._hist, self._rhist, self._pos_build, bufs)
         self._dirty = False
         self._sleep_grid_dirty = False
 
     def _rebuild(self):
+        """Rebuild the pair list: between events ``_relist``; after a sleep, wake or retirement (the
+        sleeping grid is out of date) re-bin the sleepers, restore parked histories of pairs found again
+        and park those of pairs whose partners now both sleep."""
         if self.relist_inline():
             return self._relist()
         s = self.state
-        events = self._sleep_grid_dirty
-        if events:
-            sleep_idx = np.flatnonzero(~s.awake & s.active).astype(np.int64)
-            self._sgrid = self._grid(sleep_idx)
+        sleep_idx = np.flatnonzero(~s.awake & s.active).astype(np.int64)
+        self._sgrid = self._grid(sleep_idx)
         self._agrid = self._grid(self.idx)
         pa, pb = self._find(self.idx, self._agrid, self._sgrid)
         n = pa.size
@@ -403,7 +406,7 @@ class DemSimulation:
         new_hist = np.zeros((n, 6))
         old_keys = (self._pa << 32) | self._pb
         old_hist = np.concatenate([self._hist, self._rhist], axis=1)  # (shear, rolling) per pair
-        if events and self._frozen_keys.size:
+        if self._frozen_keys.size:
             src_keys = np.concatenate([old_keys, self._frozen_keys])
             src_hist = np.concatenate([old_hist, self._frozen_hist])
             o = np.argsort(src_keys, kind="stable")
@@ -414,17 +417,15 @@ class DemSimulation:
             loc = np.minimum(np.searchsorted(src_keys, keys), src_keys.size - 1)
             hit = src_keys[loc] == keys
             new_hist[hit] = src_hist[loc[hit]]
-        if events:
-            # park the histories of pairs that are now between two sleeping particles
-            if src_keys.size:
-                in_new = np.zeros(src_keys.size, bool)
-                if n:
-                    loc2 = np.minimum(np.searchsorted(keys, src_keys), max(n - 1, 0))
-                    in_new = keys[loc2] == src_keys
-                a, b = src_keys >> 32, src_keys & 0xFFFFFFFF
-                park = (~in_new & ~s.awake[a] & ~s.awake[b] & s.active[a] & s.active[b]
-                        & np.any(src_hist != 0.0, axis=1))
-                self._frozen_keys, self._frozen_hist = src_keys[park], src_hist[park]
+        if src_keys.size:  # park the histories of pairs that are now between two sleeping particles
+            in_new = np.zeros(src_keys.size, bool)
+            if n:
+                loc2 = np.minimum(np.searchsorted(keys, src_keys), max(n - 1, 0))
+                in_new = keys[loc2] == src_keys
+            a, b = src_keys >> 32, src_keys & 0xFFFFFFFF
+            park = (~in_new & ~s.awake[a] & ~s.awake[b] & s.active[a] & s.active[b]
+                    & np.any(src_hist != 0.0, axis=1))
+            self._frozen_keys, self._frozen_hist = src_keys[park], src_hist[park]
         self._pa, self._pb = keys >> 32, keys & 0xFFFFFFFF
         self._hist = np.ascontiguousarray(new_hist[:, :3])
         self._rhist = np.ascontiguousarray(new_hist[:, 3:])

@@ -1,30 +1,31 @@
-"""Many DEM steps inside one compiled call (issue 16).
+"""Many DEM steps inside one compiled call (issue 16): the pieces of the step loop and the driver's side.
 
-:func:`verlet_steps` runs the steps of the two Verlet integrators (``velocity_verlet``,
-``predicted_verlet``, :mod:`.integrators`) for a scene of spheres, fixed planes, gravity and global damping
-(no force models) in one numba loop: the same kernels in the same order as the step-by-step path of
-``DemSimulation._one_step``, so the results are bit-identical
-(tests/dem/test_steploop.py), without a Python round trip per step. Before a step that needs a
-neighbour-list rebuild (some awake particle moved more than ``skin/2`` since the last build, as LAMMPS'
-``neigh_modify check yes``) it returns REBUILD; :func:`verlet_steps_relisting` then rebuilds inside the
-compiled call (:func:`.neighbours.relist`, the same function as the driver's rebuild, so the pair order is
-the same on both paths) when the list is the awake particles' alone (no sleepers, no parked histories,
-one cell per particle: ``DemSimulation.relist_inline``); otherwise the driver rebuilds in Python. It stops
-after a step with an event the driver handles in Python: a particle left the domain, a sleeping particle was touched by a moving one, particles fell
-asleep, the equilibrium criterion was met, or a non-finite position (the driver raises).
+The loop itself is :func:`.steploop_fluid.fluid_verlet_steps`, one loop for the dry scenes of this module
+(spheres, fixed planes, gravity, global damping: :func:`eligible`, :func:`run`) and for the closure cycle's
+scene (a height field and fluid forces). It runs the steps of the two Verlet integrators
+(``velocity_verlet``, ``predicted_verlet``, :mod:`.integrators`) with the same kernels in the same order as
+the step-by-step path of ``DemSimulation._one_step``, so the results are bit-identical
+(tests/dem/test_steploop.py, test_steploop_fluid.py), without a Python round trip per step. Before a step
+that needs a neighbour-list rebuild (some awake particle moved more than ``skin/2`` since the last build, as
+LAMMPS' ``neigh_modify check yes``) it rebuilds inside the call with :func:`.neighbours.rebuild`, the
+driver's rebuild between events (``DemSimulation._relist``), so the list — awake particles with each other
+and with sleeping ones, histories carried over — is the same on both paths, with or without sleepers. It
+stops after a step with an event the driver handles in Python: a particle left the domain, a sleeping
+particle was touched by a moving one, particles fell asleep, the equilibrium criterion was met, or a
+non-finite position (the driver raises). The sleeping grid is rebuilt (and histories parked or restored)
+only at these events (:func:`current_list`), so between two of them the DEM of the closure cycle, with its
+resting masses asleep, runs in one compiled call.
 """
 from __future__ import annotations
 
 import numba
 import numpy as np
 
-from .contacts import displacement_since, pair_forces_window, plane_forces, sleep_update, wrap_and_check
-from .forces import _add_gravity, add_global_damping, zero_rows
+from .contacts import displacement_since, sleep_update, wrap_and_check
 from .integrators import drift, kick, predict_extrapolated
-from .neighbours import relist
 
-#: why :func:`verlet_steps` returned
-DONE, REBUILD, LEFT, BAD, WAKE, SLEEP, CONVERGED = range(7)
+#: why the compiled loop (:func:`.steploop_fluid.fluid_verlet_steps`) returned
+DONE, LEFT, BAD, WAKE, SLEEP, CONVERGED = range(6)
 
 
 @numba.njit(cache=True)
@@ -92,81 +93,6 @@ def step_event(done, mx, sm, nc, nleft, e_tol, crit, ok, consecutive, stats, sle
     return -1, ok
 
 
-@numba.njit(cache=True, error_model="numpy")
-def verlet_steps(nmax, t, idx, pos, vel, omega, vel_prev, omega_prev, force, torque, fp, tp, vp, wp, inv_m, inv_i,
-                 lmask, rmask, dt, predict, extrapolate, lo, hi, pa, pb, hist, rhist, touch, radius, mass, inertia,
-                 props, awake, active, geom, periodic, wake_speed, wake, wake_ids, n_wake, pl_point, pl_normal,
-                 pl_vel, pl_props, pl_hist, pl_rhist, pl_reaction, g, c_gn, c_gw, box, use_box, left_ids, pos_build,
-                 half_skin, sleeping, v_sleep, n_sleep, sleep_count, sleep_ids, sleep_check, step0, e_tol, crit,
-                 consecutive, ok, stats, law=0):
-    """Up to *nmax* Verlet steps (kick, drift, wrap, contacts, planes, gravity, damping, kick) of the awake
-    particles *idx*; returns (steps done, reason, time). *stats* (out): [max, sum displacement of the last
-    step, contacts, #left / #woken / #asleep / bad id, consecutive steps below *e_tol*]; ``e_tol < 0``: no
-    equilibrium test. *crit* 0: max criterion, 1: sum. ``ok``: consecutive steps below e_tol so far. *law*: kernel
-    code of the contact law (:mod:`.contact_laws`)."""
-    h = 0.5 * dt
-    done = 0
-    for _ in range(nmax):
-        if displacement_since(idx, pos, pos_build, geom, periodic) > half_skin:
-            return done, REBUILD, t
-        n_wake[0] = 0
-        bad, nleft, idx, kicked, ve, we, mx, sm = first_half(idx, pos, vel, omega, force, torque, fp, tp, vp, wp,
-                                                             inv_m, inv_i, lmask, rmask, h, dt, predict, extrapolate,
-                                                             geom, periodic, box, use_box, active, awake, left_ids)
-        if bad >= 0:
-            stats[3] = bad
-            return done, BAD, t
-        zero_rows(idx, force, torque)
-        nc = pair_forces_window(pa, pb, hist, rhist, touch, pos, ve, we, vel, omega, predict, radius, mass, inertia,
-                                props, awake, active, geom, periodic, dt, wake_speed, force, torque, wake, wake_ids,
-                                n_wake, lo, hi, law)
-        for b in range(pl_point.shape[0]):
-            pl_reaction[b, :] = 0.0
-            nc += plane_forces(idx, pl_point[b], pl_normal[b], pl_vel[b], pl_props[b], pl_hist[b], pl_rhist[b], pos,
-                               ve, we, radius, mass, inertia, props, dt, force, torque, pl_reaction[b], lo, hi, vel,
-                               omega, law)
-        _add_gravity(idx, mass, g, force)
-        add_global_damping(idx, ve, we, c_gn, c_gw, 1.0, force, torque)
-        kick(kicked, vel, omega, force, torque, inv_m, inv_i, h, lmask, rmask)
-        t += dt
-        done += 1
-        reason, ok = step_event(done, mx, sm, nc, nleft, e_tol, crit, ok, consecutive, stats, sleeping, n_wake, idx,
-                                vel, omega, vel_prev, omega_prev, radius, v_sleep, n_sleep, sleep_count, awake,
-                                sleep_ids, step0, sleep_check)
-        if reason >= 0:
-            return done, reason, t
-    return done, DONE, t
-
-
-@numba.njit(cache=True, error_model="numpy")
-def verlet_steps_relisting(nmax, t, idx, pos, vel, omega, vel_prev, omega_prev, force, torque, fp, tp, vp, wp, inv_m,
-                           inv_i, lmask, rmask, dt, predict, extrapolate, lo, hi, pa, pb, hist, rhist, touch, radius,
-                           mass, inertia, props, awake, active, geom, periodic, wake_speed, wake, wake_ids, n_wake,
-                           pl_point, pl_normal, pl_vel, pl_props, pl_hist, pl_rhist, pl_reaction, g, c_gn, c_gw, box,
-                           use_box, left_ids, pos_build, half_skin, sleeping, v_sleep, n_sleep, sleep_count,
-                           sleep_ids, sleep_check, step0, e_tol, crit, consecutive, ok, stats, law, ncell, bufs):
-    """:func:`verlet_steps` that rebuilds the pair list in place of returning REBUILD
-    (:func:`.neighbours.relist`, the driver's ``DemSimulation._relist``; only when
-    ``DemSimulation.relist_inline``); returns (steps done, reason, time, the list pa, pb, hist, rhist,
-    touch, the pair buffers)."""
-    done = 0
-    while True:
-        k, why, t = verlet_steps(nmax - done, t, idx, pos, vel, omega, vel_prev, omega_prev, force, torque, fp, tp, vp,
-                                 wp, inv_m, inv_i, lmask, rmask, dt, predict, extrapolate, lo, hi, pa, pb, hist, rhist,
-                                 touch, radius, mass, inertia, props, awake, active, geom, periodic, wake_speed, wake,
-                                 wake_ids, n_wake, pl_point, pl_normal, pl_vel, pl_props, pl_hist, pl_rhist,
-                                 pl_reaction, g, c_gn, c_gw, box, use_box, left_ids, pos_build, half_skin, sleeping,
-                                 v_sleep, n_sleep, sleep_count, sleep_ids, sleep_check, step0 + done, e_tol, crit,
-                                 consecutive, ok, stats, law)
-        done += k
-        if e_tol >= 0.0 and k:
-            ok = int(stats[4])
-        if why != REBUILD:
-            return done, why, t, pa, pb, hist, rhist, touch, bufs
-        pa, pb, hist, rhist, touch, bufs = relist(idx, pos, radius, half_skin, geom, periodic, ncell, pa, pb, hist,
-                                                  rhist, pos_build, bufs)
-
-
 def eligible(sim) -> bool:
     """Whether :func:`run` can advance *sim*: a fixed-step Verlet integrator, fixed planes only, no force
     models, awake particles and known forces (otherwise the driver steps in Python)."""
@@ -190,51 +116,33 @@ def runner(sim):
 
 
 def run(sim, nmax: int, e_tol: float = -1.0, crit: int = 0, consecutive: int = 1, ok: int = 0):
-    """Advance *sim* (:func:`eligible`) by up to *nmax* steps in one compiled call, with the driver's
-    bookkeeping for the event that ended it; returns (steps done, last (max, sum) displacement, ok)."""
-    from .contacts import displacement_since as disp_since
+    """Advance *sim* (:func:`eligible`) by up to *nmax* steps in one compiled call: the cycle's loop
+    (:func:`.steploop_fluid.run`) without height field and fluid forces; returns (steps done, last (max,
+    sum) displacement, ok)."""
+    from . import steploop_fluid
 
-    s = sim.state
-    if sim._dirty or disp_since(sim.idx, s.pos, sim._pos_build, sim.geom, sim.periodic) > 0.5 * sim.skin:
+    return steploop_fluid.run(sim, nmax, e_tol, crit, consecutive, ok)
+
+
+def current_list(sim):
+    """Before a compiled call: rebuild the pair list now when it is out of date (``DemSimulation._dirty``,
+    or some awake particle moved more than ``skin/2``) or the sleeping grid is (an event since it was built:
+    the rebuild parks or restores histories), so that the rebuilds inside the call are the driver's
+    between events (``DemSimulation._relist``)."""
+    if not hasattr(sim, "_sgrid"):
+        sim._sleep_grid_dirty = True
+    if (sim._dirty or sim._sleep_grid_dirty
+            or displacement_since(sim.idx, sim.state.pos, sim._pos_build, sim.geom, sim.periodic) > 0.5 * sim.skin):
         sim._rebuild()
-    planes = sim.boundaries
-    n = s.pos.shape[0]
-    pl_hist = np.stack([b.hist for b in planes]) if planes else np.zeros((0, n, 3))
-    pl_rhist = np.stack([b.rhist for b in planes]) if planes else np.zeros((0, n, 3))
-    pl = [np.array([getattr(b, name) for b in planes], float).reshape(len(planes), width)
-          for name, width in (("point", 3), ("normal", 3), ("velocity", 3), ("props", 8))]
-    reaction = np.zeros((len(planes), 3))
-    integ, w, dt = sim.integrator, sim.work, sim._dt
-    sim._n_wake = np.zeros(1, np.int64)
-    stats = np.zeros(5)
-    n0 = sim.idx.size
-    inline = sim.relist_inline()
-    done, why, t, *pairs = (verlet_steps_relisting if inline else verlet_steps)(
-        int(nmax), sim.t, sim.idx, s.pos, s.vel, s.omega, s.vel_prev, s.omega_prev, sim.force, sim.torque, w["fp"],
-        w["tp"], w["v"], w["w"], sim._inv_m, sim._inv_i, sim.lmask, sim.rmask, dt, bool(integ.predict_velocity),
-        float(integ.extrapolate), integ.force_window[0] * dt, integ.force_window[1] * dt, sim._pa, sim._pb,
-        sim._hist, sim._rhist, sim._touch, s.radius, s.mass, s.inertia, s._props, s.awake, s.active, sim.geom,
-        sim.periodic, sim.wake_velocity, sim._wake_flag, sim._wake_ids, sim._n_wake, pl[0], pl[1], pl[2], pl[3],
-        pl_hist, pl_rhist, reaction, sim.gravity.g, s.c_gn, s.c_gw, sim._box, sim._use_box, sim._tmp_ids,
-        sim._pos_build, 0.5 * sim.skin, sim.sleeping, sim.sleep_velocity, sim.sleep_steps, sim._sleep_count,
-        sim._tmp_ids, sim.sleep_check, sim.steps, float(e_tol), int(crit), int(consecutive), int(ok), stats,
-        sim._law, *(relist_args(sim) if inline else ()))
-    store_list(sim, pairs)
-    return finish(sim, planes, pl_hist, pl_rhist, reaction, done, why, t, stats, n0, e_tol, ok)
 
 
 def relist_args(sim):
-    """The extra arguments of the relisting loops: cells per period and the pair buffers."""
+    """The rebuild arguments of the compiled loop: cells per period, one cell per particle or not, the
+    sleeping grid and the pair buffers."""
     from .neighbours import empty_buffers
 
     bufs = getattr(sim, "_pbufs", None) or empty_buffers()
-    return sim.ncell, bufs
-
-
-def store_list(sim, pairs):
-    """Keep the pair list and buffers a relisting loop returned (nothing for the plain loops)."""
-    if pairs:
-        sim._pa, sim._pb, sim._hist, sim._rhist, sim._touch, sim._pbufs = pairs
+    return sim.ncell, bool(sim.single_bin), sim._sgrid, bufs
 
 
 def finish(sim, planes, pl_hist, pl_rhist, reaction, done, why, t, stats, n0, e_tol, ok):

@@ -1,9 +1,9 @@
 """Many DEM steps of the closure cycle's scene inside one compiled call (issue 16).
 
 The cycle's DEM (``cycle/driver.py``) has the terrain as a :class:`~.boundaries.HeightField` and the frozen
-flow field as a :class:`~breachflow.fluid.forces.FluidForces` model (``static_models``), so
-:mod:`.steploop` does not apply. :func:`fluid_verlet_steps` runs the same Verlet steps as
-:func:`.steploop.verlet_steps` with, in the order of ``DemSimulation._one_step``: the height-field contacts
+flow field as a :class:`~breachflow.fluid.forces.FluidForces` model (``static_models``).
+:func:`fluid_verlet_steps` is the one compiled loop of :mod:`.steploop` (which runs it for dry scenes
+without these) with, in the order of ``DemSimulation._one_step``: the height-field contacts
 (:func:`.contacts.heightfield_forces`, in the boundaries' order among fixed planes), gravity, the fluid
 forces (:func:`breachflow.fluid.compiled.grid_fluid_forces_phi`: buoyancy, drag with the vertical
 velocity profile, convective apparent mass, gridpoint torque, into ``sim._fm``/``_tm`` and then added) and
@@ -31,8 +31,8 @@ from ..fluid.compiled import apparent_mass, grid_added_masses, grid_fluid_forces
 from .contacts import displacement_since, heightfield_forces, pair_forces_window, plane_forces
 from .forces import _add_gravity, add_global_damping, zero_rows
 from .integrators import kick
-from .neighbours import relist
-from .steploop import BAD, DONE, REBUILD, first_half, step_event
+from .neighbours import rebuild
+from .steploop import BAD, DONE, first_half, step_event
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -49,8 +49,17 @@ def fluid_verlet_steps(nmax, t, idx, pos, vel, omega, vel_prev, omega_prev, forc
                        mass, inertia, props, awake, active, geom, periodic, wake_speed, wake, wake_ids, n_wake,
                        planes, hf_at, hf, fluid_on, field, fluid, fm, tm, g, c_gn, c_gw, box, use_box, left_ids,
                        pos_build, half_skin, sleeping, v_sleep, n_sleep, sleep_count, sleep_ids, sleep_check, step0,
-                       e_tol, crit, consecutive, ok, stats, law=0):
-    """:func:`.steploop.verlet_steps` (same arguments, results and reasons) with a height field and fluid forces.
+                       e_tol, crit, consecutive, ok, stats, law, ncell, single, sgrid, bufs):
+    """Up to *nmax* Verlet steps (kick, drift, wrap, contacts, boundaries, gravity, fluid forces, damping, kick)
+    of the awake particles *idx*, rebuilding the pair list *pa*, *pb*, *hist*, *rhist*, *touch* when some
+    awake particle moved more than *half_skin* (:func:`.neighbours.rebuild` with cells per period *ncell*,
+    one cell per particle or not *single*, the current sleeping grid *sgrid* and the pair buffers *bufs*);
+    returns (steps done, reason, time, the list pa, pb, hist, rhist, touch, the pair buffers).
+
+    *stats* (out): [max, sum displacement of the last step, contacts, #left / #woken / #asleep / bad id,
+    consecutive steps below *e_tol*]; ``e_tol < 0``: no equilibrium test. *crit* 0: max criterion, 1: sum.
+    ``ok``: consecutive steps below e_tol so far. *law*: kernel code of the contact law
+    (:mod:`.contact_laws`).
 
     *planes* ``(point, normal, velocity, props, hist, rhist, reaction)`` stacked per fixed plane; *hf_at*
     the position of the height field among the boundaries (-1: none), *hf* its ``(x0, y0, hx, hy, bed,
@@ -76,14 +85,15 @@ def fluid_verlet_steps(nmax, t, idx, pos, vel, omega, vel_prev, omega_prev, forc
     done = 0
     for _ in range(nmax):
         if displacement_since(idx, pos, pos_build, geom, periodic) > half_skin:
-            return done, REBUILD, t
+            pa, pb, hist, rhist, touch, bufs = rebuild(idx, pos, radius, half_skin, geom, periodic, ncell, single,
+                                                       sgrid, pa, pb, hist, rhist, pos_build, bufs)
         n_wake[0] = 0
         bad, nleft, idx, kicked, ve, we, mx, sm = first_half(idx, pos, vel, omega, force, torque, fp, tp, vp, wp,
                                                              inv_m, inv_i, lmask, rmask, h, dt, predict, extrapolate,
                                                              geom, periodic, box, use_box, active, awake, left_ids)
         if bad >= 0:
             stats[3] = bad
-            return done, BAD, t
+            return done, BAD, t, pa, pb, hist, rhist, touch, bufs
         zero_rows(idx, force, torque)
         nc = pair_forces_window(pa, pb, hist, rhist, touch, pos, ve, we, vel, omega, predict, radius, mass, inertia,
                                 props, awake, active, geom, periodic, dt, wake_speed, force, torque, wake, wake_ids,
@@ -120,35 +130,8 @@ def fluid_verlet_steps(nmax, t, idx, pos, vel, omega, vel_prev, omega_prev, forc
                                 vel, omega, vel_prev, omega_prev, radius, v_sleep, n_sleep, sleep_count, awake,
                                 sleep_ids, step0, sleep_check)
         if reason >= 0:
-            return done, reason, t
-    return done, DONE, t
-
-
-@numba.njit(cache=True, error_model="numpy")
-def fluid_verlet_steps_relisting(nmax, t, idx, pos, vel, omega, vel_prev, omega_prev, force, torque, fp, tp, vp, wp,
-                                 inv_m, inv_i, lmask, rmask, dt, predict, extrapolate, lo, hi, pa, pb, hist, rhist,
-                                 touch, radius, mass, inertia, props, awake, active, geom, periodic, wake_speed, wake,
-                                 wake_ids, n_wake, planes, hf_at, hf, fluid_on, field, fluid, fm, tm, g, c_gn, c_gw,
-                                 box, use_box, left_ids, pos_build, half_skin, sleeping, v_sleep, n_sleep, sleep_count,
-                                 sleep_ids, sleep_check, step0, e_tol, crit, consecutive, ok, stats, law, ncell, bufs):
-    """:func:`fluid_verlet_steps` that rebuilds the pair list in place of returning REBUILD, as
-    :func:`.steploop.verlet_steps_relisting` (same extra arguments and results)."""
-    done = 0
-    while True:
-        k, why, t = fluid_verlet_steps(nmax - done, t, idx, pos, vel, omega, vel_prev, omega_prev, force, torque, fp,
-                                       tp, vp, wp, inv_m, inv_i, lmask, rmask, dt, predict, extrapolate, lo, hi, pa, pb,
-                                       hist, rhist, touch, radius, mass, inertia, props, awake, active, geom, periodic,
-                                       wake_speed, wake, wake_ids, n_wake, planes, hf_at, hf, fluid_on, field, fluid,
-                                       fm, tm, g, c_gn, c_gw, box, use_box, left_ids, pos_build, half_skin, sleeping,
-                                       v_sleep, n_sleep, sleep_count, sleep_ids, sleep_check, step0 + done, e_tol,
-                                       crit, consecutive, ok, stats, law)
-        done += k
-        if e_tol >= 0.0 and k:
-            ok = int(stats[4])
-        if why != REBUILD:
-            return done, why, t, pa, pb, hist, rhist, touch, bufs
-        pa, pb, hist, rhist, touch, bufs = relist(idx, pos, radius, half_skin, geom, periodic, ncell, pa, pb, hist,
-                                                  rhist, pos_build, bufs)
+            return done, reason, t, pa, pb, hist, rhist, touch, bufs
+    return done, DONE, t, pa, pb, hist, rhist, touch, bufs
 
 
 def _fluid_model(sim):
@@ -196,8 +179,7 @@ def run(sim, nmax: int, e_tol: float = -1.0, crit: int = 0, consecutive: int = 1
     from .boundaries import HeightField
 
     s = sim.state
-    if sim._dirty or displacement_since(sim.idx, s.pos, sim._pos_build, sim.geom, sim.periodic) > 0.5 * sim.skin:
-        sim._rebuild()
+    steploop.current_list(sim)
     n = s.pos.shape[0]
     hf_at, hf = -1, (0.0, 0.0, 1.0, 1.0, np.zeros((1, 1)), np.zeros(8), np.zeros((1, 3)), np.zeros((1, 3)))
     planes = []
@@ -229,8 +211,7 @@ def run(sim, nmax: int, e_tol: float = -1.0, crit: int = 0, consecutive: int = 1
     sim._n_wake = np.zeros(1, np.int64)
     stats = np.zeros(5)
     n0 = sim.idx.size
-    inline = sim.relist_inline()
-    done, why, t, *pairs = (fluid_verlet_steps_relisting if inline else fluid_verlet_steps)(
+    done, why, t, *pairs = fluid_verlet_steps(
         int(nmax), sim.t, sim.idx, s.pos, s.vel, s.omega, s.vel_prev, s.omega_prev, sim.force, sim.torque, w["fp"],
         w["tp"], w["v"], w["w"], inv_m, sim._inv_i, sim.lmask, sim.rmask, dt, bool(integ.predict_velocity),
         float(integ.extrapolate), integ.force_window[0] * dt, integ.force_window[1] * dt, sim._pa, sim._pb,
@@ -240,8 +221,8 @@ def run(sim, nmax: int, e_tol: float = -1.0, crit: int = 0, consecutive: int = 1
         sim._fm, sim._tm, sim.gravity.g, s.c_gn, s.c_gw, sim._box, sim._use_box, sim._tmp_ids, sim._pos_build,
         0.5 * sim.skin, sim.sleeping, sim.sleep_velocity, sim.sleep_steps, sim._sleep_count, sim._tmp_ids,
         sim.sleep_check, sim.steps, float(e_tol), int(crit), int(consecutive), int(ok), stats, sim._law,
-        *(steploop.relist_args(sim) if inline else ()))
-    steploop.store_list(sim, pairs)
+        *steploop.relist_args(sim))
+    sim._pa, sim._pb, sim._hist, sim._rhist, sim._touch, sim._pbufs = pairs
     if model is not None:
         model.evaluations += done
     return steploop.finish(sim, planes, pl_hist, pl_rhist, reaction, done, why, t, stats, n0, e_tol, ok)
