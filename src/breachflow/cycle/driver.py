@@ -39,7 +39,7 @@ from .losses import LOSS_LIMIT, gap_speed, gap_speed_and_depth, losses_flagged, 
 from .placement import PlacementPlan
 from .strategies import PileView
 from .strategies import band as strategy_band
-from .remap import IncrementalPileTop, porous_pile, remap_top
+from .remap import IncrementalPileTop, porous_pile, remap_cells
 
 
 @dataclass
@@ -413,11 +413,12 @@ class ClosureRun:
         sim.sleep(np.flatnonzero(resting & st.awake))
         # 4. remap and re-solve
         dom = s.domain
-        top = self._pile.update(st.pos, st.radius, resting)
-        # emergent (blocked) where the top reaches the flood-side level, the highest level a steady flow fed
+        self._pile.update(st.pos, st.radius, resting)
+        # emergent (blocked) where the pile reaches the flood-side level, the highest level a steady flow fed
         # from there can back up to: not the previous surface, which the pile itself raised (and which is
         # the old top in the cells it blocked), so a blocked cell stayed blocked only by chance (issue 16)
-        obstacle, bed = remap_top(top, dom.bed, np.full(dom.shape, float(s.flood_level)), s.remap_mode)
+        obstacle, bed = remap_cells(self._pile.lift, self._pile.level, dom.bed,
+                                    np.full(dom.shape, float(s.flood_level)), s.remap_mode)
         pile = None
         if s.remap_mode == "porous":
             pile = porous_pile(dom.x, dom.y, dom.bed, st.pos, st.radius, resting, law=s.porous_law)
