@@ -39,7 +39,7 @@ from .losses import LOSS_LIMIT, gap_speed, gap_speed_and_depth, losses_flagged, 
 from .placement import PlacementPlan
 from .strategies import PileView
 from .strategies import band as strategy_band
-from .remap import IncrementalPileTop, porous_pile, remap_cells
+from .remap import IncrementalPileTop, porous_pile, remap_cells, subpoints
 
 
 @dataclass
@@ -211,7 +211,8 @@ class ClosureRun:
         self.progress = progress  # callable(CycleReport) or None
         self.reports: list[CycleReport] = []
         self._live = None  # (cycle, DemSimulation) of the last cycle, continued by the next one
-        self._pile = IncrementalPileTop(setup.domain.x, setup.domain.y, setup.domain.bed)
+        self._pile = IncrementalPileTop(setup.domain.x, setup.domain.y, setup.domain.bed,
+                                        sub=subpoints(dom.dx, dom.dy, 0.5 * setup.placement.diameter[0]))
         self._pile_height = None  # porous remap: the pile heights of the last solve
         self._q_open = float("nan")  # breach discharge of the open breach (the initial solve), m³/s
 
