@@ -58,11 +58,10 @@ def one_cycle(n_resting: int, workdir: str) -> dict:
     if "open" not in _BASE:
         _BASE["open"] = setup.solver.solve(dom)  # the open breach, the same for every N
     base = _BASE["open"]
-    from breachflow.cycle.remap import remap_cells
+    from breachflow.cycle.remap import remap_top
 
-    run._pile.update(pos, radius, resting)
-    obstacle, bed = remap_cells(run._pile.lift, run._pile.level, dom.bed, base["water_surface"].values,
-                                setup.remap_mode)
+    top = run._pile.update(pos, radius, resting)
+    obstacle, bed = remap_top(top, dom.bed, base["water_surface"].values, setup.remap_mode)
     solve_domain = dom if setup.remap_mode == "no_flow" else dom.with_raised_bed(bed > dom.bed, bed)
     snapshot = setup.solver.solve(solve_domain, obstacles=obstacle, initial=base)
     sim = run._make_dem(snapshot)

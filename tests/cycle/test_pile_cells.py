@@ -1,6 +1,6 @@
-"""The resting pile as cell quantities of its top surface (``no_flow`` / ``raised_bed`` remap, issue 16):
-continuity under a small move of one sphere, the volume it adds, and the breach discharge through the
-solver when a sphere settles."""
+"""The resting pile as cell quantities of its top surface (``no_flow`` / ``raised_bed`` remap,
+``[closure] pile_sampling = "cell_average"``, issue 16): continuity under a small move of one sphere, the
+volume it adds, and the breach discharge through the solver when a sphere settles."""
 import numpy as np
 import pytest
 
@@ -56,7 +56,7 @@ def test_a_small_move_of_one_sphere_changes_the_bed_by_the_order_of_the_move(dx,
 
 def remap_lift(x, y, bed, pos, radius, use, sub):
     """The raised bed's lift through :func:`~breachflow.cycle.remap.remap` (the public path), under water."""
-    _, new_bed = remap(x, y, bed, bed + 100.0, pos, radius, use, mode="raised_bed", sub=sub)
+    _, new_bed = remap(x, y, bed, bed + 100.0, pos, radius, use, mode="raised_bed", sampling="cell_average", sub=sub)
     return new_bed - bed, None
 
 
@@ -107,7 +107,7 @@ def test_emergence_is_the_half_area_rule():
     bed = np.zeros((x.size, x.size))
     for r, blocked in ((1.0, False), (1.5, True)):
         obst, new_bed = remap(x, x.copy(), bed, np.full(bed.shape, 1.0), np.array([[0.0, 0.0, 1.0]]), np.array([r]),
-                              np.array([True]), mode="raised_bed")
+                              np.array([True]), mode="raised_bed", sampling="cell_average")
         assert obst.sum() == int(blocked) and obst[2, 2] == blocked
         assert new_bed[2, 2] > 0.5  # raised, blocked or not
 
@@ -160,3 +160,22 @@ def test_the_breach_discharge_does_not_jump_when_a_resting_sphere_settles():
         p1[2] += move
         q1, _ = solve(p1, snap0)
         assert abs(q1 / q0 - 1.0) < 0.01, (move, q0, q1)
+
+
+def test_pile_sampling_is_a_closure_key(tmp_path):
+    """``[closure] pile_sampling`` picks the representation the closure run uses; a bad value names the key."""
+    from breachflow.cycle.config import closure_setup
+    from breachflow.cycle.driver import ClosureRun
+    from breachflow.cycle.main import default_scenario_text
+    from breachflow.errors import ParseError
+    from breachflow.scenario.config import parse_scenario
+
+    base = default_scenario_text().replace('remap = "porous"', 'remap = "raised_bed"')
+    assert closure_setup(parse_scenario(base)).pile_sampling == "centre"
+    text = base.replace("[closure]", '[closure]\npile_sampling = "cell_average"')
+    s = closure_setup(parse_scenario(text))
+    assert s.pile_sampling == "cell_average"
+    run = ClosureRun(s, tmp_path / "run", text)
+    assert run._pile.cells and run._pile.sub == subpoints(s.domain.dx, s.domain.dy, 0.5 * s.placement.diameter[0])
+    with pytest.raises(ParseError, match=r"\[closure\] pile_sampling"):
+        parse_scenario(base.replace("[closure]", '[closure]\npile_sampling = "corner"'))

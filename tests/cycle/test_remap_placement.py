@@ -12,6 +12,33 @@ def grid(n=41, h=0.25):
     return x, x.copy()
 
 
+def test_no_flow_footprint_is_the_disc_of_cell_centres():
+    x, y = grid()
+    bed = np.zeros((y.size, x.size))
+    pos = np.array([[0.1, -0.2, 0.5], [3.0, 3.0, 0.5]])
+    r = np.array([1.0, 1.0])
+    obst, newbed = remap(x, y, bed, bed + 2.0, pos, r, np.array([True, False]))
+    X, Y = np.meshgrid(x, y)
+    np.testing.assert_array_equal(obst, (X - 0.1) ** 2 + (Y + 0.2) ** 2 <= 1.0)
+    np.testing.assert_array_equal(newbed, bed)
+
+
+def test_raised_bed_is_the_sphere_top_and_emergent_cells_block():
+    x, y = grid()
+    bed = np.zeros((y.size, x.size))
+    pos = np.array([[0.0, 0.0, 0.2]])
+    r = np.array([1.0])
+    obst, newbed = remap(x, y, bed, np.full(bed.shape, 1.0), pos, r, np.array([True]), mode="raised_bed")
+    X, Y = np.meshgrid(x, y)
+    d2 = X**2 + Y**2
+    top = np.where(d2 <= 1.0, 0.2 + np.sqrt(np.clip(1.0 - d2, 0, None)), -np.inf)
+    np.testing.assert_allclose(newbed, np.where(top > 0, top, 0.0))
+    np.testing.assert_array_equal(obst, top >= 1.0)  # emergent where the top reaches the surface (1 m)
+    assert obst.any() and (newbed > 0).sum() > obst.sum()
+    with pytest.raises(InputError, match="remap mode"):
+        remap(x, y, bed, bed, pos, r, np.array([True]), mode="sandbags")
+
+
 def _cell_fraction(x, y, inside, k=64):
     """Per cell: the area fraction where *inside(X, Y)* holds, by a k × k midpoint raster (a reference
     independent of the remap's sub-points)."""
@@ -22,12 +49,12 @@ def _cell_fraction(x, y, inside, k=64):
     return inside(X, Y).mean(axis=(2, 3))
 
 
-def test_no_flow_blocks_the_cells_the_footprint_covers_at_least_half():
+def test_cell_average_no_flow_blocks_the_cells_the_footprint_covers_at_least_half():
     x, y = grid()
     bed = np.zeros((y.size, x.size))
     pos = np.array([[0.1, -0.2, 0.5], [3.0, 3.0, 0.5]])
     r = np.array([1.0, 1.0])
-    obst, newbed = remap(x, y, bed, bed + 2.0, pos, r, np.array([True, False]))
+    obst, newbed = remap(x, y, bed, bed + 2.0, pos, r, np.array([True, False]), sampling="cell_average")
     frac = _cell_fraction(x, y, lambda X, Y: (X - 0.1) ** 2 + (Y + 0.2) ** 2 < 1.0)
     sure = np.abs(frac - 0.5) > 0.05  # the sub-point estimate of the fraction decides the others
     np.testing.assert_array_equal(obst[sure], frac[sure] >= 0.5)
@@ -35,7 +62,7 @@ def test_no_flow_blocks_the_cells_the_footprint_covers_at_least_half():
     np.testing.assert_array_equal(newbed, bed)
 
 
-def test_raised_bed_is_the_cell_average_of_the_sphere_top_and_emergent_cells_block():
+def test_cell_average_raised_bed_is_the_mean_sphere_top_and_emergent_cells_block():
     """The bed rises by the cell average of the sphere's top above it (the analytic cap, rastered
     independently of the remap); a cell is blocked where the top stands above the water (1 m) over at
     least half of it."""
@@ -43,7 +70,8 @@ def test_raised_bed_is_the_cell_average_of_the_sphere_top_and_emergent_cells_blo
     bed = np.zeros((y.size, x.size))
     pos = np.array([[0.0, 0.0, 0.2]])
     r = np.array([1.0])
-    obst, newbed = remap(x, y, bed, np.full(bed.shape, 1.0), pos, r, np.array([True]), mode="raised_bed")
+    obst, newbed = remap(x, y, bed, np.full(bed.shape, 1.0), pos, r, np.array([True]), mode="raised_bed",
+                        sampling="cell_average")
     k = 64
     h = x[1] - x[0]
     o = ((np.arange(k) + 0.5) / k - 0.5) * h
@@ -57,8 +85,8 @@ def test_raised_bed_is_the_cell_average_of_the_sphere_top_and_emergent_cells_blo
     sure = np.abs(frac - 0.5) > 0.05
     np.testing.assert_array_equal(obst[sure], frac[sure] >= 0.5)
     assert obst.any() and (newbed > 0).sum() > obst.sum()
-    with pytest.raises(InputError, match="remap mode"):
-        remap(x, y, bed, bed, pos, r, np.array([True]), mode="sandbags")
+    with pytest.raises(InputError, match="pile sampling"):
+        remap(x, y, bed, bed, pos, r, np.array([True]), mode="raised_bed", sampling="corner")
 
 
 def test_placement_is_seeded_per_cycle_and_respects_units():
