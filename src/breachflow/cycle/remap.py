@@ -1,34 +1,39 @@
 """Remap resting masses into the hydrodynamic model (SPEC §7 step 10, report Fig 4.5).
 
-Two modes, chosen by name:
+How the pile enters ``no_flow`` and ``raised_bed`` (``[closure] pile_sampling``):
 
-The pile enters ``no_flow`` and ``raised_bed`` as cell quantities of its top surface
-``T(x, y) = max_p (z_p + sqrt(r_p² − d_p²))`` (the highest sphere over a point, d_p the plan distance; −inf
-where no sphere covers it), sampled at ``sub × sub`` sub-points of each cell (:func:`pile_cells`, the
-sub-points of :func:`pile_columns`):
+* ``"centre"`` (the default, the report's "simplest interpolation"): the pile top above each cell centre,
+  ``z_top = z_c + sqrt(r² − d²)`` (d the plan distance; ``pile_top``). A cell between two spheres keeps
+  the bare floor, and a sphere settling by a few cm can drop a cell by metres (0.57 m for 3 cm with
+  0.5 m spheres on 1 m cells; the breach discharge of the default scene rose 12–17 % when one 2 m sphere
+  settled 1–2 cm sideways and down, ``tests/cycle/test_pile_cells.py``; issue 16).
+* ``"cell_average"``: cell quantities of the pile's top surface ``T(x, y) = max_p (z_p + sqrt(r_p² − d_p²))``
+  (−inf where no sphere covers the point), sampled at ``sub × sub`` sub-points of each cell
+  (:func:`pile_cells`, the sub-points of ``pile_columns``; spacing ≤ r / 8, :func:`subpoints`):
 
-* the **lift**, the cell average of the pile above the bed, ``Δb = (1/A) ∫_cell max(T − b, 0) dA``: a
-  finite-volume cell holds the cell average of the bed (a piecewise constant bed, as in the hydrostatic
-  reconstruction of Audusse et al. 2004, SIAM J. Sci. Comput. 25:2050; GeoClaw sets each cell's topography
-  from the cell integral of the topography). ``Σ Δb dx dy`` is the volume between the bed and the pile's
-  top surface (voids under the top count as solid: an impervious bed cannot hold them; the porous mode
-  does), and a sphere moved by δ changes ``Σ |Δb| dx dy`` by at most δ times the total variation of T;
-  the centre sample it replaces dropped a cell between two spheres to the bare floor, and a sphere settling
-  by a few cm changed a cell by metres (issue 16);
-* the **emergence level**, the area median of T over the cell: the level at or below which the pile stands
-  over at least half of the cell (−inf where it covers less than half).
+  - the **lift**, the cell average of the pile above the bed, ``Δb = (1/A) ∫_cell max(T − b, 0) dA``: a
+    finite-volume cell holds the cell average of the bed (a piecewise constant bed, as in the hydrostatic
+    reconstruction of Audusse et al. 2004, SIAM J. Sci. Comput. 25:2050; GeoClaw sets each cell's
+    topography from the cell integral of the topography). ``Σ Δb dx dy`` is the volume between the bed and
+    the pile's top surface (voids under the top count as solid: an impervious bed cannot hold them; the
+    porous mode does), and a sphere moved by δ changes ``Σ |Δb| dx dy`` by at most δ times the total
+    variation of T;
+  - the **emergence level**, the area median of T over the cell: the level at or below which the pile
+    stands over at least half of the cell (−inf where it covers less than half).
 
 Modes, chosen by name:
 
-* ``"no_flow"`` (the report): a cell at least half covered by the plan footprints of resting spheres
-  (finite emergence level) becomes an impervious obstacle cell.
-* ``"raised_bed"``: the bed rises by the lift; a cell whose emergence level reaches the water surface
-  (the pile stands above the water over at least half of it) is blocked, otherwise water flows over the
-  raised bed. The closure cycle passes the flood level as that surface (the highest a steady flow fed
-  from the flood side backs up to; the previous surface, raised by the pile itself, let blocked cells
-  open again: issue 16).
+* ``"no_flow"`` (the report): every covered cell becomes an impervious obstacle cell (``centre``: its centre
+  lies in a sphere's plan footprint; ``cell_average``: at least half of it does).
+* ``"raised_bed"``: the bed rises to the pile (``centre``: the top above the centre; ``cell_average``: by
+  the lift); a cell where the pile reaches the water surface (``centre``: at its centre; ``cell_average``:
+  over at least half of it, the emergence level) is blocked, otherwise water flows over the raised bed.
+  The closure cycle passes the flood level as that surface (the highest a steady flow fed from the flood
+  side backs up to; the previous surface, raised by the pile itself, let blocked cells open again: issue 16).
 * ``"porous"``: the pile stays in the water column: per cell its height above the bed (the highest
-  sphere top over k × k sub-points of the cell), its porosity ``n = 1 - V_solid / V_pile`` from the DEM
+  sphere top over k × k sub-points of the cell; a maximum, so it shares the centre sample's jumps: up to
+  1.21 m when one of four 2 m spheres on 1 m cells moves 3 cm — the cell average instead left the default
+  run "not closable" after 15 cycles, issue 16), its porosity ``n = 1 - V_solid / V_pile`` from the DEM
   packing (``V_solid`` the sphere volume inside the cell's column, by the mean chord length over the
   sub-points; ``V_pile = height dx dy``), both summed over the pile cells within one stone diameter
   (a representative volume: a cell smaller than a stone is either almost solid or almost void), and its
@@ -91,7 +96,7 @@ SUB = 32
 
 
 def subpoints(dx: float, dy: float, r_min: float, cap: int = 64) -> int:
-    """Sub-points per cell side so that their spacing is at most ``r_min / 8`` (at least :data:`SUB`, at most
+    """Sub-points per cell side so that their spacing is at most ``r_min / 8`` (at least ``SUB``, at most
     *cap*): the midpoint rule over a sphere's footprint then errs by < 1 % in volume (the error goes as
     ``(s / r)^1.5``: 0.6 % at r / 8, 0.2 % at r / 16; ``tests/cycle/test_pile_cells.py``)."""
     if not r_min > 0:
@@ -225,7 +230,7 @@ def _check_sampling(sampling):
 
 
 class IncrementalPileTop:
-    """The pile top of :func:`pile_top` and the cell quantities of :func:`pile_cells` (``lift``, ``level``),
+    """The pile top of ``pile_top`` and the cell quantities of :func:`pile_cells` (``lift``, ``level``),
     kept up to date cycle after cycle at the cost of the masses that changed (moved, stopped or started
     resting, or were added), not of the whole pile.
 
@@ -293,7 +298,7 @@ class IncrementalPileTop:
 
 
 def remap_top(top, bed, water_surface, mode: str = "no_flow"):
-    """``(obstacle, new_bed)`` from the centre pile top (:func:`pile_top`, ``sampling = "centre"``): covered
+    """``(obstacle, new_bed)`` from the centre pile top (``pile_top``, ``sampling = "centre"``): covered
     cells (``no_flow``), the bed raised to the top and blocked where it reaches the surface (``raised_bed``)."""
     _check_mode(mode)
     bed = np.asarray(bed, dtype=float)
