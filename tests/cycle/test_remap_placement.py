@@ -39,6 +39,56 @@ def test_raised_bed_is_the_sphere_top_and_emergent_cells_block():
         remap(x, y, bed, bed, pos, r, np.array([True]), mode="sandbags")
 
 
+def _cell_fraction(x, y, inside, k=64):
+    """Per cell: the area fraction where *inside(X, Y)* holds, by a k × k midpoint raster (a reference
+    independent of the remap's sub-points)."""
+    h = x[1] - x[0]
+    o = ((np.arange(k) + 0.5) / k - 0.5) * h
+    X = x[None, :, None, None] + o[None, None, None, :]
+    Y = y[:, None, None, None] + o[None, None, :, None]
+    return inside(X, Y).mean(axis=(2, 3))
+
+
+def test_cell_average_no_flow_blocks_the_cells_the_footprint_covers_at_least_half():
+    x, y = grid()
+    bed = np.zeros((y.size, x.size))
+    pos = np.array([[0.1, -0.2, 0.5], [3.0, 3.0, 0.5]])
+    r = np.array([1.0, 1.0])
+    obst, newbed = remap(x, y, bed, bed + 2.0, pos, r, np.array([True, False]), sampling="cell_average")
+    frac = _cell_fraction(x, y, lambda X, Y: (X - 0.1) ** 2 + (Y + 0.2) ** 2 < 1.0)
+    sure = np.abs(frac - 0.5) > 0.05  # the sub-point estimate of the fraction decides the others
+    np.testing.assert_array_equal(obst[sure], frac[sure] >= 0.5)
+    assert obst.sum() == pytest.approx(np.pi / 0.25**2, rel=0.05)  # the disc's area in cells
+    np.testing.assert_array_equal(newbed, bed)
+
+
+def test_cell_average_raised_bed_is_the_mean_sphere_top_and_emergent_cells_block():
+    """The bed rises by the cell average of the sphere's top above it (the analytic cap, rastered
+    independently of the remap); a cell is blocked where the top stands above the water (1 m) over at
+    least half of it."""
+    x, y = grid()
+    bed = np.zeros((y.size, x.size))
+    pos = np.array([[0.0, 0.0, 0.2]])
+    r = np.array([1.0])
+    obst, newbed = remap(x, y, bed, np.full(bed.shape, 1.0), pos, r, np.array([True]), mode="raised_bed",
+                        sampling="cell_average")
+    k = 64
+    h = x[1] - x[0]
+    o = ((np.arange(k) + 0.5) / k - 0.5) * h
+    X = x[None, :, None, None] + o[None, None, None, :]
+    Y = y[:, None, None, None] + o[None, None, :, None]
+    d2 = X**2 + Y**2
+    top = np.where(d2 < 1.0, 0.2 + np.sqrt(np.clip(1.0 - d2, 0, None)), 0.0)
+    np.testing.assert_allclose(newbed, top.mean(axis=(2, 3)), atol=0.02)
+    assert newbed.sum() * h * h == pytest.approx(np.pi * 0.2 + 2 / 3 * np.pi, rel=2e-3)  # the volume under the top
+    frac = (top >= 1.0).mean(axis=(2, 3))
+    sure = np.abs(frac - 0.5) > 0.05
+    np.testing.assert_array_equal(obst[sure], frac[sure] >= 0.5)
+    assert obst.any() and (newbed > 0).sum() > obst.sum()
+    with pytest.raises(InputError, match="pile sampling"):
+        remap(x, y, bed, bed, pos, r, np.array([True]), mode="raised_bed", sampling="corner")
+
+
 def test_placement_is_seeded_per_cycle_and_respects_units():
     plan = PlacementPlan.from_config({"diameter": ["0.8 m", "1.2 m"], "batch": 3, "positions": "line",
                                       "start": [-10, 0], "stop": [10, 0], "release_height": "2 m", "rate": "30 1/hr"})
@@ -65,8 +115,9 @@ def test_placement_is_seeded_per_cycle_and_respects_units():
 
 def test_incremental_pile_top_equals_the_full_recomputation():
     """Masses added, moved, stopping and starting to rest over many cycles: the incrementally kept pile
-    top is the full ``pile_top`` of the current masses, bit for bit, while touching only the changes."""
-    from breachflow.cycle.remap import IncrementalPileTop, pile_top
+    top and cell quantities are the full ``pile_top`` / ``pile_cells`` of the current masses, bit for
+    bit, while touching only the changes."""
+    from breachflow.cycle.remap import IncrementalPileTop, pile_cells, pile_top
 
     rng = np.random.default_rng(3)
     x = np.arange(40) * 0.5
@@ -85,6 +136,9 @@ def test_incremental_pile_top_equals_the_full_recomputation():
         rest[flip] = ~rest[flip]
         top = pile.update(pos, rad, rest)
         np.testing.assert_array_equal(top, pile_top(x, y, bed, pos, rad, rest), err_msg=f"cycle {cycle}")
+        lift, level = pile_cells(x, y, bed, pos, rad, rest)
+        np.testing.assert_array_equal(pile.lift, lift, err_msg=f"cycle {cycle}")
+        np.testing.assert_array_equal(pile.level, level, err_msg=f"cycle {cycle}")
         assert pile.last_changed <= k + int(moved.sum()) + int(flip.sum())
     # nothing changed: nothing recomputed
     pile.update(pos, rad, rest)

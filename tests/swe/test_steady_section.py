@@ -43,3 +43,32 @@ def test_the_section_discharge_keeps_the_run_going_until_it_settles():
 def test_a_bad_section_is_a_clear_error(section):
     with pytest.raises(InputError, match="section"):
         SWESimulation(_channel()).run_to_steady(1e-3, 10.0, section=section)
+
+
+def test_the_monitor_judges_the_reported_breach_discharge_not_the_levee_row():
+    """A 6 m gap in a levee (walls for |y - 100| < 10 m) with a raised bed (+0.7 m, 3 cells) on the levee
+    row: at steady state every row of the gap carries the 20 m³/s fed in (continuity), but the cell-centre
+    momentum on and beside the step is not the face flux (the levee row read 20.22, its neighbours 21.06 and
+    21.42 m³/s). The monitor reads the closure's breach discharge
+    (:func:`breachflow.cycle.criteria.section_discharge`, the median over the gap's rows): the same number,
+    and the inflow; before, it read the levee row alone."""
+    from breachflow.cycle.criteria import row_discharge, section_discharge
+
+    def bed(X, Y):
+        b = 5.0 - 1e-3 * Y
+        return np.where((np.abs(Y - 100.5) < 0.5) & (np.abs(X - 5.0) < 1.5), b + 0.7, b)
+
+    dom = uniform_grid(0, 10, 0, 200, 1.0, bed=bed, manning=0.03, initial_surface=6.0,
+                       obstacle=lambda X, Y: (np.abs(Y - 100) < 10) & (np.abs(X - 5) > 3),
+                       boundaries={"south": [BC.inflow(2.0)], "north": [BC.outflow()]})
+    sim = SWESimulation(dom)
+    section = (2.0, 8.0, 100.5)
+    hist = sim.run_to_steady(1e-5, 3000.0, section=section)
+    assert hist.converged
+    snap = sim.snapshot(derived=False)
+    reported = section_discharge(snap, (2.0, 8.0), 100.5)
+    assert sim.section_discharge(section) == pytest.approx(reported, rel=1e-12)
+    assert hist.section_discharge[-1] == pytest.approx(reported, rel=1e-12)
+    assert reported == pytest.approx(20.0, rel=1e-3)
+    # the case discriminates: the levee row's cell-centre sum is not the flux
+    assert abs(row_discharge(snap, (2.0, 8.0), 100.5) / 20.0 - 1.0) > 5e-3

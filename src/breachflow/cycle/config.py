@@ -390,17 +390,20 @@ class ClosureSection:
     pile), ``area`` (the breach area ``[x0, x1, y0, y1]`` outside which masses count as carried away
     and where ``max_speed`` judges the flow; default from the scene, see
     :mod:`~breachflow.cycle.losses`), ``loss_limit`` (fraction of a cycle's tonnage whose loss ends the run with a
-    "not closable" verdict, default 0.5)."""
+    "not closable" verdict, default 0.5), ``pile_sampling`` (how the pile enters ``raised_bed`` / ``no_flow``:
+    ``centre``, the default: the sphere top above each cell centre | ``cell_average``: the cell average of
+    the pile top, blocked where it stands above the water over half the cell, :mod:`~breachflow.cycle.remap`)."""
 
     remap: str = "porous"
     seed: int = 0
     area: tuple | None = None
     loss_limit: float = 0.5
     porous_law: str = "ergun"
+    pile_sampling: str = "centre"
 
     @classmethod
     def from_table(cls, table, ctx):
-        ctx.check_keys(table, {"remap", "seed", "area", "loss_limit", "porous_law"})
+        ctx.check_keys(table, {"remap", "seed", "area", "loss_limit", "porous_law", "pile_sampling"})
         area = None
         if "area" in table:
             val = ctx.raw(table, "area", types=(list,))
@@ -411,9 +414,13 @@ class ClosureSection:
                 raise ctx.error(f"area must be [x0, x1, y0, y1] with x0 < x1 and y0 < y1, got {val!r}", "area")
         loss = ctx.quantity(table, "loss_limit", "dimensionless", default=0.5, default_unit="", positive=True)
         out = cls(ctx.raw(table, "remap", default="porous"), ctx.raw(table, "seed", types=(int,), default=0),
-                  area, float(loss), ctx.raw(table, "porous_law", default="ergun"))
+                  area, float(loss), ctx.raw(table, "porous_law", default="ergun"),
+                  ctx.raw(table, "pile_sampling", default="centre"))
         from ..hydro.swe.porous import FORCHHEIMER_LAWS
-        from .remap import REMAP_MODES
+        from .remap import PILE_SAMPLINGS, REMAP_MODES
+
+        if out.pile_sampling not in PILE_SAMPLINGS:
+            raise ctx.error(f"pile_sampling must be one of {PILE_SAMPLINGS}", "pile_sampling")
 
         if out.remap not in REMAP_MODES:
             raise ctx.error(f"remap must be one of {REMAP_MODES}", "remap")
@@ -556,7 +563,7 @@ def closure_setup(scenario, *, overrides: dict | None = None):
     if isinstance(solver, _StageSolver):
         solver.plan = placement
     setup = ClosureSetup(domain=dom, solver=solver, placement=placement, criteria=criteria, dem=dem,
-                         remap_mode=closure.remap, porous_law=closure.porous_law, seed=closure.seed,
+                         remap_mode=closure.remap, pile_sampling=closure.pile_sampling, porous_law=closure.porous_law, seed=closure.seed,
                          breach_x=(xc - half, xc + half), levee_y=yc,
                          flood_level=flood_level, bottom=bottom, name=scenario.name, attrs=attrs, metadata=metadata,
                          area=closure.area or (breach_area(scene, placement.diameter[1]) if built is None else None),

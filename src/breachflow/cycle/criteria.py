@@ -115,42 +115,13 @@ def _open_wet(ds):
 
 
 def section_discharge(ds, x_range, y: float) -> float:
-    """Discharge (m³/s) through the breach between ``x_range``, positive towards the protected side.
+    """Discharge (m³/s) through the breach between ``x_range``, positive towards the protected side: the
+    median over the breach channel's rows of ``Σ h v Δx`` over the open wet cells
+    (:func:`breachflow.hydro.section.channel_discharge`, also the ``swe`` solver's steady-state monitor)."""
+    from ..hydro.section import channel_discharge
 
-    At steady state continuity makes it the same through every cross-section of the breach channel: the
-    grid rows, contiguous with the one nearest *y*, whose cells just beyond both ends of ``x_range`` are
-    closed (the levee or the breach walls: obstacle or dry). Per row it is ``Σ h v Δx`` over the open cells,
-    but a cell-centre sum is the flux only where the bed is smooth: in a row through the pile (raised bed,
-    porous pile) the momentum at cell centres beside a step is not the face flux (issue 16: cycle 2 of a
-    nested closure read 53.3 m³/s on the levee line through the new masses, 32.6–36.0 on every other row of
-    the opening). So the median over the channel's rows (the row nearest *y* alone where no row is closed
-    at both ends)."""
-    x = np.asarray(ds["x"].values, float)
-    yy = np.asarray(ds["y"].values, float)
-    j0 = int(np.argmin(np.abs(yy - y)))
-    open_wet = _open_wet(ds)
-    sel = (x >= x_range[0]) & (x <= x_range[1])
     hv = np.asarray(ds["depth"].values, float) * np.asarray(ds["v"].values, float)
-    dx = abs(x[1] - x[0]) if x.size > 1 else 1.0
-    inside = np.flatnonzero(sel)
-    if inside.size == 0:
-        return 0.0
-    il, ir = inside[0] - 1, inside[-1] + 1
-    if il < 0 or ir >= x.size:
-        closed = np.zeros(yy.size, bool)
-    else:
-        closed = ~open_wet[:, il] & ~open_wet[:, ir]
-    rows = [j0]
-    if closed[j0]:
-        lo = j0
-        while lo > 0 and closed[lo - 1]:
-            lo -= 1
-        hi = j0
-        while hi < yy.size - 1 and closed[hi + 1]:
-            hi += 1
-        rows = range(lo, hi + 1)
-    q = [float(np.sum(hv[j, sel & open_wet[j]]) * dx) for j in rows]
-    return float(np.median(q))
+    return channel_discharge(ds["x"].values, ds["y"].values, hv, _open_wet(ds), x_range, y)
 
 
 def row_discharge(ds, x_range, y: float) -> float:

@@ -39,7 +39,7 @@ from .losses import LOSS_LIMIT, gap_speed, gap_speed_and_depth, losses_flagged, 
 from .placement import PlacementPlan
 from .strategies import PileView
 from .strategies import band as strategy_band
-from .remap import IncrementalPileTop, porous_pile, remap_top
+from .remap import IncrementalPileTop, porous_pile, remap_cells, remap_top, subpoints
 
 
 @dataclass
@@ -96,6 +96,8 @@ class ClosureSetup:
     criteria: EndCriteria
     dem: DemSettings = field(default_factory=DemSettings)
     remap_mode: str = "no_flow"
+    #: how the pile enters ``no_flow`` / ``raised_bed``: ``centre`` | ``cell_average`` (:mod:`~breachflow.cycle.remap`)
+    pile_sampling: str = "centre"
     #: Forchheimer coefficients of a porous pile (``ergun`` | ``van_gent``, hydro/swe/porous.py)
     porous_law: str = "ergun"
     seed: int = 0
@@ -211,7 +213,9 @@ class ClosureRun:
         self.progress = progress  # callable(CycleReport) or None
         self.reports: list[CycleReport] = []
         self._live = None  # (cycle, DemSimulation) of the last cycle, continued by the next one
-        self._pile = IncrementalPileTop(setup.domain.x, setup.domain.y, setup.domain.bed)
+        self._pile = IncrementalPileTop(setup.domain.x, setup.domain.y, setup.domain.bed,
+                                        sub=subpoints(dom.dx, dom.dy, 0.5 * setup.placement.diameter[0]),
+                                        cells=setup.pile_sampling == "cell_average")
         self._pile_height = None  # porous remap: the pile heights of the last solve
         self._q_open = float("nan")  # breach discharge of the open breach (the initial solve), m³/s
 
@@ -414,10 +418,14 @@ class ClosureRun:
         # 4. remap and re-solve
         dom = s.domain
         top = self._pile.update(st.pos, st.radius, resting)
-        # emergent (blocked) where the top reaches the flood-side level, the highest level a steady flow fed
+        # emergent (blocked) where the pile reaches the flood-side level, the highest level a steady flow fed
         # from there can back up to: not the previous surface, which the pile itself raised (and which is
         # the old top in the cells it blocked), so a blocked cell stayed blocked only by chance (issue 16)
-        obstacle, bed = remap_top(top, dom.bed, np.full(dom.shape, float(s.flood_level)), s.remap_mode)
+        flood = np.full(dom.shape, float(s.flood_level))
+        if s.pile_sampling == "cell_average":
+            obstacle, bed = remap_cells(self._pile.lift, self._pile.level, dom.bed, flood, s.remap_mode)
+        else:
+            obstacle, bed = remap_top(top, dom.bed, flood, s.remap_mode)
         pile = None
         if s.remap_mode == "porous":
             pile = porous_pile(dom.x, dom.y, dom.bed, st.pos, st.radius, resting, law=s.porous_law)
