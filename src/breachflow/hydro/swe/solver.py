@@ -20,6 +20,7 @@ from ...errors import InputError, PhysicsError
 from .. import derived as _derived
 from ..section import channel_discharge
 from ..snapshot import DRY_DEPTH, grid_snapshot
+from ..steady_mean import BatchMeans
 from ..terrain import Domain, pack_boundaries
 from . import kernels as K
 
@@ -80,6 +81,13 @@ class ConvergenceHistory:
     wall_time: list = field(default_factory=list)
     converged: bool = False
     tolerance: float = float("nan")
+    #: ``run_to_steady(average=True)``: per check, the running mean of the section discharge (m³/s) and its
+    #: error (m³/s: batch-means standard error and drift, ``BatchMeans.stats``), NaN below 8 batches; ``averaged``: the run converged on
+    #: the mean (the state is then the time mean over ``average_window`` = (t0, t1) s)
+    section_mean: list = field(default_factory=list)
+    section_se: list = field(default_factory=list)
+    averaged: bool = False
+    average_window: tuple = (math.nan, math.nan)
 
 
 class SWESimulation:
@@ -268,7 +276,8 @@ class SWESimulation:
         return x0, x1, y
 
     def run_to_steady(self, tolerance: float = 1e-4, t_max: float = 3600.0, check_interval: float | None = None,
-                      min_time: float = 0.0, region=None, progress=None, section=None) -> ConvergenceHistory:
+                      min_time: float = 0.0, region=None, progress=None, section=None,
+                      average: bool = False) -> ConvergenceHistory:
         """March until the relative rates of change of depth and discharge fall below *tolerance* (1/s).
 
         Rates over each check window Δt: ``sum|h - h_prev| / (sum h Δt)`` and the same with the
@@ -277,6 +286,18 @@ class SWESimulation:
         (the breach: :meth:`section_discharge`) its discharge Q must settle too:
         ``|Q - Q_prev| / (max(|Q|, |Q_prev|) Δt) < tolerance``. Stops at *t_max* (s) of simulated time
         otherwise (``converged`` False). *progress(sim, history)* is called after each check window.
+
+        *average* (needs *section*): a flow that sheds eddies never settles, so also accept the running
+        mean of Q (:class:`~breachflow.hydro.steady_mean.BatchMeans`, Q sampled 8 times per check window):
+        converged when its error (standard error and drift, ``BatchMeans.stats``) is at most
+        ``tolerance × check_interval`` of it (the relative change the rate test accepts over one window)
+        with at least 8 batches (of at least one check window each) and no drift between the
+        first and second half of the batches (else the first half is dropped as a transient); the first half
+        of the record is always left out as the start-up transient. The state
+        is then the time mean of depth and unit discharges over the averaging window
+        (``history.averaged``, ``history.average_window``); ``history.section_mean`` / ``section_se``
+        record the running mean and its standard error per check. A flow that does settle converges on
+        the rate test as without *average*.
         """
         sel = np.ones(self.domain.shape, bool) if region is None else _mask(region, self.domain)
         if not sel.any():
@@ -287,6 +308,8 @@ class SWESimulation:
             raise InputError(f"t_max must be > 0 s, got {t_max}")
         if section is not None:
             self._section_cells(section)  # checked before the run
+        elif average:
+            raise InputError("run_to_steady: average=True needs the section whose discharge is averaged")
         if check_interval is None:
             # a few gravity-wave crossings of a cell band: 20 cells at the fastest wave speed, at least 1 s
             hmax = max(float(self.depth.max()), float(np.nanmax(self.levels)) - float(self.domain.bed.min())
@@ -299,9 +322,19 @@ class SWESimulation:
         h_prev = self.depth[sel]
         q_prev = np.hypot(*self.discharge)[sel]
         qs_prev = self.section_discharge(section) if section is not None else math.nan
+        n_sub = 8 if average else 1
+        acc = BatchMeans(n_sub) if average else None
+        inner = (slice(K.G, -K.G), slice(K.G, -K.G))
         while self.t < t_start + t_max - 1e-12:
             t0 = self.t
-            self.advance_to(min(self.t + check_interval, t_start + t_max))
+            if acc is None:
+                self.advance_to(min(self.t + check_interval, t_start + t_max))
+            else:
+                for k in range(n_sub):
+                    self.advance_to(min(t0 + (k + 1) * check_interval / n_sub, t_start + t_max))
+                    acc.add(self.t, self.section_discharge(section), (self.h[inner], self.hu[inner], self.hv[inner]))
+                    if self.t >= t_start + t_max - 1e-12:
+                        break
             dt = self.t - t0
             h = self.depth[sel]
             q = np.hypot(*self.discharge)[sel]
@@ -323,10 +356,24 @@ class SWESimulation:
             h_prev = h
             q_prev = q
             qs_prev = qs
+            mean_ok = False
+            if acc is not None:
+                acc.drop_before(t_start + 0.5 * (self.t - t_start))  # the first half of the record: warm-up
+                if acc.drifting():
+                    acc.drop_first_half()
+                mean, se = acc.stats() if acc.batches >= 8 else (math.nan, math.nan)
+                hist.section_mean.append(mean)
+                hist.section_se.append(se)
+                mean_ok = se <= tolerance * check_interval * abs(mean)  # False while NaN
             if progress is not None:
                 progress(self, hist)
-            if rate_h < tolerance and rate_q < tolerance and rate_s < tolerance and self.t - t_start >= min_time:
+            if self.t - t_start >= min_time and (
+                    (rate_h < tolerance and rate_q < tolerance and rate_s < tolerance) or mean_ok):
                 hist.converged = True
+                if not (rate_h < tolerance and rate_q < tolerance and rate_s < tolerance):
+                    hist.averaged = True
+                    hist.average_window = acc.window()
+                    self.h[inner], self.hu[inner], self.hv[inner] = acc.mean_fields()
                 break
         return hist
 
