@@ -108,20 +108,18 @@ def _speed(ds):
 
 
 def _open_wet(ds):
-    wet = np.asarray(ds["wet"].values, bool)
-    if "obstacle" in ds:
-        wet &= ~np.asarray(ds["obstacle"].values, bool)
-    return wet
+    from ..hydro.section import open_wet
+
+    return open_wet(ds)
 
 
 def section_discharge(ds, x_range, y: float) -> float:
     """Discharge (m³/s) through the breach between ``x_range``, positive towards the protected side: the
     median over the breach channel's rows of ``Σ h v Δx`` over the open wet cells
     (:func:`breachflow.hydro.section.channel_discharge`, also the ``swe`` solver's steady-state monitor)."""
-    from ..hydro.section import channel_discharge
+    from ..hydro.section import snapshot_discharge
 
-    hv = np.asarray(ds["depth"].values, float) * np.asarray(ds["v"].values, float)
-    return channel_discharge(ds["x"].values, ds["y"].values, hv, _open_wet(ds), x_range, y)
+    return snapshot_discharge(ds, x_range, y)
 
 
 def row_discharge(ds, x_range, y: float) -> float:

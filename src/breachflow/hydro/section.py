@@ -1,6 +1,7 @@
 """The breach discharge through a channel section: one definition for the closure's reported value
 (:func:`breachflow.cycle.criteria.section_discharge`) and the steady-state monitor of the ``swe`` solver
-(:meth:`breachflow.hydro.swe.solver.SWESimulation.section_discharge`)."""
+(:meth:`breachflow.hydro.swe.solver.SWESimulation.section_discharge`), and the window re-solve's
+(:mod:`breachflow.hydro.window`)."""
 from __future__ import annotations
 
 import numpy as np
@@ -41,3 +42,17 @@ def channel_discharge(x, y, hv, open_wet, x_range, y0: float) -> float:
         rows = range(lo, hi + 1)
     q = [float(np.sum(hv[j, sel & open_wet[j]]) * dx) for j in rows]
     return float(np.median(q))
+
+
+def open_wet(ds):
+    """Cells of the snapshot *ds* that are wet (``wet``, else depth > 0) and not an obstacle."""
+    wet = np.asarray(ds["wet"].values, bool) if "wet" in ds else np.asarray(ds["depth"].values, float) > 0.0
+    if "obstacle" in ds:
+        wet = wet & ~np.asarray(ds["obstacle"].values, bool)
+    return wet
+
+
+def snapshot_discharge(ds, x_range, y: float) -> float:
+    """:func:`channel_discharge` of the snapshot *ds* (``depth``, ``v`` on ``x``, ``y``)."""
+    hv = np.asarray(ds["depth"].values, float) * np.asarray(ds["v"].values, float)
+    return channel_discharge(ds["x"].values, ds["y"].values, hv, open_wet(ds), x_range, y)

@@ -134,16 +134,12 @@ def _shifted(previous: xr.Dataset, d_eta: np.ndarray) -> xr.Dataset:
 
 
 def _section_discharge(ds: xr.Dataset, section) -> float:
-    """Discharge (m³/s) of the snapshot *ds* across *section* ``(x0, x1, y)`` as
-    :meth:`~breachflow.hydro.swe.solver.SWESimulation.section_discharge` (the grid row nearest y)."""
+    """Discharge (m³/s) of the snapshot *ds* across *section* ``(x0, x1, y)``: the breach discharge the
+    closure reports and the solver's monitor judges (:func:`~breachflow.hydro.section.snapshot_discharge`)."""
+    from .section import snapshot_discharge
+
     x0, x1, y = (float(v) for v in section)
-    xs, ys = ds.x.values, ds.y.values
-    j = int(np.argmin(np.abs(ys - y)))
-    cols = (xs >= x0) & (xs <= x1)
-    if "obstacle" in ds:
-        cols &= ~np.asarray(ds["obstacle"].values[j]).astype(bool)
-    h = np.asarray(ds["depth"].values[j], float)
-    return float((h * np.asarray(ds["v"].values[j], float))[cols].sum() * (xs[1] - xs[0]))
+    return snapshot_discharge(ds, (x0, x1), y)
 
 
 class WindowResolver:
