@@ -168,14 +168,16 @@ def pile_cells_window(x, y, bed, pos, radius, use, sub, i_lo, i_hi, j_lo, j_hi, 
             level[j_lo + jj, i_lo + ii] = vals[n - half]  # the half-th highest
 
 
+def _contiguous(x, y, bed, pos, radius, use):
+    """The kernels' inputs as C-contiguous float arrays (positions (N, 3)) and a bool mask."""
+    return (np.ascontiguousarray(x, dtype=float), np.ascontiguousarray(y, dtype=float),
+            np.ascontiguousarray(bed, dtype=float), np.ascontiguousarray(pos, dtype=float).reshape(-1, 3),
+            np.ascontiguousarray(radius, dtype=float), np.ascontiguousarray(use, dtype=np.bool_))
+
+
 def pile_cells(x, y, bed, pos, radius, use, sub: int = SUB):
     """``(lift, level)`` of the spheres *use* over the whole grid (module docstring)."""
-    x = np.ascontiguousarray(x, dtype=float)
-    y = np.ascontiguousarray(y, dtype=float)
-    bed = np.ascontiguousarray(bed, dtype=float)
-    pos = np.ascontiguousarray(pos, dtype=float).reshape(-1, 3)
-    radius = np.ascontiguousarray(radius, dtype=float)
-    use = np.ascontiguousarray(use, dtype=np.bool_)
+    x, y, bed, pos, radius, use = _contiguous(x, y, bed, pos, radius, use)
     lift = np.zeros(bed.shape)
     level = np.full(bed.shape, -np.inf)
     box = _footprint_box(x, y, pos[use[:pos.shape[0]]], radius[use[:pos.shape[0]]])
@@ -387,12 +389,7 @@ def porous_pile(x, y, bed, pos, radius, resting, law: str = "ergun", sub: int = 
     """
     from ..hydro.swe.porous import PorousPile
 
-    x = np.ascontiguousarray(x, dtype=float)
-    y = np.ascontiguousarray(y, dtype=float)
-    bed = np.ascontiguousarray(bed, dtype=float)
-    pos = np.ascontiguousarray(pos, dtype=float).reshape(-1, 3)
-    radius = np.ascontiguousarray(radius, dtype=float)
-    resting = np.ascontiguousarray(resting, dtype=np.bool_)
+    x, y, bed, pos, radius, resting = _contiguous(x, y, bed, pos, radius, resting)
     top = np.full(bed.shape, -np.inf)
     solid = np.zeros(bed.shape)
     dsum = np.zeros(bed.shape)
