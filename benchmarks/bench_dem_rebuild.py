@@ -6,7 +6,7 @@
 
 Builds ``bench_dem.poured_pile(n)`` (the scene of ``tasks.py bench dem``) and times ``DemSimulation._rebuild``
 (the driver's rebuild: on older trees hash grid + search + numpy sort / searchsorted of the keys; here
-``neighbours.relist``, the function the compiled loops call) and, where it exists, the pair search alone
+``neighbours.relist``, ``neighbours.rebuild`` without sleepers, the function the compiled loop calls) and, where it exists, the pair search alone
 (``neighbours.search_awake``), in ms per rebuild (``time.process_time``, mean ± sd of 5 blocks).
 """
 from __future__ import annotations

@@ -33,6 +33,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import InputError
+from ..hydro.section import open_wet as _open_wet
+from ..hydro.section import snapshot_discharge
 from ..registry import Registry
 from ..units import to_si
 
@@ -107,18 +109,10 @@ def _speed(ds):
     return np.hypot(np.asarray(ds["u"].values, float), np.asarray(ds["v"].values, float))
 
 
-def _open_wet(ds):
-    from ..hydro.section import open_wet
-
-    return open_wet(ds)
-
-
 def section_discharge(ds, x_range, y: float) -> float:
     """Discharge (m³/s) through the breach between ``x_range``, positive towards the protected side: the
     median over the breach channel's rows of ``Σ h v Δx`` over the open wet cells
     (:func:`breachflow.hydro.section.channel_discharge`, also the ``swe`` solver's steady-state monitor)."""
-    from ..hydro.section import snapshot_discharge
-
     return snapshot_discharge(ds, x_range, y)
 
 

@@ -214,11 +214,8 @@ def remap(x, y, bed, water_surface, pos, radius, resting, mode: str = "no_flow",
     if sampling == "cell_average":
         lift, level = pile_cells(x, y, bed, pos, radius, resting, sub)
         return remap_cells(lift, level, bed, water_surface, mode)
-    x = np.ascontiguousarray(x, dtype=float)
-    y = np.ascontiguousarray(y, dtype=float)
-    top = pile_top(x, y, np.asarray(bed, dtype=float), np.ascontiguousarray(pos, dtype=float).reshape(-1, 3),
-                   np.ascontiguousarray(radius, dtype=float), np.ascontiguousarray(resting, dtype=np.bool_))
-    return remap_top(top, bed, water_surface, mode)
+    x, y, bed, pos, radius, resting = _contiguous(x, y, bed, pos, radius, resting)
+    return remap_top(pile_top(x, y, bed, pos, radius, resting), bed, water_surface, mode)
 
 
 def _check_mode(mode):

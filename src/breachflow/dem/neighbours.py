@@ -401,7 +401,7 @@ def sort_and_carry(n, cand_a, cand_b, pa, pb, hist, rhist, npart, new_a, new_b, 
 
 
 def empty_buffers():
-    """Zero-capacity pair buffers for :func:`relist`: (candidates a, b; spare list a, b, shear, rolling,
+    """Zero-capacity pair buffers for :func:`rebuild` / :func:`relist`: (candidates a, b; spare list a, b, shear, rolling,
     touch; other list a, b, shear, rolling, touch)."""
     i, f, t = np.zeros(0, np.int64), np.zeros((0, 3)), np.zeros(0, np.bool_)
     return (i, i.copy(), i.copy(), i.copy(), f, f.copy(), t, i.copy(), i.copy(), f.copy(), f.copy(), t.copy())

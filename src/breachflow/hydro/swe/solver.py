@@ -260,11 +260,11 @@ class SWESimulation:
         same function (:func:`breachflow.hydro.section.channel_discharge`: ``Σ h v Δx`` over the open wet
         cells, the median over the channel's rows where walls close the section at both ends), so the
         monitor judges the value the closure reports (issue 16)."""
-        x0, x1, y = self._section_cells(section)
+        x0, x1, y = self._checked_section(section)
         wet = (self.depth > DRY_DEPTH) & ~self.domain.obstacle
         return channel_discharge(self.domain.x, self.domain.y, self.discharge[1], wet, (x0, x1), y)
 
-    def _section_cells(self, section):
+    def _checked_section(self, section):
         """*section* checked: ``(x0, x1, y)`` as floats, with at least one grid column between x0 and x1."""
         d = self.domain
         try:
@@ -307,7 +307,7 @@ class SWESimulation:
         if not t_max > 0:
             raise InputError(f"t_max must be > 0 s, got {t_max}")
         if section is not None:
-            self._section_cells(section)  # checked before the run
+            self._checked_section(section)  # checked before the run
         elif average:
             raise InputError("run_to_steady: average=True needs the section whose discharge is averaged")
         if check_interval is None:
@@ -367,10 +367,10 @@ class SWESimulation:
                 mean_ok = se <= tolerance * check_interval * abs(mean)  # False while NaN
             if progress is not None:
                 progress(self, hist)
-            if self.t - t_start >= min_time and (
-                    (rate_h < tolerance and rate_q < tolerance and rate_s < tolerance) or mean_ok):
+            settled = rate_h < tolerance and rate_q < tolerance and rate_s < tolerance
+            if self.t - t_start >= min_time and (settled or mean_ok):
                 hist.converged = True
-                if not (rate_h < tolerance and rate_q < tolerance and rate_s < tolerance):
+                if not settled:
                     hist.averaged = True
                     hist.average_window = acc.window()
                     self.h[inner], self.hu[inner], self.hv[inner] = acc.mean_fields()
