@@ -17,6 +17,7 @@ from ..fluid.forces import FluidForces
 from ..fluid.profile import roughness_from_manning
 from ..hydro.sampling import FieldSampler
 from ..hydro.snapshot import DRY_DEPTH
+from .rest import RestWindow
 
 
 def dem_view(snapshot: xr.Dataset) -> xr.Dataset:
@@ -125,7 +126,9 @@ class CycleDem:
         return idx
 
     def _settle(self, sim, max_time, record_ids=None):
-        """Step to equilibrium; returns (converged, time series of positions of *record_ids*)."""
+        """Step to equilibrium; returns (converged, times, positions and velocities of *record_ids* at those
+        times, the :class:`~breachflow.cycle.rest.RestWindow` of every mass's positions over the last
+        ``rest_time``)."""
         d = self.setup.dem
         chunk = max(1, int(round(d.record_interval / sim.dt)))
         consecutive = min(chunk, max(10, int(np.ceil(0.05 / sim.dt))))
@@ -133,10 +136,12 @@ class CycleDem:
         frames = [sim.state.pos[record_ids].copy()] if record_ids is not None else []
         vframes = [sim.state.vel[record_ids].copy()] if record_ids is not None else []
         t_start = sim.t
+        window = RestWindow(d.rest_time, sim.t, sim.state.pos)
         converged = False
         slow_since = None  # simulated time since when every awake mass is slower than rest_speed
         while sim.t - t_start < max_time:
             res = sim.run_to_equilibrium(d.e_tol, max_steps=chunk, consecutive=consecutive)
+            window.add(sim.t, sim.state.pos)
             if record_ids is not None:
                 times.append(sim.t - t_start)
                 frames.append(sim.state.pos[record_ids].copy())
@@ -156,8 +161,8 @@ class CycleDem:
                 converged = True  # every mass at rest (or removed) for rest_time
                 break
         if record_ids is None:
-            return converged, np.asarray(times), None, None
-        return converged, np.asarray(times), np.stack(frames, axis=1), np.stack(vframes, axis=1)
+            return converged, np.asarray(times), None, None, window
+        return converged, np.asarray(times), np.stack(frames, axis=1), np.stack(vframes, axis=1), window
 
     def _fluid_roughness(self) -> float:
         """The log law's roughness height of the DEM's fluid forces (as :meth:`_fluid` sets it)."""

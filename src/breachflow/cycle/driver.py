@@ -37,6 +37,7 @@ from .losses import LOSS_LIMIT, gap_speed, gap_speed_and_depth, losses_flagged, 
 from .placement import PlacementPlan
 from .strategies import PileView
 from .strategies import band as strategy_band
+from .rest import REST_RULES, RestSample, pile_members
 from .remap import IncrementalPileTop, porous_pile, remap_cells, remap_top, subpoints
 
 
@@ -45,8 +46,10 @@ class DemSettings:
     """DEM settings of a closure run (SI). A cycle's DEM ends at equilibrium (``e_tol``), or when every
     awake mass has moved slower than ``rest_speed`` (centre speed and ``|omega| r``) for ``rest_time``
     (checked every ``record_interval``), or at the safety cap ``max_time`` of simulated time; masses
-    carried out of the breach area are removed meanwhile (:mod:`~breachflow.cycle.losses`). ``rest_speed`` is also the
-    speed below which a mass counts as resting when the cycle ends at ``max_time``;
+    carried out of the breach area are removed meanwhile (:mod:`~breachflow.cycle.losses`). Which masses
+    count as resting (the pile the remap sees) when the cycle ends at ``max_time``: ``rest_rule``
+    (``window``, the default: mean speed over the last ``rest_time`` below ``rest_speed``; ``speed``: speed
+    at the cap instant below ``rest_speed``; :mod:`~breachflow.cycle.rest`);
     ``record_interval`` the trajectory sampling interval (s)."""
 
     material: Material = field(default_factory=lambda: Material(density=2650.0, kn=2.0e7, friction=0.6,
@@ -66,6 +69,7 @@ class DemSettings:
     roughness: float | None = None
     stability_time: float = 5.0
     rest_time: float = 0.5
+    rest_rule: str = "window"
 
     def __post_init__(self):
         for name in ("e_tol", "max_time", "rest_speed", "record_interval", "stability_time", "rest_time"):
@@ -74,6 +78,7 @@ class DemSettings:
                 raise InputError(f"dem.{name} must be > 0, got {v!r}")
         if not 0 < self.restitution <= 1:
             raise InputError(f"dem.restitution must be in (0, 1], got {self.restitution!r}")
+        REST_RULES.get(self.rest_rule)  # an unknown name: InputError listing the rules
 
 
 @dataclass
@@ -270,12 +275,14 @@ class ClosureRun(CycleDem):
         moving = np.flatnonzero(sim.state.awake & sim.state.active)
         active0 = sim.state.active.copy()
         t_dem, c_dem = _time.perf_counter(), _time.process_time()
-        converged, t_rec, frames, vframes = self._settle(sim, d.max_time, record_ids=moving)
+        converged, t_rec, frames, vframes, window = self._settle(sim, d.max_time, record_ids=moving)
         t_dem, c_dem = _time.perf_counter() - t_dem, _time.process_time() - c_dem
         st = sim.state
         lost_now = np.flatnonzero(active0 & ~st.active)
-        speed = np.linalg.norm(st.vel, axis=1)
-        resting = st.active & ((~st.awake) | (speed < d.rest_speed) | converged)
+        # the pile: the masses at rest by the rest rule ([dem] rest_rule, cycle/rest.py); they sleep
+        w, pos_ref = window.reference()
+        sample = RestSample(st.active, st.awake, np.linalg.norm(st.vel, axis=1), st.pos, pos_ref, w, converged)
+        resting = pile_members(d.rest_rule, sample, d.rest_speed)
         sim.sleep(np.flatnonzero(resting & st.awake))
         # 4. remap and re-solve
         dom = s.domain
