@@ -5,7 +5,9 @@ field of the current snapshot until the assembly is in equilibrium (``E_TOL``: e
 removed from the breach area, :mod:`~breachflow.cycle.losses`; ``max_time`` is only a safety cap) → remap the resting
 masses into the hydrodynamic model (no-flow cells or raised bed) → re-solve the flow (warm start;
 skipped when the remap changed no cell) → optional stability re-run (criterion 5) → end criteria →
-write the cycle to the run directory.
+write the cycle to the run directory. The DEM side of a cycle (building, continuing and settling the DEM)
+is :mod:`~breachflow.cycle.dem_cycle`; which masses are the pile when the DEM stops,
+:mod:`~breachflow.cycle.rest`.
 
 Determinism and resume: cycle ``g``'s DEM continues the DEM of cycle ``g − 1`` in the new frozen field
 (kept in memory; after a resume restored bit-identically from the restart record of cycle ``g − 1``),
