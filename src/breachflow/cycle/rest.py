@@ -13,7 +13,7 @@ jumped 0.94 → 18.41 m³/s).
 ``window`` (default): the settle loop's own rest test (slower than ``rest_speed`` for ``rest_time``)
 judged on the mean speed over the window instead of a sample at one instant: a mass is pile when it is
 asleep, or its net displacement over the last ``rest_time`` (window length ``W``, from the loop's checks
-every ``record_interval``, :class:`RestWindow`) is below what ``rest_speed`` covers in ``W``,
+every ``record_interval``, :class:`RestWindow`) is below what ``rest_speed`` covers in ``W``::
 
     pile_i = active_i ∧ ( asleep_i ∨ |x_i(t) − x_i(t − W)| < v_rest W ),
 
@@ -22,7 +22,10 @@ while a mass carried along (rolling through the gap, sinking through the water c
 ``v_rest W`` and stays out even when the cap catches it momentarily slow — and, still awake, is removed
 and counted lost when it leaves the breach area. Physics engines judge sleep candidates the same way,
 on the motion over a time window (PhysX ``PxFEMParameters.sleepThreshold``: the linear motion a body may
-make in one second). When the DEM converged every active mass is pile under both rules.
+make in one second). When the DEM converged every active mass is pile under both rules. Limits: a mass
+that landed less than ``rest_time`` before the cap joins the pile one cycle later; one rocking with an
+amplitude above ``v_rest W / 2`` (1.25 cm at the defaults) can still be in or out by the cap's phase (the
+masses of the HEC-RAS case above moved 4-21 mm net over the window at 0.11-0.42 m/s).
 
 The masses counted as pile and still awake are put to sleep for the next cycle (as before; the changed
 flow of the next cycle wakes those it really moves).
