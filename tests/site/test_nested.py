@@ -217,8 +217,10 @@ ENERGY_BOUND_OPEN = pytest.mark.xfail(strict=True, raises=AssertionError,
                                       reason="open SWE defect: energy bound broken at a pile column (seed 3, cycle 4)")
 
 
-@pytest.mark.parametrize("seed", [1, 2, pytest.param(3, marks=[pytest.mark.slow, ENERGY_BOUND_OPEN]),
-                                  pytest.param(4, marks=pytest.mark.slow)])
+# Since the pile at the DEM's cap is judged over the rest window ([dem] rest_rule = "window", issue 16) seed 3's
+# trajectory no longer meets that column and holds the bound (the defect is still open: the HEC-RAS scene of
+# test_nested_closure_from_the_users_adh_and_hecras_files breaks it at seeds 2, 6, 7 and 12 of 1-12, README).
+@pytest.mark.parametrize("seed", [1, 2, pytest.param(3, marks=pytest.mark.slow), pytest.param(4, marks=pytest.mark.slow)])
 def test_nested_in_an_ingested_adh_mesh_closes_the_breach(demo_mesh_file, tmp_path, seed):
     """The scaled breach's steady state as an ADH-like mesh file; ``solver = "nested"`` re-solves a local
     model around the breach with the pile each cycle: the breach discharge falls to nothing and it closes,

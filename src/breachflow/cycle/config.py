@@ -226,6 +226,7 @@ class HydroSection:
 class DemSection:
     """``[dem]``: material (``kn``, ``ks``, ``friction``, ``rolling_friction``, ``adhesion``, ``restitution``, ``global_damping``)
     and run control (``integrator``, ``e_tol``, ``max_time`` per cycle (safety cap), ``rest_speed``, ``rest_time``,
+    ``rest_rule`` (``window`` | ``speed``: which masses are the pile at the cap, :mod:`~breachflow.cycle.rest`),
     ``record_interval``, ``sleeping``, ``stability_time``)."""
 
     values: dict = field(default_factory=dict)
@@ -241,7 +242,7 @@ class DemSection:
 
         d = DemSettings()
         vals = {**{k: getattr(d, k) for k in cls.KINDS if hasattr(d, k)}, **cls.MATERIAL_DEFAULTS,
-                "integrator": d.integrator, "sleeping": d.sleeping}
+                "integrator": d.integrator, "sleeping": d.sleeping, "rest_rule": d.rest_rule}
         out = {}
         for k, v in vals.items():
             unit = SI_UNITS.get(cls.KINDS.get(k, ""), "")
@@ -256,13 +257,21 @@ class DemSection:
 
     @classmethod
     def from_table(cls, table, ctx):
-        ctx.check_keys(table, set(cls.KINDS) | {"integrator", "sleeping"})
+        ctx.check_keys(table, set(cls.KINDS) | {"integrator", "sleeping", "rest_rule"})
         vals = {k: ctx.quantity(table, k, kind, default_unit="" if kind == "dimensionless" else None, nonnegative=True)
                 for k, kind in cls.KINDS.items() if k in table}
         if "integrator" in table:
             vals["integrator"] = ctx.raw(table, "integrator")
         if "sleeping" in table:
             vals["sleeping"] = ctx.raw(table, "sleeping", types=(bool,))
+        if "rest_rule" in table:
+            from .rest import REST_RULES
+
+            vals["rest_rule"] = ctx.raw(table, "rest_rule")
+            try:
+                REST_RULES.get(vals["rest_rule"])
+            except InputError as exc:
+                raise ctx.error(str(exc), "rest_rule") from None
         return cls(vals)
 
 

@@ -5,7 +5,9 @@ field of the current snapshot until the assembly is in equilibrium (``E_TOL``: e
 removed from the breach area, :mod:`~breachflow.cycle.losses`; ``max_time`` is only a safety cap) → remap the resting
 masses into the hydrodynamic model (no-flow cells or raised bed) → re-solve the flow (warm start;
 skipped when the remap changed no cell) → optional stability re-run (criterion 5) → end criteria →
-write the cycle to the run directory.
+write the cycle to the run directory. The DEM side of a cycle (building, continuing and settling the DEM)
+is :mod:`~breachflow.cycle.dem_cycle`; which masses are the pile when the DEM stops,
+:mod:`~breachflow.cycle.rest`.
 
 Determinism and resume: cycle ``g``'s DEM continues the DEM of cycle ``g − 1`` in the new frozen field
 (kept in memory; after a resume restored bit-identically from the restart record of cycle ``g − 1``),
@@ -19,26 +21,25 @@ recomputes only the cells under masses that moved, stopped or were added (``Incr
 from __future__ import annotations
 
 import time as _time
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import numpy as np
 import xarray as xr
 
-from ..dem import DemSimulation, HeightField, Material
+from ..dem import Material
 from ..errors import InputError
-from ..fluid.forces import FluidForces
 from ..fluid.profile import factors as profile_factors
-from ..fluid.profile import roughness_from_manning
 from ..hydro.sampling import FieldSampler
-from ..hydro.snapshot import DRY_DEPTH
 from ..schemas import validate
 from ..output import RunDirectory, particles_dataset, trajectories_dataset
 from ..output.cf import pad_particles
+from .dem_cycle import CycleDem, dem_view  # noqa: F401  (dem_view: re-exported, the nested tests import it here)
 from .criteria import CycleContext, EndCriteria, gap_section_speeds, section_discharge, seepage_in_section
 from .losses import LOSS_LIMIT, gap_speed, gap_speed_and_depth, losses_flagged, not_closable_verdict, rolling_speed
 from .placement import PlacementPlan
 from .strategies import PileView
 from .strategies import band as strategy_band
+from .rest import REST_RULES, RestSample, pile_members
 from .remap import IncrementalPileTop, porous_pile, remap_cells, remap_top, subpoints
 
 
@@ -47,8 +48,10 @@ class DemSettings:
     """DEM settings of a closure run (SI). A cycle's DEM ends at equilibrium (``e_tol``), or when every
     awake mass has moved slower than ``rest_speed`` (centre speed and ``|omega| r``) for ``rest_time``
     (checked every ``record_interval``), or at the safety cap ``max_time`` of simulated time; masses
-    carried out of the breach area are removed meanwhile (:mod:`~breachflow.cycle.losses`). ``rest_speed`` is also the
-    speed below which a mass counts as resting when the cycle ends at ``max_time``;
+    carried out of the breach area are removed meanwhile (:mod:`~breachflow.cycle.losses`). Which masses
+    count as resting (the pile the remap sees) when the cycle ends at ``max_time``: ``rest_rule``
+    (``window``, the default: mean speed over the last ``rest_time`` below ``rest_speed``; ``speed``: speed
+    at the cap instant below ``rest_speed``; :mod:`~breachflow.cycle.rest`);
     ``record_interval`` the trajectory sampling interval (s)."""
 
     material: Material = field(default_factory=lambda: Material(density=2650.0, kn=2.0e7, friction=0.6,
@@ -68,6 +71,7 @@ class DemSettings:
     roughness: float | None = None
     stability_time: float = 5.0
     rest_time: float = 0.5
+    rest_rule: str = "window"
 
     def __post_init__(self):
         for name in ("e_tol", "max_time", "rest_speed", "record_interval", "stability_time", "rest_time"):
@@ -76,6 +80,7 @@ class DemSettings:
                 raise InputError(f"dem.{name} must be > 0, got {v!r}")
         if not 0 < self.restitution <= 1:
             raise InputError(f"dem.restitution must be in (0, 1], got {self.restitution!r}")
+        REST_RULES.get(self.rest_rule)  # an unknown name: InputError listing the rules
 
 
 @dataclass
@@ -165,39 +170,7 @@ class CycleReport:
         return d
 
 
-def dem_view(snapshot: xr.Dataset) -> xr.Dataset:
-    """The field the DEM sees: obstacle cells (placed masses) filled with the still water of their wet
-    neighbours, so that a mass inside a blocked cell keeps its buoyancy (the hydrodynamic solver
-    empties blocked cells)."""
-    if "obstacle" not in snapshot or not snapshot["obstacle"].values.any():
-        return snapshot
-    ob = snapshot["obstacle"].values.astype(bool)
-    bed = snapshot["bed_elevation"].values
-    ws = np.where(snapshot["depth"].values > DRY_DEPTH, snapshot["water_surface"].values, np.nan)
-    todo = ob & np.isnan(ws)
-    for _ in range(64):  # spread neighbour water levels into blocked areas (a few cells thick)
-        if not todo.any():
-            break
-        pad = np.pad(ws, 1, constant_values=np.nan)
-        neigh = np.stack([pad[:-2, 1:-1], pad[2:, 1:-1], pad[1:-1, :-2], pad[1:-1, 2:]])
-        cnt = np.isfinite(neigh).sum(axis=0)
-        fill = np.where(cnt > 0, np.nansum(neigh, axis=0) / np.maximum(cnt, 1), np.nan)
-        new = todo & np.isfinite(fill)
-        if not new.any():
-            break
-        ws = np.where(new, fill, ws)
-        todo &= ~new
-    depth = np.where(ob & np.isfinite(ws), np.maximum(ws - bed, 0.0), snapshot["depth"].values)
-    out = snapshot.copy()
-    out["depth"] = out["depth"].copy(data=depth)
-    out["water_surface"] = out["water_surface"].copy(data=bed + depth)
-    out["wet"] = out["wet"].copy(data=(depth > DRY_DEPTH).astype("i1"))
-    for k in ("u", "v"):
-        out[k] = out[k].copy(data=np.where(ob, 0.0, out[k].values))
-    return out
-
-
-class ClosureRun:
+class ClosureRun(CycleDem):
     """Drive a closure run in a run directory: ``ClosureRun(setup, run_dir, scenario_text).run()``."""
 
     def __init__(self, setup: ClosureSetup, run_dir, scenario_text: str, *, resume: bool = False,
@@ -222,11 +195,6 @@ class ClosureRun:
     # ------------------------------------------------------------------ restart record
     def _initial_record(self) -> dict:
         return {"placed_cycle": np.zeros(0, np.int32), "resting": np.zeros(0, bool)}
-
-    @staticmethod
-    def _dem_part(rec) -> dict | None:
-        dem = {k[4:]: v for k, v in rec.items() if k.startswith("dem.")}
-        return dem or None
 
     # ------------------------------------------------------------------ main loop
     def run(self) -> list[CycleReport]:
@@ -285,105 +253,6 @@ class ClosureRun:
         keep = [v for v in ds.data_vars if "particle" not in ds[v].dims]
         return ds[keep]
 
-    def _fluid(self, snapshot) -> FluidForces:
-        """The frozen fluid field of *snapshot* as the DEM's force model."""
-        d = self.setup.dem
-        field = dem_view(snapshot)
-        fallback = getattr(self.setup.solver, "fallback_sampler", None)  # nested: the ingested field outside the window
-        if fallback is not None:
-            field = FieldSampler(field, d.sampling, fallback=fallback(d.sampling))
-        return FluidForces(field, drag_law=d.drag_law, sampling=d.sampling, xi=d.xi, outside="air",
-                           velocity_profile=d.velocity_profile, roughness=d.roughness,
-                           manning=float(np.median(self.setup.domain.manning)))
-
-    def _cycle_dem(self, g, snapshot, rec):
-        """The DEM of cycle *g*: the previous cycle's simulation continued in the field of *snapshot*, or
-        (first cycle, or after a resume) restored from the restart record *rec*; both are the same state."""
-        live, self._live = self._live, None  # a cycle that fails half-way leaves no half-advanced DEM behind
-        if live is not None and live[0] == g - 1:
-            sim = live[1]
-            sim.set_models([self._fluid(snapshot)])
-            return sim
-        return self._make_dem(snapshot, self._dem_part(rec))
-
-    def _make_dem(self, snapshot, dem_state=None):
-        """The DEM of a cycle: terrain height field + the frozen fluid field of *snapshot*; continued
-        bit-identically from *dem_state* (``save_state`` of the previous cycle) when given."""
-        s = self.setup
-        d = s.dem
-        dom = s.domain
-        terrain = HeightField(dom.x, dom.y, dom.bed, self._terrain_material())
-        x0, x1, y0, y1 = s.area if s.area is not None else (dom.x[0] - 0.5 * dom.dx, dom.x[-1] + 0.5 * dom.dx,
-                                                               dom.y[0] - 0.5 * dom.dy, dom.y[-1] + 0.5 * dom.dy)
-        # masses leaving this box (the breach area) are retired by the DEM and counted as lost
-        box = (x0, x1, y0, y1, float(dom.bed.min()) - 50.0, float(dom.bed.max()) + 200.0)
-        fluid = self._fluid(snapshot)
-        kw = dict(boundaries=[terrain], models=[fluid], integrator=d.integrator, domain=box, sleeping=d.sleeping,
-                  static_models=True)
-        if dem_state is not None:
-            return DemSimulation.from_state(dem_state, **kw)
-        return DemSimulation(**kw)
-
-    def _material(self, density, mass_ref):
-        """The configured material at *density*, its normal dashpot giving the configured restitution
-        for a wall impact of *mass_ref* (SPEC §5: e = exp(-zeta pi / sqrt(1 - zeta^2)))."""
-        d = self.setup.dem
-        m = replace(d.material, density=float(density), c_gn=d.global_damping)
-        return m.with_restitution(d.restitution, mass_ref)
-
-    def _terrain_material(self):
-        """Terrain contact properties: pair values are the minimum of the partners' (SPEC §5), so the
-        terrain's dashpot is sized for the heaviest possible mass and the particle's own value governs."""
-        p = self.setup.placement
-        heaviest = p.density[1] * 4.0 / 3.0 * np.pi * (0.5 * p.diameter[1]) ** 3
-        return self._material(p.density[1], heaviest)
-
-    def _add(self, sim, pos, radius, density, vel=None, omega=None):
-        """Insert masses, one call per distinct density (no per-particle Python work for big piles)."""
-        idx = np.zeros(len(radius), int)
-        for rho in np.unique(density):
-            sel = np.flatnonzero(density == rho)
-            mass_ref = rho * 4.0 / 3.0 * np.pi * float(np.median(radius[sel])) ** 3
-            idx[sel] = sim.add_particles(pos[sel], radius[sel], self._material(rho, mass_ref),
-                                         vel=None if vel is None else vel[sel],
-                                         omega=None if omega is None else omega[sel])
-        return idx
-
-    def _settle(self, sim, max_time, record_ids=None):
-        """Step to equilibrium; returns (converged, time series of positions of *record_ids*)."""
-        d = self.setup.dem
-        chunk = max(1, int(round(d.record_interval / sim.dt)))
-        consecutive = min(chunk, max(10, int(np.ceil(0.05 / sim.dt))))
-        times = [0.0]
-        frames = [sim.state.pos[record_ids].copy()] if record_ids is not None else []
-        vframes = [sim.state.vel[record_ids].copy()] if record_ids is not None else []
-        t_start = sim.t
-        converged = False
-        slow_since = None  # simulated time since when every awake mass is slower than rest_speed
-        while sim.t - t_start < max_time:
-            res = sim.run_to_equilibrium(d.e_tol, max_steps=chunk, consecutive=consecutive)
-            if record_ids is not None:
-                times.append(sim.t - t_start)
-                frames.append(sim.state.pos[record_ids].copy())
-                vframes.append(sim.state.vel[record_ids].copy())
-            if res.converged:
-                converged = True
-                break
-            st = sim.state
-            a = np.flatnonzero(st.awake & st.active)
-            fast = a.size and max(float(np.linalg.norm(st.vel[a], axis=1).max()),
-                                  float((np.linalg.norm(st.omega[a], axis=1) * st.radius[a]).max())) >= d.rest_speed
-            if fast:
-                slow_since = None
-            elif slow_since is None:
-                slow_since = sim.t
-            elif sim.t - slow_since >= d.rest_time - 1e-9:
-                converged = True  # every mass at rest (or removed) for rest_time
-                break
-        if record_ids is None:
-            return converged, np.asarray(times), None, None
-        return converged, np.asarray(times), np.stack(frames, axis=1), np.stack(vframes, axis=1)
-
     def _cycle(self, g, rec, snapshot):
         s = self.setup
         wall0 = _time.perf_counter()
@@ -408,12 +277,14 @@ class ClosureRun:
         moving = np.flatnonzero(sim.state.awake & sim.state.active)
         active0 = sim.state.active.copy()
         t_dem, c_dem = _time.perf_counter(), _time.process_time()
-        converged, t_rec, frames, vframes = self._settle(sim, d.max_time, record_ids=moving)
+        converged, t_rec, frames, vframes, window = self._settle(sim, d.max_time, record_ids=moving)
         t_dem, c_dem = _time.perf_counter() - t_dem, _time.process_time() - c_dem
         st = sim.state
         lost_now = np.flatnonzero(active0 & ~st.active)
-        speed = np.linalg.norm(st.vel, axis=1)
-        resting = st.active & ((~st.awake) | (speed < d.rest_speed) | converged)
+        # the pile: the masses at rest by the rest rule ([dem] rest_rule, cycle/rest.py); they sleep
+        w, pos_ref = window.reference()
+        sample = RestSample(st.active, st.awake, np.linalg.norm(st.vel, axis=1), st.pos, pos_ref, w, converged)
+        resting = pile_members(d.rest_rule, sample, d.rest_speed)
         sim.sleep(np.flatnonzero(resting & st.awake))
         # 4. remap and re-solve
         dom = s.domain
@@ -526,13 +397,6 @@ class ClosureRun:
         return not_closable_verdict(g, lost_now.size, len(new_ids), lost_t, placed_t, 2.0 * rel.radius, rel.density,
                                     speed, lost_placed=int(np.isin(lost_now, new_ids).sum()), roll_speed=roll,
                                     bed_factor=factor)
-
-    def _fluid_roughness(self) -> float:
-        """The log law's roughness height of the DEM's fluid forces (as :meth:`_fluid` sets it)."""
-        d = self.setup.dem
-        if d.roughness is not None:
-            return float(d.roughness)
-        return float(roughness_from_manning(np.median(self.setup.domain.manning)))
 
     def _pile_view(self, sim, rec) -> PileView:
         """The sill along the placement's gap line before this cycle's release, for the strategies that
