@@ -208,18 +208,6 @@ def demo_mesh_file(tmp_path_factory):
     return path
 
 
-# Seed 3 breaks the energy bound at one cell of cycle 4 (head 3.26 m against the flood's 3.01 m: 0.29 m of
-# water at 4.6 m/s on a 1 m-wide pile column, 1.05 m below a cell with 1.8 cm of water, beside two 1.9 m
-# deep slots of open floor) — the solver defect the bed-extremum fade reduced but did not remove (steps
-# much higher than the depth under hydrostatic reconstruction). An open defect, not an accepted answer:
-# strict, so the test reports when it is fixed.
-ENERGY_BOUND_OPEN = pytest.mark.xfail(strict=True, raises=AssertionError,
-                                      reason="open SWE defect: energy bound broken at a pile column (seed 3, cycle 4)")
-
-
-# Since the pile at the DEM's cap is judged over the rest window ([dem] rest_rule = "window", issue 16) seed 3's
-# trajectory no longer meets that column and holds the bound (the defect is still open: the HEC-RAS scene of
-# test_nested_closure_from_the_users_adh_and_hecras_files breaks it at seeds 2, 6, 7 and 12 of 1-12, README).
 @pytest.mark.parametrize("seed", [1, 2, pytest.param(3, marks=pytest.mark.slow), pytest.param(4, marks=pytest.mark.slow)])
 def test_nested_in_an_ingested_adh_mesh_closes_the_breach(demo_mesh_file, tmp_path, seed):
     """The scaled breach's steady state as an ADH-like mesh file; ``solver = "nested"`` re-solves a local
@@ -250,7 +238,9 @@ def test_nested_in_an_ingested_adh_mesh_closes_the_breach(demo_mesh_file, tmp_pa
     with xr.open_dataset(tmp_path / "run" / f"cycle_{res.cycles:04d}.nc") as ds:
         assert ds.attrs["hydro_mode"] == "nested" and ds.attrs["flow_responds_to_pile"] == 1
     # energy bound in every cycle: no cell deeper than 1 cm carries more head than the flood's (the pits
-    # of the raised-bed pile did, +0.39 m at seed 2, before the reconstruction's fix at bed extrema)
+    # of the raised-bed pile did, +0.39 m at seed 2, before the reconstruction's fix at bed extrema; a pile
+    # column spilling onto a dry cell did, 3.35 m against 3.00 m at seed 3 in cycle 4, before the slopes
+    # faded beside dry cells)
     for g in range(1, res.cycles + 1):
         with xr.open_dataset(tmp_path / "run" / f"cycle_{g:04d}.nc") as ds:
             h, z, sp = (ds[k].values.squeeze() for k in ("depth", "bed_elevation", "speed"))
