@@ -315,6 +315,53 @@ def find_pairs(search_idx, pos, radius, margin, geom, periodic, ncell,
     return n_out
 
 
+@numba.njit(cache=True, inline="always", error_model="numpy")
+def wrap_one(i, pos, vel, omega, geom, periodic, box, use_box, active, awake, left_ids, nleft):
+    """Wrap particle *i* into the periodic ranges and retire it (inactive, asleep, at rest, listed in
+    *left_ids*) when it left *box* (xmin, xmax, ymin, ymax, zmin, zmax); returns (#left, whether its position
+    or velocity is non-finite: then nothing is done). Inside a range, ``floor((x - lo) / L)`` is 0 (``0 < x - lo
+    < L`` gives a quotient below 1 after rounding), so the division is skipped there: same result."""
+    if not (math.isfinite(pos[i, 0]) and math.isfinite(pos[i, 1]) and math.isfinite(pos[i, 2])
+            and math.isfinite(vel[i, 0]) and math.isfinite(vel[i, 1]) and math.isfinite(vel[i, 2])):
+        return nleft, True
+    for d in range(2):
+        if periodic[d]:
+            L = geom[6 + d]
+            x = pos[i, d] - geom[d]
+            if not (x > 0.0 and x < L):
+                pos[i, d] -= L * math.floor(x / L)
+    if use_box:
+        out = False
+        for d in range(3):
+            if d < 2 and periodic[d]:
+                continue
+            if pos[i, d] < box[2 * d] or pos[i, d] > box[2 * d + 1]:
+                out = True
+        if out:
+            active[i] = False
+            awake[i] = False
+            for d in range(3):
+                vel[i, d] = 0.0
+                omega[i, d] = 0.0
+            left_ids[nleft] = i
+            nleft += 1
+    return nleft, False
+
+
+@numba.njit(cache=True, error_model="numpy")
+def wrap_and_check(idx, pos, vel, omega, geom, periodic, box, use_box, active, awake, left_ids):
+    """Wrap periodic coordinates; deactivate particles outside *box* (xmin, xmax, ymin, ymax, zmin, zmax)
+    (:func:`wrap_one` per particle). Returns (#left, first non-finite particle index or -1)."""
+    nleft = 0
+    bad = -1
+    for k in range(idx.shape[0]):
+        i = idx[k]
+        nleft, nonfinite = wrap_one(i, pos, vel, omega, geom, periodic, box, use_box, active, awake, left_ids, nleft)
+        if nonfinite and bad < 0:
+            bad = i
+    return nleft, bad
+
+
 @numba.njit(cache=True, error_model="numpy")
 def displacement_since(idx, pos, pos_ref, geom, periodic):
     """max ``|x_i - x_ref_i|`` over *idx* with periodic minimum image."""
