@@ -316,28 +316,46 @@ def find_pairs(search_idx, pos, radius, margin, geom, periodic, ncell,
 
 
 @numba.njit(cache=True, inline="always", error_model="numpy")
-def wrap_one(i, pos, vel, omega, geom, periodic, box, use_box, active, awake, left_ids, nleft):
-    """Wrap particle *i* into the periodic ranges and retire it (inactive, asleep, at rest, listed in
-    *left_ids*) when it left *box* (xmin, xmax, ymin, ymax, zmin, zmax); returns (#left, whether its position
-    or velocity is non-finite: then nothing is done). Inside a range, ``floor((x - lo) / L)`` is 0 (``0 < x - lo
-    < L`` gives a quotient below 1 after rounding), so the division is skipped there: same result."""
-    if not (math.isfinite(pos[i, 0]) and math.isfinite(pos[i, 1]) and math.isfinite(pos[i, 2])
-            and math.isfinite(vel[i, 0]) and math.isfinite(vel[i, 1]) and math.isfinite(vel[i, 2])):
-        return nleft, True
-    for d in range(2):
-        if periodic[d]:
-            L = geom[6 + d]
-            x = pos[i, d] - geom[d]
-            if not (x > 0.0 and x < L):
-                pos[i, d] -= L * math.floor(x / L)
-    if use_box:
-        out = False
-        for d in range(3):
-            if d < 2 and periodic[d]:
-                continue
-            if pos[i, d] < box[2 * d] or pos[i, d] > box[2 * d + 1]:
-                out = True
-        if out:
+def wrapped(x, lo, L):
+    """*x* wrapped into the periodic range ``[lo, lo + L)``: ``x - L floor((x - lo) / L)``. Inside the range the
+    floor is 0 (``0 < x - lo < L`` gives a quotient below 1 after rounding) and the division is skipped: the
+    same result, bit for bit."""
+    u = x - lo
+    if u > 0.0 and u < L:
+        return x - 0.0
+    return x - L * math.floor(u / L)
+
+
+@numba.njit(cache=True, inline="always", error_model="numpy")
+def outside(x, y, z, box, px, py):
+    """Whether ``(x, y, z)`` lies outside *box* (xmin, xmax, ymin, ymax, zmin, zmax) on its non-periodic axes."""
+    return ((not px and (x < box[0] or x > box[1])) or (not py and (y < box[2] or y > box[3]))
+            or z < box[4] or z > box[5])
+
+
+@numba.njit(cache=True, error_model="numpy")
+def wrap_and_check(idx, pos, vel, omega, geom, periodic, box, use_box, active, awake, left_ids):
+    """Wrap periodic coordinates (:func:`wrapped`); deactivate particles outside *box* (xmin, xmax, ymin,
+    ymax, zmin, zmax; :func:`outside`): inactive, asleep, at rest, listed in *left_ids*.
+
+    Returns (#left, first non-finite particle index or -1; such a particle is left as it is).
+    """
+    nleft = 0
+    bad = -1
+    px = periodic[0]
+    py = periodic[1]
+    for k in range(idx.shape[0]):
+        i = idx[k]
+        if not (math.isfinite(pos[i, 0]) and math.isfinite(pos[i, 1]) and math.isfinite(pos[i, 2])
+                and math.isfinite(vel[i, 0]) and math.isfinite(vel[i, 1]) and math.isfinite(vel[i, 2])):
+            if bad < 0:
+                bad = i
+            continue
+        if px:
+            pos[i, 0] = wrapped(pos[i, 0], geom[0], geom[6])
+        if py:
+            pos[i, 1] = wrapped(pos[i, 1], geom[1], geom[7])
+        if use_box and outside(pos[i, 0], pos[i, 1], pos[i, 2], box, px, py):
             active[i] = False
             awake[i] = False
             for d in range(3):
@@ -345,20 +363,6 @@ def wrap_one(i, pos, vel, omega, geom, periodic, box, use_box, active, awake, le
                 omega[i, d] = 0.0
             left_ids[nleft] = i
             nleft += 1
-    return nleft, False
-
-
-@numba.njit(cache=True, error_model="numpy")
-def wrap_and_check(idx, pos, vel, omega, geom, periodic, box, use_box, active, awake, left_ids):
-    """Wrap periodic coordinates; deactivate particles outside *box* (xmin, xmax, ymin, ymax, zmin, zmax)
-    (:func:`wrap_one` per particle). Returns (#left, first non-finite particle index or -1)."""
-    nleft = 0
-    bad = -1
-    for k in range(idx.shape[0]):
-        i = idx[k]
-        nleft, nonfinite = wrap_one(i, pos, vel, omega, geom, periodic, box, use_box, active, awake, left_ids, nleft)
-        if nonfinite and bad < 0:
-            bad = i
     return nleft, bad
 
 

@@ -24,7 +24,7 @@ import numba
 import numpy as np
 
 from .contacts import sleep_update
-from .neighbours import displacement_since, min_image, wrap_one
+from .neighbours import displacement_since, min_image, outside, wrapped
 
 #: why the compiled loop (:func:`.steploop_fluid.fluid_verlet_steps`) returned
 DONE, LEFT, BAD, WAKE, SLEEP, CONVERGED = range(6)
@@ -51,7 +51,7 @@ def first_pass(idx, pos, vel, omega, force, torque, fp, tp, vp, wp, inv_m, inv_i
                extrapolate, geom, periodic, box, use_box, active, awake, left_ids, pos_build):
     """A Verlet step up to its force evaluation in one pass over the particles: kick
     (:func:`.integrators.kick`), drift (:func:`.integrators.drift`), wrap / retire leavers
-    (:func:`.neighbours.wrap_one`), predict (:func:`.integrators.predict_extrapolated`), zero the force and
+    (:func:`.neighbours.wrap_and_check`), predict (:func:`.integrators.predict_extrapolated`), zero the force and
     torque rows of those still active (each particle's operations in the order of those passes, so
     bit-identical to them), and the displacement since the last list build (after
     the drift: the rebuild check of the next step, as :func:`.neighbours.displacement_since`). Returns
@@ -65,6 +65,8 @@ def first_pass(idx, pos, vel, omega, force, torque, fp, tp, vp, wp, inv_m, inv_i
     c = extrapolate
     Lx = geom[6]
     Ly = geom[7]
+    px = periodic[0]
+    py = periodic[1]
     for k in range(idx.shape[0]):
         i = idx[k]
         im = inv_m[i]
@@ -79,12 +81,23 @@ def first_pass(idx, pos, vel, omega, force, torque, fp, tp, vp, wp, inv_m, inv_i
         sm += s
         if s > mx:
             mx = s
-        nl, bd = wrap_one(i, pos, vel, omega, geom, periodic, box, use_box, active, awake, left_ids, nleft)
-        if bd:
+        if not (math.isfinite(pos[i, 0]) and math.isfinite(pos[i, 1]) and math.isfinite(pos[i, 2])
+                and math.isfinite(vel[i, 0]) and math.isfinite(vel[i, 1]) and math.isfinite(vel[i, 2])):
             if bad < 0:
                 bad = i
             continue
-        nleft = nl
+        if px:  # as .neighbours.wrap_and_check
+            pos[i, 0] = wrapped(pos[i, 0], geom[0], Lx)
+        if py:
+            pos[i, 1] = wrapped(pos[i, 1], geom[1], Ly)
+        if use_box and outside(pos[i, 0], pos[i, 1], pos[i, 2], box, px, py):
+            active[i] = False
+            awake[i] = False
+            for d in range(3):
+                vel[i, d] = 0.0
+                omega[i, d] = 0.0
+            left_ids[nleft] = i
+            nleft += 1
         if predict:
             for d in range(3):
                 f = force[i, d]
@@ -97,8 +110,8 @@ def first_pass(idx, pos, vel, omega, force, torque, fp, tp, vp, wp, inv_m, inv_i
             for d in range(3):
                 force[i, d] = 0.0
                 torque[i, d] = 0.0
-            dx = min_image(pos[i, 0] - pos_build[i, 0], Lx, periodic[0])
-            dy = min_image(pos[i, 1] - pos_build[i, 1], Ly, periodic[1])
+            dx = min_image(pos[i, 0] - pos_build[i, 0], Lx, px)
+            dy = min_image(pos[i, 1] - pos_build[i, 1], Ly, py)
             dz = pos[i, 2] - pos_build[i, 2]
             d2 = dx * dx + dy * dy + dz * dz
             if d2 > m2:
