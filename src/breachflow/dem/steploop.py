@@ -129,7 +129,7 @@ def first_pass(idx, pos, vel, omega, force, torque, fp, tp, vp, wp, inv_m, inv_i
 @numba.njit(cache=True, error_model="numpy")
 def second_pass(kicked, active, gravity, mass, g, ve, we, c_gn, c_gw, force, torque, vel, omega, inv_m, inv_i, h,
                 lmask, rmask):
-    """The end of a Verlet step in one pass: gravity (if *gravity*, :func:`.forces._add_gravity`) and the
+    """The end of a Verlet step in one pass: gravity (if *gravity*, as :class:`.forces.Gravity`) and the
     global damping (:func:`.forces.add_global_damping`, scale 1) on the particles still active, then the
     closing kick (:func:`.integrators.kick`) of all *kicked* ones; per particle in that order, so
     bit-identical to the three passes."""
