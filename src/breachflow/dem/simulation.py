@@ -349,7 +349,7 @@ class DemSimulation:
     def after_drift(self):
         """Wrap periodic coordinates, retire particles that left the domain, refuse NaN."""
         s = self.state
-        nleft, bad = contacts.wrap_and_check(self.idx, s.pos, s.vel, s.omega, self.geom, self.periodic, self._box,
+        nleft, bad = neighbours.wrap_and_check(self.idx, s.pos, s.vel, s.omega, self.geom, self.periodic, self._box,
                                              self._use_box, s.active, s.awake, self._tmp_ids)
         if bad >= 0:
             raise PhysicsError(
@@ -548,7 +548,7 @@ class DemSimulation:
             for b in self.boundaries:
                 b.advance(self._dt)
             return (0.0, 0.0)
-        if self._dirty or contacts.displacement_since(self.idx, s.pos, self._pos_build, self.geom,
+        if self._dirty or neighbours.displacement_since(self.idx, s.pos, self._pos_build, self.geom,
                                                       self.periodic) > 0.5 * self.skin:
             self._rebuild()
         if getattr(self.integrator, "variable_step", False):  # e.g. adaptive_free_flight picks its step

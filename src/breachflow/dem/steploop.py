@@ -18,11 +18,13 @@ resting masses asleep, runs in one compiled call.
 """
 from __future__ import annotations
 
+import math
+
 import numba
 import numpy as np
 
-from .contacts import displacement_since, sleep_update, wrap_and_check
-from .integrators import drift, kick, predict_extrapolated
+from .contacts import sleep_update
+from .neighbours import displacement_since, min_image, outside, wrapped
 
 #: why the compiled loop (:func:`.steploop_fluid.fluid_verlet_steps`) returned
 DONE, LEFT, BAD, WAKE, SLEEP, CONVERGED = range(6)
@@ -45,24 +47,107 @@ def still_active(idx, active):
 
 
 @numba.njit(cache=True, error_model="numpy")
-def first_half(idx, pos, vel, omega, force, torque, fp, tp, vp, wp, inv_m, inv_i, lmask, rmask, h, dt, predict,
-               extrapolate, geom, periodic, box, use_box, active, awake, left_ids):
-    """A Verlet step up to its force evaluation: kick, drift, wrap / retire leavers, drop them from *idx*,
-    predict. Returns (bad id or -1, #left, idx, the kicked idx, velocities for the forces (ve, we), max
-    and sum displacement)."""
-    kick(idx, vel, omega, force, torque, inv_m, inv_i, h, lmask, rmask)
-    mx, sm = drift(idx, pos, vel, dt)
-    kicked = idx  # the step's particles: retired ones still get the closing kick, as in the integrators
-    nleft, bad = wrap_and_check(idx, pos, vel, omega, geom, periodic, box, use_box, active, awake, left_ids)
+def first_pass(idx, pos, vel, omega, force, torque, fp, tp, vp, wp, inv_m, inv_i, lmask, rmask, h, dt, predict,
+               extrapolate, geom, periodic, box, use_box, active, awake, left_ids, pos_build):
+    """A Verlet step up to its force evaluation in one pass over the particles: kick
+    (:func:`.integrators.kick`), drift (:func:`.integrators.drift`), wrap / retire leavers
+    (:func:`.neighbours.wrap_and_check`), predict (:func:`.integrators.predict_extrapolated`), zero the force and
+    torque rows of those still active (each particle's operations in the order of those passes, so
+    bit-identical to them), and the displacement since the last list build (after
+    the drift: the rebuild check of the next step, as :func:`.neighbours.displacement_since`). Returns
+    (bad id or -1, #left, idx, the kicked idx, ve, we, max and sum step displacement, max displacement
+    since the build)."""
+    mx = 0.0
+    sm = 0.0
+    m2 = 0.0
+    nleft = 0
+    bad = -1
+    c = extrapolate
+    Lx = geom[6]
+    Ly = geom[7]
+    px = periodic[0]
+    py = periodic[1]
+    for k in range(idx.shape[0]):
+        i = idx[k]
+        im = inv_m[i]
+        ii = inv_i[i]
+        s = 0.0
+        for d in range(3):
+            vel[i, d] += h * force[i, d] * im * lmask[d]
+            omega[i, d] += h * torque[i, d] * ii * rmask[d]
+            pos[i, d] += vel[i, d] * dt
+            s += vel[i, d] * vel[i, d]
+        s = np.sqrt(s) * dt
+        sm += s
+        if s > mx:
+            mx = s
+        if not (math.isfinite(pos[i, 0]) and math.isfinite(pos[i, 1]) and math.isfinite(pos[i, 2])
+                and math.isfinite(vel[i, 0]) and math.isfinite(vel[i, 1]) and math.isfinite(vel[i, 2])):
+            if bad < 0:
+                bad = i
+            continue
+        if px:  # as .neighbours.wrap_and_check
+            pos[i, 0] = wrapped(pos[i, 0], geom[0], Lx)
+        if py:
+            pos[i, 1] = wrapped(pos[i, 1], geom[1], Ly)
+        if use_box and outside(pos[i, 0], pos[i, 1], pos[i, 2], box, px, py):
+            active[i] = False
+            awake[i] = False
+            for d in range(3):
+                vel[i, d] = 0.0
+                omega[i, d] = 0.0
+            left_ids[nleft] = i
+            nleft += 1
+        if predict:
+            for d in range(3):
+                f = force[i, d]
+                t = torque[i, d]
+                vp[i, d] = vel[i, d] + h * (f + c * (f - fp[i, d])) * im * lmask[d]
+                wp[i, d] = omega[i, d] + h * (t + c * (t - tp[i, d])) * ii * rmask[d]
+                fp[i, d] = f
+                tp[i, d] = t
+        if active[i]:
+            for d in range(3):
+                force[i, d] = 0.0
+                torque[i, d] = 0.0
+            dx = min_image(pos[i, 0] - pos_build[i, 0], Lx, px)
+            dy = min_image(pos[i, 1] - pos_build[i, 1], Ly, py)
+            dz = pos[i, 2] - pos_build[i, 2]
+            d2 = dx * dx + dy * dy + dz * dz
+            if d2 > m2:
+                m2 = d2
+    kicked = idx
     if bad >= 0:
-        return bad, nleft, idx, kicked, vel, omega, mx, sm
-    if nleft:  # forces are computed without them (as after_drift)
+        return bad, nleft, idx, kicked, vel, omega, mx, sm, 0.0
+    if nleft:
         idx = still_active(idx, active)
     if predict:
-        predict_extrapolated(kicked, vel, omega, force, torque, fp, tp, inv_m, inv_i, h, extrapolate, lmask,
-                             rmask, vp, wp)
-        return bad, nleft, idx, kicked, vp, wp, mx, sm
-    return bad, nleft, idx, kicked, vel, omega, mx, sm
+        return bad, nleft, idx, kicked, vp, wp, mx, sm, math.sqrt(m2)
+    return bad, nleft, idx, kicked, vel, omega, mx, sm, math.sqrt(m2)
+
+
+@numba.njit(cache=True, error_model="numpy")
+def second_pass(kicked, active, gravity, mass, g, ve, we, c_gn, c_gw, force, torque, vel, omega, inv_m, inv_i, h,
+                lmask, rmask):
+    """The end of a Verlet step in one pass: gravity (if *gravity*, as :class:`.forces.Gravity`) and the
+    global damping (:func:`.forces.add_global_damping`, scale 1) on the particles still active, then the
+    closing kick (:func:`.integrators.kick`) of all *kicked* ones; per particle in that order, so
+    bit-identical to the three passes."""
+    for k in range(kicked.shape[0]):
+        i = kicked[k]
+        if active[i]:
+            if gravity:
+                force[i, 0] += mass[i] * g[0]
+                force[i, 1] += mass[i] * g[1]
+                force[i, 2] += mass[i] * g[2]
+            for d in range(3):
+                force[i, d] -= 1.0 * c_gn[i] * ve[i, d]
+                torque[i, d] -= 1.0 * c_gw[i] * we[i, d]
+        im = inv_m[i]
+        ii = inv_i[i]
+        for d in range(3):
+            vel[i, d] += h * force[i, d] * im * lmask[d]
+            omega[i, d] += h * torque[i, d] * ii * rmask[d]
 
 
 @numba.njit(cache=True, error_model="numpy")

@@ -28,11 +28,10 @@ import numba
 import numpy as np
 
 from ..fluid.compiled import apparent_mass, grid_added_masses, grid_fluid_forces_phi
-from .contacts import displacement_since, heightfield_forces, pair_forces_window, plane_forces
-from .forces import _add_gravity, add_global_damping, zero_rows
-from .integrators import kick
-from .neighbours import rebuild
-from .steploop import BAD, DONE, first_half, step_event
+from .contacts import heightfield_forces, pair_forces_window, plane_forces
+from .forces import _add_gravity, zero_rows
+from .neighbours import displacement_since, rebuild
+from .steploop import BAD, DONE, first_pass, second_pass, step_event
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -83,18 +82,19 @@ def fluid_verlet_steps(nmax, t, idx, pos, vel, omega, vel_prev, omega_prev, forc
             inv_m[i] = 1.0 / (mass[i] + phi[k])
     h = 0.5 * dt
     done = 0
+    moved = displacement_since(idx, pos, pos_build, geom, periodic)
     for _ in range(nmax):
-        if displacement_since(idx, pos, pos_build, geom, periodic) > half_skin:
+        if moved > half_skin:  # (after the first step: measured in first_pass)
             pa, pb, hist, rhist, touch, bufs = rebuild(idx, pos, radius, half_skin, geom, periodic, ncell, single,
                                                        sgrid, pa, pb, hist, rhist, pos_build, bufs)
         n_wake[0] = 0
-        bad, nleft, idx, kicked, ve, we, mx, sm = first_half(idx, pos, vel, omega, force, torque, fp, tp, vp, wp,
-                                                             inv_m, inv_i, lmask, rmask, h, dt, predict, extrapolate,
-                                                             geom, periodic, box, use_box, active, awake, left_ids)
+        bad, nleft, idx, kicked, ve, we, mx, sm, moved = first_pass(idx, pos, vel, omega, force, torque, fp, tp, vp,
+                                                                    wp, inv_m, inv_i, lmask, rmask, h, dt, predict,
+                                                                    extrapolate, geom, periodic, box, use_box,
+                                                                    active, awake, left_ids, pos_build)
         if bad >= 0:
             stats[3] = bad
             return done, BAD, t, pa, pb, hist, rhist, touch, bufs
-        zero_rows(idx, force, torque)
         nc = pair_forces_window(pa, pb, hist, rhist, touch, pos, ve, we, vel, omega, predict, radius, mass, inertia,
                                 props, awake, active, geom, periodic, dt, wake_speed, force, torque, wake, wake_ids,
                                 n_wake, lo, hi, law)
@@ -109,8 +109,8 @@ def fluid_verlet_steps(nmax, t, idx, pos, vel, omega, vel_prev, omega_prev, forc
                                ve, we, radius, mass, inertia, props, dt, force, torque, pl_reaction[p], lo, hi, vel,
                                omega, law)
             p += 1
-        _add_gravity(idx, mass, g, force)
         if fluid_on:  # static models: the awake rows of _fm/_tm, then added (DemSimulation.body_forces)
+            _add_gravity(idx, mass, g, force)
             zero_rows(idx, fm, tm)
             grid_fluid_forces_phi(idx, pos, ve, we, pos, awake, radius, method, bed, depth, u, v, x0, y0, dx, dy,
                                   smax, outside_air, profile, k_s, wind, rho_w, nu_w, rho_a, nu_a, with_air, grav,
@@ -120,8 +120,9 @@ def fluid_verlet_steps(nmax, t, idx, pos, vel, omega, vel_prev, omega_prev, forc
                 for d in range(3):
                     force[i, d] += fm[i, d]
                     torque[i, d] += tm[i, d]
-        add_global_damping(idx, ve, we, c_gn, c_gw, 1.0, force, torque)
-        kick(kicked, vel, omega, force, torque, inv_m, inv_i, h, lmask, rmask)
+        # gravity (dry scenes: here), global damping and the closing kick in one pass
+        second_pass(kicked, active, not fluid_on, mass, g, ve, we, c_gn, c_gw, force, torque, vel, omega, inv_m,
+                    inv_i, h, lmask, rmask)
         if fluid_on:  # next step's apparent mass, at these positions
             _inverse_masses(idx, mass, radius, phi, xi, rho_w, rho_am, inv_m)
         t += dt
