@@ -20,7 +20,9 @@ its warm start, the open breach's steady state — is the problem every solve be
 * for each tolerance of ``--tolerances``: the full-domain re-solve (``resolve = "full"``, skipped with
   ``--no-full``) and the window re-solve (``resolve = "window"``, frozen far field, default margin 2 B
   and edge level 0.03 m), t_max ``--t-max``; at the tolerances of ``--frozen`` also the window that
-  never grows (``win-nogrow``, edge level 1 km): the error of the frozen far field itself.
+  never grows (``win-nogrow``, edge level 1 km): the error of the frozen far field itself; at the
+  tolerances of ``--average`` the full-domain re-solve with the averaged criterion (``full-avg``,
+  ``[hydro] steady_average = true``).
 
 "Near the pile": the open cells within B (the breach length) of the breach centre. Printed per solve:
 breach discharge Q and its difference to the reference (%, and in units of the reference's error σ_Q),
@@ -69,6 +71,8 @@ def main(argv=None) -> int:
                     "(edge_level 1 km): the frozen far field's own error")
     ap.add_argument("--t-max", type=float, default=600.0, help="t_max (s) of the re-solves at --tolerances")
     ap.add_argument("--no-full", action="store_true", help="window re-solves only (no full-domain ones)")
+    ap.add_argument("--average", default="2e-3,2e-4", help="tolerances of a full-domain re-solve with the "
+                    "averaged criterion too (full-avg: [hydro] steady_average = true)")
     ap.add_argument("--out", default=str(HERE / "results" / "window_wp"))
     a = ap.parse_args(argv)
     sys.path.insert(0, str(HERE))
@@ -152,6 +156,10 @@ def main(argv=None) -> int:
         full.tolerance, full.t_max = tol, a.t_max
         solvers = [] if a.no_full else [("full", full)]
         solvers.append(("window", WindowResolver(full)))
+        if tol in [float(t) for t in a.average.split(",") if t] and not a.no_full:
+            avg = copy.copy(full)
+            avg.average = True
+            solvers.append(("full-avg", avg))
         if tol in [float(t) for t in a.frozen.split(",") if t]:
             solvers.append(("win-nogrow", WindowResolver(full, edge_level=1e3)))
         for name, solver in solvers:
@@ -184,7 +192,7 @@ def main(argv=None) -> int:
                    dv_sigma=(r["vmax"] - ref["vmax"]) / sig_v, mean_dv=float(dv.mean()), t=r["t"],
                    converged=bool(r["converged"]), cpu=r["cpu"], cells_pct=frac,
                    grown=info.get("grown", 0) if info.get("mode") == "window" else (
-                       "full" if name in ("full", "reference") else f"full@{info.get('grown', 0)}"))
+                       "full" if name.startswith("full") or name == "reference" else f"full@{info.get('grown', 0)}"))
         out_rows.append(row)
         print("  " + " | ".join(f"{v:>8}" for v in (
             name, f"{tol:.0e}", f"{r['q']:.2f}", f"{row['dq_pct']:+.3f}", f"{row['dq_sigma']:+.1f}",
@@ -222,7 +230,7 @@ def _plot(path, rows, ref, sig_q, sig_v, before, tr, t_start, window, title):
         print("matplotlib not installed: no plot")
         return
     fig, ax = plt.subplots(1, 3, figsize=(15, 4.6))
-    for name, mk in (("full", "o-"), ("window", "s-"), ("win-nogrow", "^-")):
+    for name, mk in (("full", "o-"), ("window", "s-"), ("win-nogrow", "^-"), ("full-avg", "v-")):
         rr = [r for r in rows if r["name"] == name]
         if not rr:
             continue
