@@ -11,7 +11,7 @@ fall-back to the full domain.
   absorbing sides change the sloshing of the basin, +1.5 % here; README "work–precision of the window".)
 * A window that has to fall back to the full domain gives the full re-solve from the previous steady
   state, bit for bit (it started from the window's merged state before, and on the typical breach
-  stopped 3–4 % low: README).
+  stopped 4.0–5.7 % below the full re-solve: README).
 """
 from __future__ import annotations
 

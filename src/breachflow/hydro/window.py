@@ -17,7 +17,8 @@ the previous steady state:
   the edge, the window's margin is doubled and the solve re-run (warm, from the merged state);
 * fall back to the full domain when the window would hold more than ``max_fraction`` of its cells: the
   full re-solve from the previous steady state, as ``resolve = "full"`` (from the window's merged state
-  instead it stopped 3–5 % low on the typical breach: the far field's slow rise passed the rate test);
+  instead it stopped 4.0–5.7 % below it on the typical breach, ``bench window_wp``: the far field's slow rise
+  passed the rate test after one check);
 * the far field (``far``, :mod:`breachflow.hydro.window_far`): ``frozen`` keeps the previous state
   outside the window; ``coarse`` adds the level change of a coarse full-domain solve to the previous
   state — the window's edge levels, its warm start and the merged state outside it — so that the rise
