@@ -139,7 +139,10 @@ class HydroSection:
     the breach, the rest frozen at the previous steady state, grown when the water level at its edge moves
     by more than ``resolve_edge_level`` (:mod:`breachflow.hydro.window`); ``resolve_far`` (``frozen`` |
     ``coarse``, :mod:`breachflow.hydro.window_far`) how the domain outside the window follows the pile,
-    ``resolve_far_factor`` the coarsening of ``coarse`` (default 2). ``refine`` (a length, with
+    ``resolve_far_factor`` the coarsening of ``coarse`` (default 2). ``steady_average`` (default false): the
+    ``swe`` solves (cold, warm, window) also accept the running mean of the breach discharge when its
+    batch-means error is within the tolerance (``run_to_steady(average=True)``,
+    :mod:`breachflow.hydro.steady_mean`; the state is then the time mean). ``refine`` (a length, with
     ``solver = "swe"``): a nested fine grid of that cell size around the breach (``window``, default the
     breach ± (B/2 + 3 B) along the levee, ± 3 B across) inside the coarse domain at ``resolution``: the
     coarse open-breach steady state is solved once and is the regional field of the ``nested`` local model
@@ -162,12 +165,14 @@ class HydroSection:
     resolve_far: str = "frozen"
     resolve_far_factor: int = 2
     refine: float | None = None
+    steady_average: bool = False
 
     @classmethod
     def from_table(cls, table, ctx):
         ctx.check_keys(table, {"solver", "resolution", "order", "courant", "tolerance", "t_max_initial", "t_max",
                                "monitor_radius", "snapshots", "window", "threads", "resolve", "resolve_margin",
-                               "resolve_edge_level", "resolve_far", "resolve_far_factor", "refine"})
+                               "resolve_edge_level", "resolve_far", "resolve_far_factor", "refine",
+                               "steady_average"})
         out = cls(
             solver=ctx.raw(table, "solver", default="swe"),
             resolution=ctx.quantity(table, "resolution", "length", default="1 m", positive=True),
@@ -183,6 +188,7 @@ class HydroSection:
             resolve_edge_level=ctx.quantity(table, "resolve_edge_level", "length", default="0.03 m", positive=True),
             resolve_far=ctx.raw(table, "resolve_far", default="frozen"),
             resolve_far_factor=ctx.raw(table, "resolve_far_factor", types=(int,), default=2),
+            steady_average=ctx.raw(table, "steady_average", types=(bool,), default=False),
         )
         if out.threads < 1:
             raise ctx.error(f"threads = {out.threads}: needs at least 1", "threads")
@@ -606,7 +612,7 @@ class _WarmStartSWE:
         from ..hydro.solvers import get_solver
 
         kw = dict(order=hydro.order, courant=hydro.courant, tolerance=hydro.tolerance, region=region,
-                  section=section, threads=hydro.threads)
+                  section=section, threads=hydro.threads, average=hydro.steady_average)
         self.cold = get_solver("swe", t_max=hydro.t_max_initial, **kw)
         self.warm = get_solver("swe", t_max=hydro.t_max, **kw)
         self.window = None

@@ -460,16 +460,18 @@ class SWESolver:
 
     ``solve(domain, obstacles=None, initial=None)`` returns the snapshot Dataset; the last
     :class:`SWESimulation` is kept as ``last`` (its ``history`` is the convergence history).
-    *region* and *section* are those of :meth:`SWESimulation.run_to_steady`.
+    *region*, *section* and *average* are those of :meth:`SWESimulation.run_to_steady`.
     """
 
     def __init__(self, order: int = 2, courant: float = 0.45, limiter: str = "minmod", riemann: str = "hllc",
                  tolerance: float = 1e-4, t_max: float = 3600.0, check_interval: float | None = None,
-                 h_dry: float = 1e-8, threads: int | None = 1, region=None, section=None, **derived_kwargs):
+                 h_dry: float = 1e-8, threads: int | None = 1, region=None, section=None, average: bool = False,
+                 **derived_kwargs):
         self.options = SWEOptions(order=order, courant=courant, limiter=limiter, riemann=riemann, h_dry=h_dry,
                                   threads=threads)
         self.region = region
         self.section = section
+        self.average = bool(average)
         self.tolerance = tolerance
         self.t_max = t_max
         self.check_interval = check_interval
@@ -478,6 +480,7 @@ class SWESolver:
 
     def solve(self, domain: Domain, obstacles=None, initial=None) -> xr.Dataset:
         sim = SWESimulation(domain, self.options, obstacles=obstacles, initial=initial)
-        sim.run_to_steady(self.tolerance, self.t_max, self.check_interval, region=self.region, section=self.section)
+        sim.run_to_steady(self.tolerance, self.t_max, self.check_interval, region=self.region, section=self.section,
+                          average=self.average)
         self.last = sim
         return sim.snapshot(**self.derived_kwargs)
