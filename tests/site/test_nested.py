@@ -367,7 +367,9 @@ def _check_discharge_history(run, res, q0):
     """The breach discharge of each cycle against continuity and the pile (issue 16): it agrees with the
     water entering the flood side through the domain edges, away from the pile (20 %: the flood side's
     storage still changes at the steady-state tolerance), and a pile cell blocked in one cycle stays
-    blocked while its top does not drop. Before, cycle 2 read 48.2 after 33.2 m³/s with 32.3 entering:
+    blocked unless its top dropped below the flood-side level (the lowest top still blocked; a settling
+    mass can take a cell 1 cm down across it: ADH scene, session 8, 3.0062 → 2.9965 m against 3.0026 m,
+    which the former 1 cm margin flagged). Before, cycle 2 read 48.2 after 33.2 m³/s with 32.3 entering:
     the levee line through the pile was measured (cell-centre momentum beside the raised bed is not the
     flux), and pile cells blocked in cycle 1 opened in cycle 2 with the same top (emergence was judged
     against the previous water surface, in a blocked cell its own old top)."""
@@ -384,9 +386,11 @@ def _check_discharge_history(run, res, q0):
         entering = (np.sum((h * v)[0]) + np.sum((h * u)[flood, 0]) - np.sum((h * u)[flood, -1])) * dx
         if q[g - 1] > 0.05 * q0:
             assert q[g - 1] == pytest.approx(entering, rel=0.2), (g, q[g - 1], entering)
-        if blocked_before is not None:  # a blocked pile cell whose top did not drop stays blocked
-            cells, old_top = blocked_before
-            assert np.all(ob[cells] | (top[cells] < old_top[cells] - 0.01)), g
+        if blocked_before is not None:  # a blocked pile cell opens only when its top fell below the flood-side
+            cells, old_top = blocked_before  # level (remap_top's emergence, top >= level: the lowest blocked top)
+            opened = cells & ~ob
+            assert np.all(top[opened] < old_top[opened]), (g, top[opened], old_top[opened])
+            assert np.all(top[opened] < top[ob].min()), (g, top[opened], top[ob].min())
         blocked_before = (ob.copy(), top.copy())
 
 
