@@ -13,7 +13,8 @@ import numpy as np
 
 from .contact_law import (HOOKE_HISTORY, ROLLING_DAMPING_RATIO, ROLLING_STIFFNESS, WINDOW_AVERAGED,  # noqa: F401
                           contact_law, contact_window, hooke_history, rolling_law)
-from .neighbours import build_grid, displacement_since, find_pairs, min_image  # noqa: F401  (re-exported)
+from .neighbours import (build_grid, displacement_since, find_pairs, min_image,  # noqa: F401  (re-exported)
+                         wrap_and_check)
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -441,43 +442,6 @@ def heightfield_forces(idx, x0, y0, hx, hy, bed, wprops, hist, rhist, pos, vel, 
         wall_contact(i, -nux, -nuy, -nuz, overlap, wvel, hist, rhist, pos, vel, omega, vel_h, omega_h, radius, mass,
                      inertia, props, wprops, dt, lo, hi, force, torque, out, mr, law)
     return n
-
-
-@numba.njit(cache=True, error_model="numpy")
-def wrap_and_check(idx, pos, vel, omega, geom, periodic, box, use_box, active, awake, left_ids):
-    """Wrap periodic coordinates; deactivate particles outside *box* (xmin, xmax, ymin, ymax, zmin, zmax).
-
-    Returns (#left, first non-finite particle index or -1).
-    """
-    nleft = 0
-    bad = -1
-    for k in range(idx.shape[0]):
-        i = idx[k]
-        if not (math.isfinite(pos[i, 0]) and math.isfinite(pos[i, 1]) and math.isfinite(pos[i, 2])
-                and math.isfinite(vel[i, 0]) and math.isfinite(vel[i, 1]) and math.isfinite(vel[i, 2])):
-            if bad < 0:
-                bad = i
-            continue
-        for d in range(2):
-            if periodic[d]:
-                L = geom[6 + d]
-                pos[i, d] -= L * math.floor((pos[i, d] - geom[d]) / L)
-        if use_box:
-            out = False
-            for d in range(3):
-                if d < 2 and periodic[d]:
-                    continue
-                if pos[i, d] < box[2 * d] or pos[i, d] > box[2 * d + 1]:
-                    out = True
-            if out:
-                active[i] = False
-                awake[i] = False
-                for d in range(3):
-                    vel[i, d] = 0.0
-                    omega[i, d] = 0.0
-                left_ids[nleft] = i
-                nleft += 1
-    return nleft, bad
 
 
 @numba.njit(cache=True, error_model="numpy")
