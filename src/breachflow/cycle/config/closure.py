@@ -1,0 +1,139 @@
+"""The ``[placement]``, ``[criteria]`` and ``[closure]`` sections: where and when masses are dropped, when
+the closure ends, and how the pile enters the flow model (SPEC §7)."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from ...errors import BreachflowError
+from ...scenario.config import register_section
+from ..criteria import EndCriteria
+from ..placement import POSITION_MODES, PlacementPlan
+
+
+@register_section("placement")
+@dataclass
+class PlacementSection:
+    """``[placement]``: see :class:`~.placement.PlacementPlan` (``diameter``, ``density``, ``batch``,
+    ``positions`` (``line`` | ``zone`` | ``list`` | ``vertical`` | ``horizontal``, :mod:`~.strategies`),
+    ``start``/``stop``/``zone``/``points``, ``release_height``, ``rate``)."""
+
+    plan: PlacementPlan
+
+    @classmethod
+    def schema_keys(cls) -> dict:
+        """The keys :meth:`~breachflow.cycle.placement.PlacementPlan.from_config` reads, their kinds and the plan's defaults."""
+        from dataclasses import MISSING, fields
+
+        from ...scenario.reference import quantity_schema
+        from ...units import SI_UNITS
+
+        out = {}
+        for f in fields(PlacementPlan):
+            default = f.default if f.default is not MISSING else None
+            kind = PlacementPlan.KEY_KINDS.get(f.name)
+            if kind is None:
+                out[f.name] = {"type": "integer" if f.name == "batch" else "string"}
+                if default is not None:
+                    out[f.name]["default"] = default
+                if f.name == "positions":
+                    out[f.name]["enum"] = list(POSITION_MODES)
+                continue
+            unit = SI_UNITS.get(kind, kind)
+            if f.name == "rate":
+                default = f"{default * 3600:g} 1/hr"
+            elif isinstance(default, tuple):
+                default = [f"{v:g} {unit}" for v in default]
+            elif default is not None:
+                default = f"{default:g} {unit}"
+            out[f.name] = quantity_schema(kind, default=default, positive=f.name in ("diameter", "density", "rate"),
+                                          nonnegative=f.name == "release_height",
+                                          default_unit="m" if f.name in ("start", "stop", "zone", "points") else None)
+        return out
+
+    @classmethod
+    def from_table(cls, table, ctx):
+        try:
+            return cls(PlacementPlan.from_config(table))
+        except (BreachflowError, TypeError, ValueError) as exc:
+            key = next((k for k in table if k in str(exc)), None)
+            raise ctx.error(str(exc), key) from None
+
+
+@register_section("criteria")
+@dataclass
+class CriteriaSection:
+    """``[criteria]``: ``mode`` (``any``|``all``), ``max_cycles`` and thresholds by criterion name."""
+
+    criteria: EndCriteria
+
+    @classmethod
+    def schema_keys(cls) -> dict:
+        """``mode``, ``max_cycles`` and one threshold per registered criterion (its kind and unit)."""
+        from ...scenario.reference import quantity_schema
+        from ..criteria import criteria as registry
+
+        out = {"mode": {"type": "string", "enum": ["any", "all"], "default": "any"},
+               "max_cycles": {"type": "integer", "default": 50}}
+        for name in registry.available():
+            c = registry.get(name)
+            spec = quantity_schema(c.kind, default_unit="" if c.kind == "dimensionless" else None, nonnegative=True,
+                                   sweep=False)
+            spec["anyOf"].append({"type": "object", "description": "keyword arguments of the criterion"})
+            spec["description"] = f"threshold ({c.compare} it counts as met; unit {c.units}) {c.description}".strip()
+            out[name] = spec
+        return out
+
+    @classmethod
+    def from_table(cls, table, ctx):
+        try:
+            return cls(EndCriteria.from_config(table))
+        except (BreachflowError, TypeError, ValueError) as exc:
+            key = next((k for k in table if k in str(exc)), None)
+            raise ctx.error(str(exc), key) from None
+
+
+@register_section("closure")
+@dataclass
+class ClosureSection:
+    """``[closure]``: ``remap`` (``porous``, the default: a leaky rock-fill pile | ``raised_bed`` |
+    ``no_flow``), ``seed``, ``porous_law`` (``ergun`` | ``van_gent``: Forchheimer coefficients of a porous
+    pile), ``area`` (the breach area ``[x0, x1, y0, y1]`` outside which masses count as carried away
+    and where ``max_speed`` judges the flow; default from the scene, see
+    :mod:`~breachflow.cycle.losses`), ``loss_limit`` (fraction of a cycle's tonnage whose loss ends the run with a
+    "not closable" verdict, default 0.5), ``pile_sampling`` (how the pile enters ``raised_bed`` / ``no_flow``:
+    ``centre``, the default: the sphere top above each cell centre | ``cell_average``: the cell average of
+    the pile top, blocked where it stands above the water over half the cell, :mod:`~breachflow.cycle.remap`)."""
+
+    remap: str = "porous"
+    seed: int = 0
+    area: tuple | None = None
+    loss_limit: float = 0.5
+    porous_law: str = "ergun"
+    pile_sampling: str = "centre"
+
+    @classmethod
+    def from_table(cls, table, ctx):
+        ctx.check_keys(table, {"remap", "seed", "area", "loss_limit", "porous_law", "pile_sampling"})
+        area = None
+        if "area" in table:
+            val = ctx.raw(table, "area", types=(list,))
+            if len(val) != 4:
+                raise ctx.error(f"area must be [x0, x1, y0, y1], got {val!r}", "area")
+            area = tuple(float(v) for v in ctx.quantity({"area": val}, "area", "length", dim="area").values)
+            if not (area[0] < area[1] and area[2] < area[3]):
+                raise ctx.error(f"area must be [x0, x1, y0, y1] with x0 < x1 and y0 < y1, got {val!r}", "area")
+        loss = ctx.quantity(table, "loss_limit", "dimensionless", default=0.5, default_unit="", positive=True)
+        out = cls(ctx.raw(table, "remap", default="porous"), ctx.raw(table, "seed", types=(int,), default=0),
+                  area, float(loss), ctx.raw(table, "porous_law", default="ergun"),
+                  ctx.raw(table, "pile_sampling", default="centre"))
+        from ...hydro.swe.porous import FORCHHEIMER_LAWS
+        from ..remap import PILE_SAMPLINGS, REMAP_MODES
+
+        if out.pile_sampling not in PILE_SAMPLINGS:
+            raise ctx.error(f"pile_sampling must be one of {PILE_SAMPLINGS}", "pile_sampling")
+
+        if out.remap not in REMAP_MODES:
+            raise ctx.error(f"remap must be one of {REMAP_MODES}", "remap")
+        if out.porous_law not in FORCHHEIMER_LAWS:
+            raise ctx.error(f"porous_law must be one of {sorted(FORCHHEIMER_LAWS)}", "porous_law")
+        return out

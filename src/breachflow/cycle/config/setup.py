@@ -1,0 +1,249 @@
+"""From a parsed scenario to a :class:`~breachflow.cycle.driver.ClosureSetup`
+(:func:`~breachflow.cycle.config.closure_setup`): the scene or terrain site, the flow solver (with the
+warm-start, stage-hydrograph and nested wrappers), the DEM settings, placement, criteria and breach area."""
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+from ...errors import InputError
+from ...scenario.geometry import BreachGeometry
+from ..criteria import EndCriteria
+from ..losses import breach_area
+from ..placement import PlacementPlan
+from .closure import ClosureSection
+from .dem import DemSection, FluidSection
+from .hydro import HydroSection
+from .site import SiteSection, _crs_wkt
+
+
+def closure_setup(scenario, *, overrides: dict | None = None):
+    """Build the :class:`~.driver.ClosureSetup` of a parsed scenario (missing sections take defaults)."""
+    from ...dem import Material
+    from ...hydro.solvers import get_solver
+    from ...hydro.terrain import breach_domain
+    from ..driver import ClosureSetup, DemSettings
+
+    site = scenario.get("site") or SiteSection()
+    hydro = scenario.get("hydro") or HydroSection()
+    attrs = {}
+    metadata = {}
+    if hasattr(site, "build"):  # a terrain site (breachflow.site)
+        # the embedded, nested and frozen-snapshot solvers run on a grid along the levee (any direction;
+        # a frozen field is served on it); a plug-in's field stays on the CRS axes
+        built = site.build(hydro.resolution, align=hydro.solver in ("swe", "nested", "snapshot", "snapshot_frozen"))
+        dom = built.domain
+        (xc, yc), half = built.centre, 0.5 * built.breach.length
+        flood_level, bottom = built.flood_level, built.breach.bottom
+        metadata["site"] = _jsonable(built.report)
+        attrs.update(site_terrain=str(built.terrain.path.name), site_levee=str(built.levee.source).split("/")[-1],
+                     site_breach_centre=f"{xc:.3f} {yc:.3f}", site_flood_side=built.report["flood_side"])
+    else:
+        levee = scenario["levee"].geometry if "levee" in scenario else None
+        breach = None
+        if "breach" in scenario and scenario["breach"].length is not None:
+            b = scenario["breach"]
+            base = site.scene().breach
+            breach = BreachGeometry(length=float(b.length), depth=float(b.depth) if b.depth is not None else base.depth,
+                                    wall_slope=float(b.wall_slope) if b.wall_slope is not None else base.wall_slope,
+                                    scour_depth=float(b.scour_depth) if b.scour_depth is not None else base.scour_depth)
+        scene = site.scene(levee, breach)
+        built = None
+        dom = breach_domain(scene, hydro.resolution)
+        dom.crs_wkt = _crs_wkt(site.crs)
+        (xc, yc), half = (0.0, 0.0), 0.5 * scene.breach.length
+        flood_level = scene.flood_water_elevation
+        bottom = scene.ground_elevation + scene.levee.height - scene.breach.depth - scene.breach.scour_depth
+    nested = None
+    if hydro.solver == "nested" or hydro.refine is not None:
+        from ...hydro.nested import NestedSolver, breach_window
+
+        fine = hydro.resolution if hydro.refine is None else hydro.refine
+        regional = hydro.snapshots
+        if hydro.refine is not None:  # the coarse open-breach steady state is the regional field
+            if built is not None and built.stage is not None:
+                raise InputError("[hydro] refine: a stage hydrograph of the site is not supported with a nested grid")
+            Xc, Yc = np.meshgrid(dom.x, dom.y)
+            reg_c = (np.abs(Xc - xc) <= half + hydro.monitor_radius) & (np.abs(Yc - yc) <= hydro.monitor_radius + half)
+            regional = [_WarmStartSWE(hydro, reg_c, section=(xc - half, xc + half, yc)).cold.solve(dom)]
+            metadata.update(refine_coarse_resolution=hydro.resolution, refine_resolution=hydro.refine)
+        # an ingested field is on the CRS axes: the local grid of a rotated site samples it in its frame
+        # (a refine's coarse steady state is already on the site's grid)
+        frame = built.frame if built is not None and hydro.refine is None and built.frame.rotated else None
+        window, spacing = breach_window(xc, yc, 2.0 * half, fine)
+        if hydro.window is not None:
+            if frame is not None:
+                raise InputError(f"[hydro] window = {list(hydro.window)} is a box on the CRS axes, but the grid of this "
+                                 f"site runs along the levee ({frame.angle_deg:.1f}° from the CRS x axis); leave it out "
+                                 f"(the default window is the breach ± (B/2 + 3 B) along the levee and ± 3 B across)")
+            window, spacing = hydro.window, fine
+        nested = NestedSolver(regional, window, spacing, manning=float(np.mean(dom.manning)),
+                              order=hydro.order, courant=hydro.courant, tolerance=hydro.tolerance,
+                              t_max_initial=hydro.t_max_initial, t_max=hydro.t_max, frame=frame)
+        if nested.domain.crs_wkt is None:  # regional files without a CRS (e.g. ADH without its .prj): the site's
+            nested.domain.crs_wkt = dom.crs_wkt
+        elif built is not None and hydro.refine is None:
+            _check_regional_crs(nested.domain.crs_wkt, dom.crs_wkt, nested.source, built.terrain.path)
+        if hydro.refine is not None:
+            nested.source = f"breachflow swe steady state at {hydro.resolution:g} m cells (coarse domain)"
+            nested.section = (xc - half, xc + half, yc)
+        dom = nested.domain
+        metadata.update(hydro_mode="nested", nested_window=list(nested.window), nested_regional=nested.source,
+                        nested_cells=list(dom.shape))
+    X, Y = np.meshgrid(dom.x, dom.y)
+    region = (np.abs(X - xc) <= half + hydro.monitor_radius) & (np.abs(Y - yc) <= hydro.monitor_radius + half)
+    if nested is not None:
+        nested.region = region
+        solver = nested
+    elif hydro.solver == "swe":
+        solver = _WarmStartSWE(hydro, region, section=(xc - half, xc + half, yc))
+        if built is not None and built.stage is not None:
+            solver = _StageSolver(solver, built)
+    else:
+        import warnings
+
+        with warnings.catch_warnings():  # the deprecation was reported where the scenario was parsed
+            warnings.simplefilter("ignore", DeprecationWarning)
+            turned = built.frame if built is not None and built.frame.rotated else None
+            solver = (get_solver(hydro.solver, snapshots=hydro.snapshots, domain=dom, frame=turned)
+                      if hydro.solver in ("snapshot", "snapshot_frozen") else get_solver(hydro.solver))
+    if getattr(solver, "responds_to_pile", True) is False:
+        from ...errors import BreachflowWarning
+        from ...hydro.solvers import FROZEN_NOTE
+
+        attrs.update(hydro_mode=getattr(solver, "mode", hydro.solver), flow_responds_to_pile=np.int32(0),
+                     hydro_note=FROZEN_NOTE)
+        metadata.update(hydro_mode=getattr(solver, "mode", hydro.solver), flow_responds_to_pile=False)
+        import warnings
+
+        warnings.warn(f"[hydro] solver = {hydro.solver!r}: {FROZEN_NOTE}", BreachflowWarning, stacklevel=2)
+    dem_vals = dict((scenario.get("dem") or DemSection()).values)
+    mat_keys = {k: dem_vals.pop(k) for k in ("kn", "ks", "friction", "rolling_friction", "adhesion") if k in dem_vals}
+    dem_kw = {}
+    if "global_damping" in dem_vals:
+        dem_kw["global_damping"] = dem_vals.pop("global_damping")
+    mat = {**DemSection.MATERIAL_DEFAULTS, **mat_keys}
+    material = Material(density=2650.0, kn=mat["kn"], ks=mat.get("ks"), friction=mat["friction"],
+                        adhesion=mat["adhesion"], rolling_friction=mat["rolling_friction"])
+    fluid = scenario.get("fluid") or FluidSection()
+    dem = DemSettings(material=material, drag_law=fluid.drag_law, sampling=fluid.sampling, xi=fluid.xi,
+                      velocity_profile=fluid.velocity_profile, roughness=fluid.roughness,
+                      **dem_vals, **dem_kw)
+    closure = scenario.get("closure") or ClosureSection()
+    placement = scenario["placement"].plan if "placement" in scenario else PlacementPlan(
+        diameter=(1.4, 1.6), batch=4, positions="line", start=(xc - half + 0.5, yc), stop=(xc + half - 0.5, yc))
+    if placement.positions not in ("zone", "list") and placement.start == placement.stop == (0.0, 0.0):
+        # no line given (line, vertical, horizontal): across the breach along the levee centreline, one
+        # radius in from the walls (the breach heads)
+        r = 0.5 * placement.diameter[1]
+        placement.start, placement.stop = (xc - half + r, yc), (xc + half - r, yc)
+    elif built is not None and built.frame.rotated:
+        placement = _placement_to_grid(placement, built.frame)
+    if built is not None and built.frame.rotated and closure.area is not None:
+        raise InputError(f"[closure] area = {list(closure.area)} is a box on the CRS axes, but the grid of this site "
+                         f"runs along the levee ({built.frame.angle_deg:.1f}° from the CRS x axis); leave it out "
+                         f"(the breach area is then the whole domain)")
+    # without [criteria]: a porous pile is closed when the overflow has stopped and the seepage is below 30 %
+    # of the open breach's discharge (its toe stays fast); an impervious one when the flow in the breach is slow
+    criteria = scenario["criteria"].criteria if "criteria" in scenario else EndCriteria.from_config(
+        {"mode": "all", "max_cycles": 20, "overflow_discharge": "0.5 m^3/s", "seepage_fraction": 0.3}
+        if closure.remap == "porous" else {"mode": "any", "max_cycles": 20, "max_speed": "0.5 m/s"})
+    if isinstance(solver, _StageSolver):
+        solver.plan = placement
+    setup = ClosureSetup(domain=dom, solver=solver, placement=placement, criteria=criteria, dem=dem,
+                         remap_mode=closure.remap, pile_sampling=closure.pile_sampling, porous_law=closure.porous_law, seed=closure.seed,
+                         breach_x=(xc - half, xc + half), levee_y=yc,
+                         flood_level=flood_level, bottom=bottom, name=scenario.name, attrs=attrs, metadata=metadata,
+                         area=closure.area or (breach_area(scene, placement.diameter[1]) if built is None else None),
+                         loss_limit=closure.loss_limit, frame=built.frame if built is not None else None)
+    for k, v in (overrides or {}).items():
+        setattr(setup, k, v)
+    from ..sanity import check_setup
+
+    setup.warnings = check_setup(setup)
+    return setup
+
+
+def _placement_to_grid(placement, frame):
+    """The release positions of *placement* (given in the site CRS) in the grid coordinates of a rotated
+    site (:class:`~breachflow.site.frame.GridFrame`); a new plan, the scenario's is left as it is."""
+    if placement.positions == "zone":
+        raise InputError(f"[placement] zone = {list(placement.zone)} is a box on the CRS axes, but the grid of this "
+                         f"site runs along the levee ({frame.angle_deg:.1f}° from the CRS x axis); give positions = "
+                         f"'line' (start, stop) or 'list' (points) in the site CRS instead")
+    to_grid = lambda p: tuple(float(v) for v in frame.to_grid(p[0], p[1]))
+    return replace(placement, start=to_grid(placement.start), stop=to_grid(placement.stop),
+                   points=[to_grid(p) for p in placement.points])
+
+
+class _WarmStartSWE:
+    """The ``swe`` solver with a longer time limit for the first (cold) solve than for warm starts; the
+    steady state is judged on depth and discharge in *region* and on the breach discharge (*section*
+    ``(x0, x1, y)``, the levee centreline across the breach)."""
+
+    def __init__(self, hydro: HydroSection, region, section=None):
+        from ...hydro.solvers import get_solver
+
+        kw = dict(order=hydro.order, courant=hydro.courant, tolerance=hydro.tolerance, region=region,
+                  section=section, threads=hydro.threads, average=hydro.steady_average)
+        self.cold = get_solver("swe", t_max=hydro.t_max_initial, **kw)
+        self.warm = get_solver("swe", t_max=hydro.t_max, **kw)
+        self.window = None
+        if hydro.resolve == "window":
+            from ...hydro.window import WindowResolver
+
+            self.window = WindowResolver(self.warm, margin=hydro.resolve_margin, edge_level=hydro.resolve_edge_level,
+                                         far=hydro.resolve_far,
+                                         far_factor=hydro.resolve_far_factor if hydro.resolve_far == "coarse" else None)
+
+    def solve(self, domain, obstacles=None, initial=None):
+        if initial is None:
+            return self.cold.solve(domain, obstacles=obstacles, initial=initial)
+        return (self.window or self.warm).solve(domain, obstacles=obstacles, initial=initial)
+
+
+class _StageSolver:
+    """A solver whose flood-side level follows a stage hydrograph: solve ``k`` (0 the initial one) uses the
+    stage at the operation time of cycle ``k`` (quasi-steady: each cycle's flow is the steady state at the
+    level of the moment its masses are placed)."""
+
+    def __init__(self, inner, site, plan=None):
+        self.inner, self.site, self.plan, self.calls = inner, site, plan, 0
+
+    def solve(self, domain, obstacles=None, initial=None):
+        t = 0.0 if self.plan is None else self.plan.operation_time(self.calls * self.plan.batch)
+        self.calls += 1
+        level = self.site.level_at(t)
+        from ...hydro.terrain import _copy_spacing
+
+        d = replace(domain, boundaries=self.site.with_level(level).boundaries)
+        _copy_spacing(domain, d)
+        return self.inner.solve(d, obstacles=obstacles, initial=initial)
+
+
+def _jsonable(obj):
+    if isinstance(obj, dict):
+        return {str(k): _jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_jsonable(v) for v in obj]
+    if isinstance(obj, (np.floating, np.integer)):
+        return obj.item()
+    return obj
+
+
+def _check_regional_crs(regional_wkt: str, site_wkt: str, regional_name: str, terrain_path) -> None:
+    """A regional model in another CRS than the site's terrain would put the breach in the wrong place:
+    refuse it. Both CRSs must be metric for the comparison (an ingested model in feet was converted to
+    metres at ingest, but its CRS still names feet: not compared)."""
+    from pyproj import CRS
+
+    try:
+        reg, site = CRS.from_user_input(regional_wkt), CRS.from_user_input(site_wkt)
+    except Exception:  # noqa: BLE001 - an unreadable CRS is reported where it is read, not here
+        return
+    metric = all(c.axis_info and all(a.unit_name in ("metre", "meter") for a in c.axis_info) for c in (reg, site))
+    if metric and not reg.equals(site, ignore_axis_order=True):
+        raise InputError(f"[hydro] snapshots: the regional model ({regional_name}) is in {reg.name!r} but the "
+                         f"site's terrain ({terrain_path}) is in {site.name!r}; re-project one of them (e.g. "
+                         f"`gdalwarp -t_srs` for the terrain) so both use the same CRS")
