@@ -266,18 +266,17 @@ def bin_dense(search_idx, pos, radius, margin, geom, periodic, ncell):
 def _near_in(f0, f1, ai, xi, yi, zi, ri, bid, bp, out_a, out_b, n_out):
     """List the pairs of particle *ai* (binned position, reach) with the entries ``f0:f1`` of
     :func:`bin_dense` whose gap is below the skin (key order: min id first); returns the new count."""
-    cap = out_a.shape[0]
+    last = out_a.shape[0] - 1
     for f in range(f0, f1):
         dx = bp[f, 0] - xi
         dy = bp[f, 1] - yi
         dz = bp[f, 2] - zi
         reach = ri + bp[f, 3]
-        if dx * dx + dy * dy + dz * dz < reach * reach:
-            if n_out < cap:
-                b = bid[f]
-                out_a[n_out] = min(ai, b)
-                out_b[n_out] = max(ai, b)
-            n_out += 1
+        b = bid[f]
+        s = min(n_out, last)  # written always, kept only when near (no branch to mispredict)
+        out_a[s] = min(ai, b)
+        out_b[s] = max(ai, b)
+        n_out += dx * dx + dy * dy + dz * dz < reach * reach
     return n_out
 
 
@@ -288,6 +287,9 @@ def search_bins(dim, start, bid, bp, out_a, out_b):
     at z + 1), read as 5 contiguous runs of entries (cells x - 1, x, x + 1 of a row are consecutive), so
     each pair is met once (through a ghost copy across a periodic seam). Returns the pair count (pairs
     beyond the capacity of *out_a* are counted, not stored). The pair order is the scan's (callers sort)."""
+    if out_a.shape[0] == 0:  # no capacity: count only (the pairs are written to a scratch slot)
+        out_a = np.empty(1, np.int64)
+        out_b = np.empty(1, np.int64)
     nx = dim[0]
     ny = dim[1]
     DX = nx + 2
