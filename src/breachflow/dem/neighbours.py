@@ -157,8 +157,8 @@ def bin_dense(search_idx, pos, radius, margin, geom, periodic, ncell):
     Returns (dim, start, bid, bp): the unpadded cells per axis (nx, ny, nz), the first entry of each padded
     cell (CSR, ``start[c]:start[c + 1]``, cell ``c = (z (ny + 2) + y) (nx + 2) + x`` for padded x, y in
     ``[0, n + 2)``, z in ``[0, nz + 1)``), the particle of each entry and its binned copy of the position
-    and reach (x, y, z, radius + margin; contiguous in cell order). ``dim[0] = -1`` when the box holds more
-    than 27 cells per particle (sparse: use the hash)."""
+    and reach (x, y, z, radius + margin; contiguous in cell order). ``dim[0] = -1`` when the padded box
+    holds more than 27 cells per particle (+ 4096; sparse: use the hash)."""
     n = search_idx.shape[0]
     cell = np.empty((n, 3), np.int64)
     wp = np.empty((n, 3))
@@ -186,7 +186,7 @@ def bin_dense(search_idx, pos, radius, margin, geom, periodic, ncell):
         if periodic[d]:
             lo[d] = 0
             dim[d] = ncell[d]
-    if n == 0 or dim[0] * dim[1] * dim[2] > 27 * n + 4096:
+    if n == 0 or (dim[0] + 2) * (dim[1] + 2) * (dim[2] + 1) > 27 * n + 4096:  # padded cells
         dim[0] = 0 if n == 0 else -1
         return dim, np.zeros(1, np.int64), np.zeros(0, np.int64), np.zeros((0, 4))
     nx = dim[0]
