@@ -22,10 +22,12 @@ check: ``neigh_modify every 1 check yes``).
 ``--phases``: one rebuild of the scene's list (the state ``bench dem`` starts its timing from, with the list
 and contact histories of that run) split into its phases, each timed alone by calling its compiled function
 from Python (a call costs ~1 µs, i.e. ~1 ns per particle at N = 1000), in ns per awake particle (mean ± sd
-of 5 blocks): binning (counting sort into the dense cell array), the half-stencil search, the sort of the
-found pairs by key, the carry-over of the histories, and the whole ``neighbours.rebuild`` (what the
+of 5 blocks): binning (``neighbours.bin_dense``: counting sort into the padded dense cell array, ghost
+copies across periodic seams), the half-stencil search (``search_bins``), the sort of the found pairs by key
+(``sort_pairs``), the carry-over of the histories (``carry``), and the whole ``neighbours.rebuild`` (what the
 compiled loop and ``DemSimulation._relist`` call; it also copies the build positions and checks buffer
-capacities).
+capacities). On a tree without these functions (main before issue 16's rebuild work) only the whole
+rebuild is timed.
 """
 from __future__ import annotations
 
@@ -79,10 +81,6 @@ def phases(sizes, scene, reps):
                      f"search {timer(lambda: nb.search_bins(*binned, ca, cb))}",
                      f"sort {timer(lambda: nb.sort_pairs(nf, ca, cb, pos.shape[0], na, nbb))}",
                      f"carry {timer(lambda: nb.carry(nf, na, nbb, *lst, nh, nr))}"]
-        for name in ("bin_search", "order", "carry_hist"):  # the phases of a restructured rebuild, if any
-            fn = getattr(nb, "phase_" + name, None)
-            if fn is not None:
-                line.append(f"{name} {timer(fn(sim))}")
         pb = sim._pos_build.copy()
         bufs = [nb.empty_buffers()]
 
