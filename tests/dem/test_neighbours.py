@@ -306,3 +306,71 @@ def test_rebuild_between_events_lists_awake_and_sleeping_partners(seed, periodic
     np.testing.assert_array_equal(sim._pos_build[~asleep], s.pos[~asleep])
     np.testing.assert_array_equal(sim._pos_build[asleep], build[asleep])
     assert not sim._touch.any()
+
+
+def _scene(case, seed, periodic):
+    """Unfavourable layouts for the dense bins (:func:`.neighbours.bin_dense`): (positions, radii, skin,
+    period or None). Periods hold 6 cells of L / 6 >= 1.1 m (radius <= 0.5, skin 0.1); at this L the float just
+    below L divided by the cell size rounds up to 6, one cell past the period's last."""
+    rng = np.random.default_rng(seed)
+    skin = 0.1
+    L = 7.294288239180386
+    h = L / 6
+    assert math.floor(np.nextafter(L, 0.0) / h) == 6
+    if case == "on cell faces":  # every coordinate a cell face k h (the period's ends 0 and L included) or 1e-13 off
+        n = 500
+        k = rng.integers(0, 7, (n, 3)).astype(float)
+        jitter = rng.choice([0.0, 0.0, 0.0, 1e-13, -1e-13, 0.5 * h, 0.25 * h], (n, 3))
+        pos = k * h + jitter
+        radius = rng.uniform(0.3, 0.5, n)
+    elif case == "across the seams":  # near x = 0 / L, y = 0 / L and the corner; some just outside the period
+        n = 400
+        pos = rng.uniform(0, L, (n, 3))
+        near = rng.random((n, 2)) < 0.7
+        pos[:, :2] = np.where(near, rng.choice([0.0, L], (n, 2)) + rng.uniform(-0.6, 0.6, (n, 2)), pos[:, :2])
+        below = np.nextafter(L, 0.0)
+        pos[:6, :2] = [[0.0, 0.0], [L, L], [-1e-14, L - 1e-14], [L, 0.0], [below, 1.0], [2.0, below]]
+        pos[:, 2] = rng.uniform(0, 3 * h, n)
+        radius = rng.uniform(0.3, 0.5, n)
+        if not periodic:
+            pos[:, :2] += L  # the same cloud, away from the origin, no period
+    elif case == "alone in a cell":  # sparse: one particle per occupied cell, a few close pairs
+        n = 60
+        pos = rng.uniform(0, L, (n, 3)) * [1, 1, 2]
+        pos[n // 2:] = pos[: n // 2] + rng.normal(0, 0.6, (n // 2, 3))
+        radius = rng.uniform(0.3, 0.5, n)
+    else:  # "crowded, mixed sizes": ~15 particles of radius 0.3-0.5 per cell
+        n = 900
+        pos = rng.uniform(0, L, (n, 3)) * [1, 1, 0.25]
+        radius = rng.uniform(0.3, 0.5, n)
+    pos[-1, :2] = np.nextafter(L, 0.0)  # inside the period, its cell rounds to one past the last
+    return pos, radius, skin, (L if periodic else None)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+@pytest.mark.parametrize("periodic", [False, True])
+@pytest.mark.parametrize("case", ["on cell faces", "across the seams", "alone in a cell", "crowded, mixed sizes"])
+def test_dense_bins_pairs_equal_brute_force_at_unfavourable_layouts(case, periodic, seed):
+    """The dense-bin half stencil (padded bins, ghost copies across periodic seams, 5 contiguous runs per
+    cell) lists every pair within the skin exactly once, in key order, against brute force: particles on
+    cell faces (and on the period's ends), pairs across the x, y and corner seams (some positions just
+    outside the period, wrapped for binning), particles alone in their cells, crowded cells of mixed size."""
+    pos, radius, skin, L = _scene(case, seed, periodic)
+    kw = dict(periodic_x=(0.0, L), periodic_y=(0.0, L)) if periodic else {}
+    sim = DemSimulation(ParticleState.spheres(pos, radius), gravity=(0, 0, 0), skin=skin, sleeping=False, **kw)
+    assert sim.single_bin and (not periodic or (sim.ncell[0] == 6 and sim.geom[3] == L / 6))
+    if periodic:  # a particle inside the period whose cell rounds to one past the period's last
+        p = sim.state.pos[:, :2]
+        assert ((p < L) & (np.floor(p / sim.geom[3]) == 6)).any()
+    dim = neighbours.bin_dense(sim.idx, sim.state.pos, sim.state.radius, 0.5 * skin, sim.geom, sim.periodic,
+                               sim.ncell)[0]
+    assert dim[0] > 0  # the dense path, not the hashed fallback
+    sim._rebuild()
+    got = list(zip(sim._pa.tolist(), sim._pb.tolist()))
+    want = sorted(brute_pairs(pos, radius, skin, (L, L) if periodic else (None, None)))
+    assert got == want
+    assert len(want) >= 10
+    if case == "across the seams" and periodic:  # pairs that exist only through the x, y and corner seams
+        d = pos[sim._pb] - pos[sim._pa]
+        assert (np.abs(d[:, 0]) > L / 2).any() and (np.abs(d[:, 1]) > L / 2).any()
+        assert ((np.abs(d[:, 0]) > L / 2) & (np.abs(d[:, 1]) > L / 2)).any()
