@@ -94,20 +94,6 @@ def uniform_awake(props, awake, active):
 
 
 @numba.njit(cache=True, inline="always", error_model="numpy")
-def clear_rows(hist, rhist, hbits, rbits, p):
-    """Zero rows *p* of the shear and rolling histories *hist*, *rhist* unless they hold +0.0 already
-    (*hbits*, *rbits*: their int64 views): the same arrays, bit for bit, as storing the zeros, without the six
-    stores for a pair or particle that was not in contact at the last step (most of them)."""
-    if (hbits[p, 0] | hbits[p, 1] | hbits[p, 2] | rbits[p, 0] | rbits[p, 1] | rbits[p, 2]) != 0:
-        hist[p, 0] = 0.0
-        hist[p, 1] = 0.0
-        hist[p, 2] = 0.0
-        rhist[p, 0] = 0.0
-        rhist[p, 1] = 0.0
-        rhist[p, 2] = 0.0
-
-
-@numba.njit(cache=True, inline="always", error_model="numpy")
 def _pair_loop(pa, pb, hist, rhist, touching, pos, vel, omega, vel_h, omega_h, split, radius, mass, inertia,
                props, awake, active, geom, periodic, dt, wake_speed, force, torque, wake, wake_ids, n_wake, lo,
                hi, law, uniform):
@@ -128,8 +114,6 @@ def _pair_loop(pa, pb, hist, rhist, touching, pos, vel, omega, vel_h, omega_h, s
     """
     mr = np.empty(3)
     ncontacts = 0
-    hbits = hist.view(np.int64)  # the histories' bits (clear_rows)
-    rbits = rhist.view(np.int64)
     # uniform: the pair's properties are the (common) row 0, bit for bit min(props[i], props[j])
     kn_u, ks_u, ccn_u, ccs_u, ccf_u, al_u, be_u, mur_u = (props[0, 2], props[0, 3], props[0, 4], props[0, 5], props[0, 6],
                                                           props[0, 0], props[0, 1], props[0, 7]) if uniform else (
@@ -169,7 +153,12 @@ def _pair_loop(pa, pb, hist, rhist, touching, pos, vel, omega, vel_h, omega_h, s
                                    + (vel[i, 2] - vel[j, 2]) * dz)
                 apart = vd <= 0.5 * gap2 or (vd + (rs - math.sqrt(d2)) * math.sqrt(d2) <= 0.0)
             if apart:
-                clear_rows(hist, rhist, hbits, rbits, p)
+                hist[p, 0] = 0.0
+                hist[p, 1] = 0.0
+                hist[p, 2] = 0.0
+                rhist[p, 0] = 0.0
+                rhist[p, 1] = 0.0
+                rhist[p, 2] = 0.0
                 touching[p] = False
                 continue
         dist = math.sqrt(d2)
@@ -342,55 +331,38 @@ def plane_forces(idx, point, normal, wvel, wprops, hist, rhist, pos, vel, omega,
 
 
 @numba.njit(cache=True, inline="always", error_model="numpy")
-def plane_contact(i, plane, wvel, wprops, hist, rhist, hbits, rbits, pos, vel, omega, radius, mass, inertia, props, dt,
-                  force, torque, reaction, lo, hi, reach_t, vel_h, omega_h, out, mr, law):
-    """Contact of particle *i* with the plane *plane* ``(px, py, pz, qx, qy, qz, ux, uy, uz)`` (through ``p``
-    with unit normal ``q``, moving at ``u`` = *wvel*; scalars: loop constants in the caller), the step of :func:`plane_forces` for one particle (and of the fused dry
-    pass :func:`.steploop.second_pass`); *hbits*, *rbits* the int64 views of *hist*, *rhist*
-    (:func:`clear_rows`), *reach_t* ``max(-lo, hi)`` (0 for ``hooke_history``). Returns 1 if overlapping
-    now, else 0 (at most 29 arguments: a call with more is compiled as ``f(*args)``, which numba cannot
-    inline).
-
-    A particle farther than its radius from the plane (the common case: only a bed's bottom layer touches
-    its floor) is apart; with the window-averaged law it touches within the window if its approach speed
-    brings it within reach (``overlap + reach_t |v_n| > 0``). ``hooke_history`` evaluates at the point, so
-    the velocities are not read there (the same result for finite velocities).
-    """
-    px, py, pz, qx, qy, qz, ux, uy, uz = plane
-    dist = (pos[i, 0] - px) * qx + (pos[i, 1] - py) * qy + (pos[i, 2] - pz) * qz
-    overlap = radius[i] - dist
-    if overlap <= 0.0:
-        if law == HOOKE_HISTORY:
-            apart = True
-        else:
-            apart = overlap + reach_t * abs((vel[i, 0] - ux) * qx + (vel[i, 1] - uy) * qy
-                                            + (vel[i, 2] - uz) * qz) <= 0.0
-        if apart:
-            clear_rows(hist, rhist, hbits, rbits, i)
-            return 0
-    if wall_contact(i, -qx, -qy, -qz, overlap, wvel, hist, rhist, pos, vel, omega, vel_h, omega_h, radius, mass,
-                    inertia, props, wprops, dt, lo, hi, force, torque, out, mr, law) > 0.0:
-        reaction[0] -= out[0]
-        reaction[1] -= out[1]
-        reaction[2] -= out[2]
-    return 1 if overlap > 0.0 else 0
-
-
-@numba.njit(cache=True, inline="always", error_model="numpy")
 def _plane_loop(idx, point, normal, wvel, wprops, hist, rhist, pos, vel, omega, radius, mass, inertia, props,
                 dt, force, torque, reaction, lo, hi, vel_h, omega_h, law):
     """The loop of :func:`plane_forces` (arguments there)."""
     out = np.empty(7)
     mr = np.empty(3)
     n = 0
-    hbits = hist.view(np.int64)
-    rbits = rhist.view(np.int64)
     reach_t = max(-lo, hi) if law == WINDOW_AVERAGED else 0.0  # hooke_history: point values
-    plane = (point[0], point[1], point[2], normal[0], normal[1], normal[2], wvel[0], wvel[1], wvel[2])
+    px, py, pz = point[0], point[1], point[2]
+    qx, qy, qz = normal[0], normal[1], normal[2]
+    ux, uy, uz = wvel[0], wvel[1], wvel[2]
     for k in range(idx.shape[0]):
-        n += plane_contact(np.uint64(idx[k]), plane, wvel, wprops, hist, rhist, hbits, rbits, pos, vel, omega, radius,
-                           mass, inertia, props, dt, force, torque, reaction, lo, hi, reach_t, vel_h, omega_h, out, mr,
-                           law)
+        i = np.uint64(idx[k])
+        dist = ((pos[i, 0] - px) * qx + (pos[i, 1] - py) * qy
+                + (pos[i, 2] - pz) * qz)
+        overlap = radius[i] - dist
+        if overlap <= 0.0 and (law == HOOKE_HISTORY or overlap + reach_t * abs(
+                (vel[i, 0] - ux) * qx + (vel[i, 1] - uy) * qy + (vel[i, 2] - uz) * qz) <= 0.0):
+            hist[i, 0] = 0.0
+            hist[i, 1] = 0.0
+            hist[i, 2] = 0.0
+            rhist[i, 0] = 0.0
+            rhist[i, 1] = 0.0
+            rhist[i, 2] = 0.0
+            continue
+        if overlap > 0.0:
+            n += 1
+        if wall_contact(i, -normal[0], -normal[1], -normal[2], overlap, wvel, hist, rhist, pos, vel, omega, vel_h,
+                        omega_h, radius, mass, inertia, props, wprops, dt, lo, hi, force, torque, out, mr, law) <= 0.0:
+            continue
+        reaction[0] -= out[0]
+        reaction[1] -= out[1]
+        reaction[2] -= out[2]
     return n
 
 
@@ -426,8 +398,6 @@ def heightfield_forces(idx, x0, y0, hx, hy, bed, wprops, hist, rhist, pos, vel, 
     out = np.empty(7)
     mr = np.empty(3)
     wvel = np.zeros(3)
-    hbits = hist.view(np.int64)
-    rbits = rhist.view(np.int64)
     reach_t = max(-lo, hi) if law == WINDOW_AVERAGED else 0.0  # hooke_history: point values
     ny, nx = bed.shape
     xmax = x0 + (nx - 1) * hx
@@ -439,7 +409,12 @@ def heightfield_forces(idx, x0, y0, hx, hy, bed, wprops, hist, rhist, pos, vel, 
         py = pos[i, 1]
         pz = pos[i, 2]
         if px < x0 or px > xmax or py < y0 or py > ymax:
-            clear_rows(hist, rhist, hbits, rbits, i)
+            hist[i, 0] = 0.0
+            hist[i, 1] = 0.0
+            hist[i, 2] = 0.0
+            rhist[i, 0] = 0.0
+            rhist[i, 1] = 0.0
+            rhist[i, 2] = 0.0
             continue
         qx = px
         qy = py
@@ -458,7 +433,12 @@ def heightfield_forces(idx, x0, y0, hx, hy, bed, wprops, hist, rhist, pos, vel, 
             qy = py - dist * nuy
         overlap = radius[i] - dist
         if overlap <= 0.0 and overlap + reach_t * abs(vel[i, 0] * nux + vel[i, 1] * nuy + vel[i, 2] * nuz) <= 0.0:
-            clear_rows(hist, rhist, hbits, rbits, i)
+            hist[i, 0] = 0.0
+            hist[i, 1] = 0.0
+            hist[i, 2] = 0.0
+            rhist[i, 0] = 0.0
+            rhist[i, 1] = 0.0
+            rhist[i, 2] = 0.0
             continue
         if overlap > 0.0:
             n += 1

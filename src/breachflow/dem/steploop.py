@@ -23,8 +23,7 @@ import math
 import numba
 import numpy as np
 
-from .contact_law import HOOKE_HISTORY, WINDOW_AVERAGED
-from .contacts import plane_contact, sleep_update
+from .contacts import sleep_update
 from .neighbours import displacement_since, min_image, outside, wrapped
 
 #: why the compiled loop (:func:`.steploop_fluid.fluid_verlet_steps`) returned
@@ -139,49 +138,17 @@ def any_damping(idx, c_gn, c_gw):
 
 @numba.njit(cache=True, error_model="numpy")
 def second_pass(kicked, active, gravity, mass, g, ve, we, c_gn, c_gw, damp, force, torque, vel, omega, inv_m, inv_i, h,
-                lmask, rmask, planes, npl, pos, radius, inertia, props, dt, lo, hi, law):
-    """The end of a Verlet step in one pass: the contacts with the first *npl* fixed *planes* ``(point,
-    normal, velocity, props, hist, rhist, reaction)`` (:func:`.contacts.plane_forces`, in their order),
-    gravity (if *gravity*, as :class:`.forces.Gravity`) and, if *damp* (:func:`any_damping`), the global
-    damping (:func:`.forces.add_global_damping`, scale 1) on the particles still active, then the closing
-    kick (:func:`.integrators.kick`) of all *kicked* ones; per particle in that order, so bit-identical to
-    the passes (the plane contacts of a particle touch no other particle's rows; a damping term
-    ``0 * v`` subtracts a zero from a sum that is never -0: nothing, for finite velocities). Returns the
-    number of plane contacts (overlapping now); the planes' reactions are summed from zero.
-
-    The plane contacts here instead of in their own loop (the dry scenes: no height field, no fluid forces,
-    which come between them and gravity) and the skipped damping pass save 5 and 4 ns per particle-step on
-    the 1000-sphere settled bed (``python3 tasks.py bench dem_kernel --phases``)."""
-    if law == HOOKE_HISTORY:
-        return _second_loop(kicked, active, gravity, mass, g, ve, we, c_gn, c_gw, damp, force, torque, vel, omega,
-                            inv_m, inv_i, h, lmask, rmask, planes, npl, pos, radius, inertia, props, dt, lo, hi,
-                            HOOKE_HISTORY)
-    return _second_loop(kicked, active, gravity, mass, g, ve, we, c_gn, c_gw, damp, force, torque, vel, omega, inv_m,
-                        inv_i, h, lmask, rmask, planes, npl, pos, radius, inertia, props, dt, lo, hi, WINDOW_AVERAGED)
-
-
-@numba.njit(cache=True, inline="always", error_model="numpy")
-def _second_loop(kicked, active, gravity, mass, g, ve, we, c_gn, c_gw, damp, force, torque, vel, omega, inv_m, inv_i,
-                 h, lmask, rmask, planes, npl, pos, radius, inertia, props, dt, lo, hi, law):
-    """The loop of :func:`second_pass` (arguments there), compiled once per contact law *law*."""
-    pl_point, pl_normal, pl_vel, pl_props, pl_hist, pl_rhist, pl_reaction = planes
-    hbits = pl_hist.view(np.int64)
-    rbits = pl_rhist.view(np.int64)
-    out = np.empty(7)
-    mr = np.empty(3)
-    reach_t = max(-lo, hi) if law == WINDOW_AVERAGED else 0.0
-    for b in range(npl):
-        pl_reaction[b, :] = 0.0
-    nc = 0
+                lmask, rmask):
+    """The end of a Verlet step in one pass: gravity (if *gravity*, as :class:`.forces.Gravity`) and, if
+    *damp* (:func:`any_damping`), the global damping (:func:`.forces.add_global_damping`, scale 1) on the
+    particles still active, then the closing kick (:func:`.integrators.kick`) of all *kicked* ones; per
+    particle in that order, so bit-identical to the three passes. Without *damp* every coefficient is 0 and
+    the damping would subtract ``0 * v`` (a zero) from force and torque sums that are never -0 (sums of
+    products started from +0): nothing, for finite velocities; skipping it saves 4 ns per particle-step
+    on the 1000-sphere settled bed (``python3 tasks.py bench dem_kernel --phases``)."""
     for k in range(kicked.shape[0]):
         i = kicked[k]
         if active[i]:
-            for b in range(npl):
-                plane = (pl_point[b, 0], pl_point[b, 1], pl_point[b, 2], pl_normal[b, 0], pl_normal[b, 1],
-                         pl_normal[b, 2], pl_vel[b, 0], pl_vel[b, 1], pl_vel[b, 2])
-                nc += plane_contact(np.uint64(i), plane, pl_vel[b], pl_props[b], pl_hist[b], pl_rhist[b], hbits[b],
-                                    rbits[b], pos, ve, we, radius, mass, inertia, props, dt, force, torque,
-                                    pl_reaction[b], lo, hi, reach_t, vel, omega, out, mr, law)
             if gravity:
                 force[i, 0] += mass[i] * g[0]
                 force[i, 1] += mass[i] * g[1]
@@ -195,7 +162,6 @@ def _second_loop(kicked, active, gravity, mass, g, ve, we, c_gn, c_gw, damp, for
         for d in range(3):
             vel[i, d] += h * force[i, d] * im * lmask[d]
             omega[i, d] += h * torque[i, d] * ii * rmask[d]
-    return nc
 
 
 @numba.njit(cache=True, error_model="numpy")

@@ -83,9 +83,6 @@ def fluid_verlet_steps(nmax, t, idx, pos, vel, omega, vel_prev, omega_prev, forc
     h = 0.5 * dt
     done = 0
     damp = any_damping(idx, c_gn, c_gw)  # else the damping pass is skipped (second_pass)
-    # dry scenes (no height field, no fluid forces between the planes and gravity): the plane contacts in the
-    # closing pass
-    fused = 0 if fluid_on or hf_at >= 0 else pl_point.shape[0]
     moved = displacement_since(idx, pos, pos_build, geom, periodic)
     for _ in range(nmax):
         if moved > half_skin:  # (after the first step: measured in first_pass)
@@ -103,7 +100,7 @@ def fluid_verlet_steps(nmax, t, idx, pos, vel, omega, vel_prev, omega_prev, forc
                                 props, awake, active, geom, periodic, dt, wake_speed, force, torque, wake, wake_ids,
                                 n_wake, lo, hi, law)
         p = 0
-        for b in range(nb if fused == 0 else 0):
+        for b in range(nb):
             if b == hf_at:
                 nc += heightfield_forces(idx, hx0, hy0, hhx, hhy, hbed, hprops, hhist, hrhist, pos, ve, we, radius,
                                          mass, inertia, props, dt, force, torque, lo, hi, vel, omega, law)
@@ -125,8 +122,8 @@ def fluid_verlet_steps(nmax, t, idx, pos, vel, omega, vel_prev, omega_prev, forc
                     force[i, d] += fm[i, d]
                     torque[i, d] += tm[i, d]
         # gravity (dry scenes: here), global damping and the closing kick in one pass
-        nc += second_pass(kicked, active, not fluid_on, mass, g, ve, we, c_gn, c_gw, damp, force, torque, vel, omega,
-                          inv_m, inv_i, h, lmask, rmask, planes, fused, pos, radius, inertia, props, dt, lo, hi, law)
+        second_pass(kicked, active, not fluid_on, mass, g, ve, we, c_gn, c_gw, damp, force, torque, vel, omega, inv_m,
+                    inv_i, h, lmask, rmask)
         if fluid_on:  # next step's apparent mass, at these positions
             _inverse_masses(idx, mass, radius, phi, xi, rho_w, rho_am, inv_m)
         t += dt
