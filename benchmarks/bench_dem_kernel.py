@@ -4,6 +4,7 @@ of a compiled step (issue 16).
     python3 tasks.py bench dem_kernel [--scene bed|pour] [--n 1000] [--calls 2000] [--reps 5] [--old <src>]
     python3 tasks.py bench dem_kernel --phases [--scene bed|pour] [--n 1000] [--calls 300] [--reps 3]
     python3 tasks.py bench dem_kernel --compile [--old <src>]
+    python3 tasks.py bench dem_kernel --steps-ab --old <src> [--scene bed|pour] [--n 1000] [--steps 2000] [--reps 3]
 
 On the settled bed (or the poured pile) of benchmarks/bench_dem.py (n spheres), times
 ``contacts.pair_forces_window`` with the window-averaged law as ``predicted_verlet`` (dashpots at predicted
@@ -18,8 +19,17 @@ give 0.97-1.05 on this loaded machine).
 
 ``--phases``: the cost of each pass of one step of the compiled loop (``dem/steploop.py::verlet_steps``)
 in CPU ns per particle: every kernel is called ``--calls`` times inside one compiled loop (no dispatch
-cost) on its own copy of the arrays it writes, best of ``--reps``; the sum is set against the whole step
-measured with ``sim.step`` (the rest: dispatch, neighbour-list rebuilds, events), and one rebuild is timed.
+cost) on its own copy of the arrays it writes, best of ``--reps``: the separate passes (as the Python step
+runs them) and the compiled loop's fused ``first_pass`` / ``second_pass`` (gravity, damping when a coefficient is not
+0, closing kick); the compiled loop's sum (pair and plane forces, the fused passes, the step statistics) is
+set against the whole step measured with ``sim.step`` (the rest: dispatch, neighbour-list rebuilds,
+events), and one rebuild is timed.
+
+``--steps-ab``: whole steps (``sim.step``) of this tree and --old's from the same start, in fresh processes
+(``PYTHONPATH`` selects the tree, each tree its own numba cache), old and new interleaved, in the three modes
+of ``bench dem``: ``velocity_verlet`` and ``predicted_verlet`` with the window-averaged law and
+``velocity_verlet`` with ``hooke_history``; particle-steps per CPU second, mean ± sd, and the new/old ratio
+of paired runs (as ``benchmarks/bench_dem_ab.py``, which has no ``hooke_history`` mode).
 """
 from __future__ import annotations
 
@@ -133,6 +143,22 @@ def phases(a) -> int:
         ph["gravity"] = (forces._add_gravity, (idx, s.mass, sim.gravity.g, sim.force))
         ph["global damping"] = (forces.add_global_damping, (idx, ve, we, s.c_gn, s.c_gw, 1.0, sim.force, sim.torque))
         ph["kick (2nd)"] = ph["kick"]
+        # the compiled loop's fused passes (steploop.first_pass / second_pass): what it runs instead of the above
+        fp_args = (idx, s.pos, s.vel, s.omega, sim.force, sim.torque, w["fp"], w["tp"], w["v"], w["w"], sim._inv_m,
+                   sim._inv_i, sim.lmask, sim.rmask, h, dt, pred, float(it.extrapolate), sim.geom, sim.periodic,
+                   sim._box, sim._use_box, s.active.copy(), s.awake.copy(), sim._tmp_ids, sim._pos_build)
+        ph["first_pass (fused)"] = (steploop.first_pass, fp_args)
+        if hasattr(steploop, "any_damping"):
+            damp = bool(steploop.any_damping(idx, s.c_gn, s.c_gw))
+            ph["second_pass (fused)"] = (steploop.second_pass,
+                                         (idx, s.active, True, s.mass, sim.gravity.g, ve, we, s.c_gn, s.c_gw, damp,
+                                          sim.force, sim.torque, s.vel, s.omega, sim._inv_m, sim._inv_i, h, sim.lmask,
+                                          sim.rmask))
+        else:
+            ph["second_pass (fused)"] = (steploop.second_pass,
+                                         (idx, s.active, True, s.mass, sim.gravity.g, ve, we, s.c_gn, s.c_gw,
+                                          sim.force, sim.torque, s.vel, s.omega, sim._inv_m, sim._inv_i, h, sim.lmask,
+                                          sim.rmask))
         ph["sleep/step stats"] = (steploop.step_event,
                                   (1, 0.0, 0.0, 0, 0, -1.0, 0, 0, 1, np.zeros(5), False, np.zeros(1, np.int64), idx,
                                    s.vel, s.omega, s.vel_prev, s.omega_prev, s.radius, 0.0, 1, sim._sleep_count,
@@ -154,8 +180,10 @@ def phases(a) -> int:
         print(f"{a.scene}, N = {n}, {integ}, {law}: {sim._pa.size} listed pairs, {sim.n_contacts} contacts")
         for name, ns in best.items():
             print(f"  {name:24s} {ns:7.1f} ns per particle")
-        tot = sum(best.values())
-        print(f"  {'sum of passes':24s} {tot:7.1f}\n  {'whole step (sim.step)':24s} {whole:7.1f}  "
+        fused = ("first_pass (fused)", "second_pass (fused)", "pair forces", "plane forces", "sleep/step stats")
+        tot = sum(v for k, v in best.items() if k in fused)
+        print(f"  {'sum, compiled loop':24s} {tot:7.1f}  (pair, plane, fused first and second pass, stats)\n"
+              f"  {'whole step (sim.step)':24s} {whole:7.1f}  "
               f"(one rebuild: {reb:.0f} ns per particle)")
     return 0
 
@@ -169,7 +197,8 @@ def main(argv) -> int:
     ap.add_argument("--phases", action="store_true", help="cost of each pass of a compiled Verlet step")
     ap.add_argument("--scene", default="bed", choices=("bed", "pour"))
     ap.add_argument("--old", help="src directory of another tree: its pair and plane kernels timed interleaved")
-    ap.add_argument("--steps", type=int, default=300, help="--phases: steps timed for the whole step")
+    ap.add_argument("--steps", type=int, default=300, help="--phases, --steps-ab: steps timed for the whole step")
+    ap.add_argument("--steps-ab", action="store_true", help="whole steps of this tree and --old's, three modes")
     ap.add_argument("--compile", action="store_true",
                     help="CPU seconds to compile the pair kernel on an empty numba cache (and --old's)")
     a = ap.parse_args(argv)
@@ -177,6 +206,8 @@ def main(argv) -> int:
         return phases(a)
     if a.compile:
         return compile_cost(a)
+    if a.steps_ab:
+        return steps_ab(a)
     sys.path.insert(0, str(Path(__file__).resolve().parent))
     import bench_dem
 
@@ -236,6 +267,53 @@ def main(argv) -> int:
             r = [o / n for o, n in zip(times["old " + name], times[name])]
             print(f"old/new {name:18s} best {min(times['old ' + name]) / min(times[name]):.3f}, paired "
                   f"{st.mean(r):.3f} ± {st.stdev(r) if len(r) > 1 else float('nan'):.3f}")
+    return 0
+
+
+_STEPS = """
+import json, sys, time
+import numpy as np
+sys.path.insert(0, {bench!r})
+import bench_dem as b
+d = np.load({f!r})
+sim = b.make_sim(d["pos"], d["vel"], float(d["L"]), {integ!r}, omega=d["om"], law={law!r})
+sim.step(20)
+c = time.process_time(); sim.step({steps}); cpu = time.process_time() - c
+print(json.dumps(sim.state.n * {steps} / cpu))
+"""
+
+
+def steps_ab(a) -> int:
+    """Whole-step A/B of this tree against --old's (module docstring)."""
+    import os
+    import subprocess
+    import tempfile
+
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    import bench_dem
+
+    tmp = Path(tempfile.mkdtemp())
+    sim, L = bench_dem.settled_bed(a.n) if a.scene == "bed" else bench_dem.poured_pile(a.n)
+    np.savez(tmp / "s.npz", pos=sim.state.pos, vel=sim.state.vel, om=sim.state.omega, L=L)
+    trees = {"old": Path(a.old).resolve(), "new": Path(__file__).resolve().parents[1] / "src"}
+    modes = (("velocity_verlet", "window_averaged"), ("predicted_verlet", "window_averaged"),
+             ("velocity_verlet", "hooke_history"))
+    rates = {}
+    for _ in range(a.reps):
+        for integ, law in modes:
+            for tag, src in trees.items():
+                code = _STEPS.format(bench=str(Path(__file__).resolve().parent), f=str(tmp / "s.npz"), integ=integ,
+                                     law=law, steps=a.steps)
+                env = dict(os.environ, PYTHONPATH=str(src), NUMBA_CACHE_DIR=str(tmp / ("c_" + tag)))
+                out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
+                rates.setdefault((integ, law, tag), []).append(float(out.stdout.strip().splitlines()[-1]))
+    sd = lambda v: st.stdev(v) if len(v) > 1 else float("nan")  # noqa: E731
+    print(f"{a.scene}, {sim.state.n} spheres, {a.steps} steps, M particle-steps per CPU s (mean ± sd of {a.reps})")
+    for integ, law in modes:
+        o, n = rates[(integ, law, "old")], rates[(integ, law, "new")]
+        r = [y / x for x, y in zip(o, n)]
+        print(f"  {integ:17s} {law:16s} old {st.mean(o) / 1e6:.2f} ± {sd(o) / 1e6:.2f}  new {st.mean(n) / 1e6:.2f} ± "
+              f"{sd(n) / 1e6:.2f}; new/old {st.mean(r):.3f} ± {sd(r):.3f}")
     return 0
 
 

@@ -146,10 +146,13 @@ def _pair_loop(pa, pb, hist, rhist, touching, pos, vel, omega, vel_h, omega_h, s
         rs = ri + rj
         gap2 = d2 - rs * rs
         if gap2 >= 0.0:  # apart now (most listed pairs): in contact within the window at most
-            # reach_t |dv.d| <= (d^2 - rs^2)/2 <= d (d - rs): no contact in the window either, no sqrt needed
-            vd = reach_t * abs((vel[i, 0] - vel[j, 0]) * dx + (vel[i, 1] - vel[j, 1]) * dy
-                               + (vel[i, 2] - vel[j, 2]) * dz)
-            if vd <= 0.5 * gap2 or (vd + (rs - math.sqrt(d2)) * math.sqrt(d2) <= 0.0):
+            if law == HOOKE_HISTORY:  # point values: apart (reach_t = 0)
+                apart = True
+            else:  # reach_t |dv.d| <= (d^2 - rs^2)/2 <= d (d - rs): no contact in the window either, no sqrt
+                vd = reach_t * abs((vel[i, 0] - vel[j, 0]) * dx + (vel[i, 1] - vel[j, 1]) * dy
+                                   + (vel[i, 2] - vel[j, 2]) * dz)
+                apart = vd <= 0.5 * gap2 or (vd + (rs - math.sqrt(d2)) * math.sqrt(d2) <= 0.0)
+            if apart:
                 hist[p, 0] = 0.0
                 hist[p, 1] = 0.0
                 hist[p, 2] = 0.0
@@ -343,8 +346,8 @@ def _plane_loop(idx, point, normal, wvel, wprops, hist, rhist, pos, vel, omega, 
         dist = ((pos[i, 0] - px) * qx + (pos[i, 1] - py) * qy
                 + (pos[i, 2] - pz) * qz)
         overlap = radius[i] - dist
-        if overlap <= 0.0 and overlap + reach_t * abs((vel[i, 0] - ux) * qx + (vel[i, 1] - uy)
-                                                      * qy + (vel[i, 2] - uz) * qz) <= 0.0:
+        if overlap <= 0.0 and (law == HOOKE_HISTORY or overlap + reach_t * abs(
+                (vel[i, 0] - ux) * qx + (vel[i, 1] - uy) * qy + (vel[i, 2] - uz) * qz) <= 0.0):
             hist[i, 0] = 0.0
             hist[i, 1] = 0.0
             hist[i, 2] = 0.0

@@ -31,7 +31,7 @@ from ..fluid.compiled import apparent_mass, grid_added_masses, grid_fluid_forces
 from .contacts import heightfield_forces, pair_forces_window, plane_forces
 from .forces import _add_gravity, zero_rows
 from .neighbours import displacement_since, rebuild
-from .steploop import BAD, DONE, first_pass, second_pass, step_event
+from .steploop import BAD, DONE, any_damping, first_pass, second_pass, step_event
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -82,6 +82,7 @@ def fluid_verlet_steps(nmax, t, idx, pos, vel, omega, vel_prev, omega_prev, forc
             inv_m[i] = 1.0 / (mass[i] + phi[k])
     h = 0.5 * dt
     done = 0
+    damp = any_damping(idx, c_gn, c_gw)  # else the damping pass is skipped (second_pass)
     moved = displacement_since(idx, pos, pos_build, geom, periodic)
     for _ in range(nmax):
         if moved > half_skin:  # (after the first step: measured in first_pass)
@@ -121,7 +122,7 @@ def fluid_verlet_steps(nmax, t, idx, pos, vel, omega, vel_prev, omega_prev, forc
                     force[i, d] += fm[i, d]
                     torque[i, d] += tm[i, d]
         # gravity (dry scenes: here), global damping and the closing kick in one pass
-        second_pass(kicked, active, not fluid_on, mass, g, ve, we, c_gn, c_gw, force, torque, vel, omega, inv_m,
+        second_pass(kicked, active, not fluid_on, mass, g, ve, we, c_gn, c_gw, damp, force, torque, vel, omega, inv_m,
                     inv_i, h, lmask, rmask)
         if fluid_on:  # next step's apparent mass, at these positions
             _inverse_masses(idx, mass, radius, phi, xi, rho_w, rho_am, inv_m)
