@@ -24,7 +24,8 @@ import numba
 import numpy as np
 
 from .contacts import sleep_update
-from .neighbours import displacement_since, min_image, outside, wrapped
+from .neighbours import displacement_since
+from .periodic import min_image, outside, wrapped
 
 #: why the compiled loop (:func:`.steploop_fluid.fluid_verlet_steps`) returned
 DONE, LEFT, BAD, WAKE, SLEEP, CONVERGED = range(6)
