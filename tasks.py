@@ -2,7 +2,8 @@
 """One-file bootstrap for breachflow: needs only Python >= 3.11 and pip.
 
     python3 tasks.py run  [ARGS...]   # create .venv if needed, install, run `breachflow run ARGS...`
-    python3 tasks.py test [--slow] [PYTEST ARGS...]   # same set-up + the CF/GDAL check tools, then the test suite
+    python3 tasks.py test [--slow] [--serial] [PYTEST ARGS...]   # same set-up + the CF/GDAL check tools, then the
+                                      # test suite on every core (pytest-xdist, up to 4 workers; --serial: one process)
     python3 tasks.py bench [NAME]     # same set-up, then the benchmarks in benchmarks/
     python3 tasks.py shell CMD...     # run CMD inside the environment
 
@@ -16,6 +17,7 @@ import os
 import shutil
 import subprocess
 import sys
+import threading
 import venv
 from pathlib import Path
 
@@ -91,11 +93,46 @@ def ensure_check_tools() -> None:
               file=sys.stderr, flush=True)
 
 
+#: most pytest-xdist workers `tasks.py test` starts (each holds ~0.5 GB and its own loaded numba kernels)
+MAX_TEST_WORKERS = 4
+
+
+def _test_workers() -> int:
+    """The cores this process may use (CI: 2), at most :data:`MAX_TEST_WORKERS`."""
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    return max(1, min(cores, MAX_TEST_WORKERS))
+
+
+def pytest_args(rest: list[str]) -> list[str]:
+    """pytest's arguments for ``tasks.py test [--slow] [--serial] ARGS``: ``-m "not slow"`` unless ``--slow``;
+    the tests spread over the cores by pytest-xdist (``-n N --dist loadfile``: every test of a file in one worker,
+    so a module-scoped fixture — a closure run several tests check — is computed once) unless ``--serial``, one
+    core, or the caller chose ``-n`` / ``-p no:xdist`` itself."""
+    rest = list(rest)
+    markers = ["-m", "not slow"]
+    if "--slow" in rest:
+        rest.remove("--slow")
+        markers = []
+    parallel = []
+    if "--serial" in rest:
+        rest.remove("--serial")
+    elif not any(a in {"-n", "--numprocesses", "no:xdist"} or a.startswith(("-n", "--numprocesses=", "--dist"))
+                 for a in rest) and _test_workers() > 1:
+        parallel = ["-n", str(_test_workers()), "--dist", "loadfile"]
+    return [*markers, *parallel, *rest]
+
+
 def main(argv: list[str]) -> int:
     if not argv or argv[0] in {"-h", "--help"}:
         print(__doc__)
         return 0
     task, rest = argv[0], argv[1:]
+    tools = None
+    if task == "test":
+        # the CF/GDAL tools (apt-get, the cfchecker venv: network and disk) install while this environment is
+        # installed and the numba warm-up compiles (one core): on CI's 2 cores they overlap
+        tools = threading.Thread(target=ensure_check_tools, name="check-tools")
+        tools.start()
     ensure_env()
     env = dict(os.environ)
     # numba's on-disk cache lives next to the sources (cache=True), keyed on their state (_numba_cache_dir)
@@ -103,12 +140,8 @@ def main(argv: list[str]) -> int:
     if task == "run":
         cmd = [str(BIN / "breachflow"), "run", *rest]
     elif task == "test":
-        ensure_check_tools()
-        markers = ["-m", "not slow"]
-        if "--slow" in rest:
-            rest.remove("--slow")
-            markers = []
-        cmd = [str(PY), "-m", "pytest", *markers, *rest]
+        tools.join()
+        cmd = [str(PY), "-m", "pytest", *pytest_args(rest)]
     elif task == "bench":
         cmd = [str(PY), str(ROOT / "benchmarks" / "run.py"), *rest]
     elif task == "shell":
