@@ -18,6 +18,7 @@ import shutil
 import subprocess
 import sys
 import threading
+import time
 import venv
 from pathlib import Path
 
@@ -57,16 +58,20 @@ def ensure_env() -> None:
     if STAMP.exists() and STAMP.read_text().strip() == want:
         return
     print("[tasks] installing breachflow and its dependencies (first run takes a minute)", flush=True)
+    t0 = time.perf_counter()
     subprocess.run(
         [str(PY), "-m", "pip", "install", "--disable-pip-version-check", "-q", "-e", f"{ROOT}[test]"],
         check=True,
     )
+    print(f"[tasks] installed ({time.perf_counter() - t0:.0f} s)", flush=True)
     # compile the numba kernels once now, so that the first run does not spend most of its time compiling
     print("[tasks] compiling the numba kernels into the cache (once per install, about 50 CPU s)", flush=True)
     env = dict(os.environ)
     env.setdefault("NUMBA_CACHE_DIR", _numba_cache_dir())
+    t0 = time.perf_counter()
     if subprocess.run([str(PY), "-m", "breachflow.warmup"], env=env).returncode:
         print("[tasks] warning: the numba warm-up failed; kernels compile on first use", file=sys.stderr, flush=True)
+    print(f"[tasks] warm-up done ({time.perf_counter() - t0:.0f} s)", flush=True)
     STAMP.write_text(want)
 
 
@@ -78,6 +83,7 @@ def ensure_check_tools() -> None:
     """The tools the CF/GIS test runs: gdalinfo and UDUNITS-2 (apt-get, when missing and this is root with
     apt-get, as in CI) and the cfchecker environment (``tools/cf_check.py --setup``). A failure is reported
     and the test then says what is missing (it skips on a developer machine, fails in CI)."""
+    t0 = time.perf_counter()
     missing = [deb for deb, present in CHECK_DEBS.items() if not present()]
     if missing and hasattr(os, "geteuid") and os.geteuid() == 0 and shutil.which("apt-get"):
         print(f"[tasks] installing {' '.join(missing)} (apt-get) for the CF/GDAL check", flush=True)
@@ -91,6 +97,7 @@ def ensure_check_tools() -> None:
     if res.returncode:
         print("[tasks] warning: could not set up the cfchecker environment (tools/cf_check.py --setup)",
               file=sys.stderr, flush=True)
+    print(f"[tasks] CF/GDAL check tools ready ({time.perf_counter() - t0:.0f} s)", flush=True)
 
 
 #: most pytest-xdist workers `tasks.py test` starts (each holds ~0.5 GB and its own loaded numba kernels)
@@ -105,9 +112,10 @@ def _test_workers() -> int:
 
 def pytest_args(rest: list[str]) -> list[str]:
     """pytest's arguments for ``tasks.py test [--slow] [--serial] ARGS``: ``-m "not slow"`` unless ``--slow``;
-    the tests spread over the cores by pytest-xdist (``-n N --dist loadfile``: every test of a file in one worker,
-    so a module-scoped fixture — a closure run several tests check — is computed once) unless ``--serial``, one
-    core, or the caller chose ``-n`` / ``-p no:xdist`` itself."""
+    the tests spread over the cores by pytest-xdist (``-n N --dist loadgroup``: tests/conftest.py keeps the tests
+    of a module that share a module-scoped fixture — a closure run several tests check — in one worker, so it is
+    computed once; the other tests are handed out one by one) unless ``--serial``, one core, or the caller chose
+    ``-n`` / ``-p no:xdist`` itself (``--dist load``: another order)."""
     rest = list(rest)
     markers = ["-m", "not slow"]
     if "--slow" in rest:
@@ -116,9 +124,11 @@ def pytest_args(rest: list[str]) -> list[str]:
     parallel = []
     if "--serial" in rest:
         rest.remove("--serial")
-    elif not any(a in {"-n", "--numprocesses", "no:xdist"} or a.startswith(("-n", "--numprocesses=", "--dist"))
+    elif not any(a in {"-n", "--numprocesses", "no:xdist"} or a.startswith(("-n", "--numprocesses="))
                  for a in rest) and _test_workers() > 1:
-        parallel = ["-n", str(_test_workers()), "--dist", "loadfile"]
+        parallel = ["-n", str(_test_workers())]
+        if not any(a.startswith("--dist") for a in rest):
+            parallel += ["--dist", "loadgroup"]
     return [*markers, *parallel, *rest]
 
 
