@@ -66,6 +66,19 @@ def pytest_configure(config):
             os.environ[k] = v
 
 
+def pytest_sessionfinish(session):
+    """With ``BREACHFLOW_TEST_CPU_LOG=FILE``: append this process's CPU seconds (and those of the subprocesses
+    its tests started) to FILE, one line per xdist worker — how evenly the work was spread."""
+    log = os.environ.get("BREACHFLOW_TEST_CPU_LOG")
+    if log:
+        import resource
+
+        me, kids = (resource.getrusage(w) for w in (resource.RUSAGE_SELF, resource.RUSAGE_CHILDREN))
+        with open(log, "a") as f:
+            f.write(f"{os.environ.get('PYTEST_XDIST_WORKER', 'controller')}: {me.ru_utime + me.ru_stime:.1f} CPU s, "
+                    f"subprocesses {kids.ru_utime + kids.ru_stime:.1f} CPU s\n")
+
+
 @pytest.hookimpl(tryfirst=True)  # before xdist's own hook, which turns the mark into the group
 def pytest_collection_modifyitems(config, items):
     for item in items:
