@@ -112,10 +112,11 @@ def _test_workers() -> int:
 
 def pytest_args(rest: list[str]) -> list[str]:
     """pytest's arguments for ``tasks.py test [--slow] [--serial] ARGS``: ``-m "not slow"`` unless ``--slow``;
-    the tests spread over the cores by pytest-xdist (``-n N --dist loadgroup``: tests/conftest.py keeps the tests
-    of a module that share a module-scoped fixture — a closure run several tests check — in one worker, so it is
-    computed once; the other tests are handed out one by one) unless ``--serial``, one core, or the caller chose
-    ``-n`` / ``-p no:xdist`` itself (``--dist load``: another order)."""
+    the tests spread over the cores by pytest-xdist (``-n N --dist loadfile``: every test of a file in one worker,
+    so a module-scoped fixture — a closure run several tests check — is computed once; ``loadgroup`` would not
+    keep it so: xdist 3.8 marks a group by rewriting ``item._nodeid``, which pytest 9.2's ``nodeid`` ignores)
+    unless ``--serial``, one core, or the caller chose ``-n`` / ``-p no:xdist`` itself (``--dist load``: another
+    order)."""
     rest = list(rest)
     markers = ["-m", "not slow"]
     if "--slow" in rest:
@@ -128,7 +129,7 @@ def pytest_args(rest: list[str]) -> list[str]:
                  for a in rest) and _test_workers() > 1:
         parallel = ["-n", str(_test_workers())]
         if not any(a.startswith("--dist") for a in rest):
-            parallel += ["--dist", "loadgroup"]
+            parallel += ["--dist", "loadfile"]
     return [*markers, *parallel, *rest]
 
 

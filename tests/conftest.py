@@ -1,10 +1,6 @@
 """Suite-wide settings for running the tests in parallel (``python3 tasks.py test`` runs pytest-xdist:
-``-n <cores> --dist loadgroup``).
+``-n <cores> --dist loadfile``, the tests of one file in one worker, so a module-scoped fixture is computed once).
 
-* A test that uses a module-scoped fixture (a closure run, a nested model, a solved scene that several tests of
-  the module check) is put in one xdist group per module, so the whole module runs in one worker and the
-  fixture is computed once, as in a serial run; every other test is handed out on its own, so a long
-  parameter sweep (the energy-bound cases) spreads over the workers.
 * The workers share numba's on-disk cache (``NUMBA_CACHE_DIR``, filled by the install warm-up). numba writes
   each cache file atomically (a unique temporary file, then ``os.replace``), but adding an entry reads the
   function's index, picks the next free data-file number and writes both back without a lock: two processes
@@ -77,14 +73,3 @@ def pytest_sessionfinish(session):
         with open(log, "a") as f:
             f.write(f"{os.environ.get('PYTEST_XDIST_WORKER', 'controller')}: {me.ru_utime + me.ru_stime:.1f} CPU s, "
                     f"subprocesses {kids.ru_utime + kids.ru_stime:.1f} CPU s\n")
-
-
-@pytest.hookimpl(tryfirst=True)  # before xdist's own hook, which turns the mark into the group
-def pytest_collection_modifyitems(config, items):
-    for item in items:
-        info = getattr(item, "_fixtureinfo", None)
-        if info is None or item.get_closest_marker("xdist_group"):
-            continue
-        if any(fd.scope in ("module", "package", "class")
-               for defs in info.name2fixturedefs.values() for fd in defs):
-            item.add_marker(pytest.mark.xdist_group(item.nodeid.split("::")[0]))

@@ -42,20 +42,6 @@ def test_two_processes_saving_into_one_numba_cache_keep_every_entry_with_its_own
     assert [k for k in index if cache.load(k) != k] == []
 
 
-def test_tests_sharing_a_module_fixture_run_in_one_worker(request):
-    """Exactly the tests that use a module- or class-scoped fixture carry their module's xdist group, and under
-    ``--dist loadgroup`` xdist has turned it into the group suffix of the node id (the hook ran first)."""
-    loadgroup = request.config.getoption("dist", "no") == "loadgroup"
-    for item in request.session.items:
-        uses = any(fd.scope in ("module", "package", "class")
-                   for defs in item._fixtureinfo.name2fixturedefs.values() for fd in defs)
-        mark = item.get_closest_marker("xdist_group")
-        module = item.nodeid.split("::")[0]
-        assert (mark is not None and mark.args[0] == module) == uses, item.nodeid
-        if loadgroup:
-            assert item.nodeid.endswith(f"@{module}") == uses, item.nodeid
-
-
 def test_the_cli_console_in_a_worker_is_as_wide_as_in_the_run_that_started_it(request):
     """Piped CLI output wraps at ``$COLUMNS`` or not at all (4096 columns); an xdist worker starts with
     ``COLUMNS=80``, which broke the paths two tests look for (``test_run_safety``, ``test_cli_run``) in a
