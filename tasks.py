@@ -2,7 +2,8 @@
 """One-file bootstrap for breachflow: needs only Python >= 3.11 and pip.
 
     python3 tasks.py run  [ARGS...]   # create .venv if needed, install, run `breachflow run ARGS...`
-    python3 tasks.py test [--slow] [PYTEST ARGS...]   # same set-up + the CF/GDAL check tools, then the test suite
+    python3 tasks.py test [--slow] [--serial] [PYTEST ARGS...]   # same set-up + the CF/GDAL check tools, then the
+                                      # test suite on every core (pytest-xdist, up to 4 workers; --serial: one process)
     python3 tasks.py bench [NAME]     # same set-up, then the benchmarks in benchmarks/
     python3 tasks.py shell CMD...     # run CMD inside the environment
 
@@ -16,6 +17,8 @@ import os
 import shutil
 import subprocess
 import sys
+import threading
+import time
 import venv
 from pathlib import Path
 
@@ -55,16 +58,20 @@ def ensure_env() -> None:
     if STAMP.exists() and STAMP.read_text().strip() == want:
         return
     print("[tasks] installing breachflow and its dependencies (first run takes a minute)", flush=True)
+    t0 = time.perf_counter()
     subprocess.run(
         [str(PY), "-m", "pip", "install", "--disable-pip-version-check", "-q", "-e", f"{ROOT}[test]"],
         check=True,
     )
+    print(f"[tasks] installed ({time.perf_counter() - t0:.0f} s)", flush=True)
     # compile the numba kernels once now, so that the first run does not spend most of its time compiling
     print("[tasks] compiling the numba kernels into the cache (once per install, about 50 CPU s)", flush=True)
     env = dict(os.environ)
     env.setdefault("NUMBA_CACHE_DIR", _numba_cache_dir())
+    t0 = time.perf_counter()
     if subprocess.run([str(PY), "-m", "breachflow.warmup"], env=env).returncode:
         print("[tasks] warning: the numba warm-up failed; kernels compile on first use", file=sys.stderr, flush=True)
+    print(f"[tasks] warm-up done ({time.perf_counter() - t0:.0f} s)", flush=True)
     STAMP.write_text(want)
 
 
@@ -76,6 +83,7 @@ def ensure_check_tools() -> None:
     """The tools the CF/GIS test runs: gdalinfo and UDUNITS-2 (apt-get, when missing and this is root with
     apt-get, as in CI) and the cfchecker environment (``tools/cf_check.py --setup``). A failure is reported
     and the test then says what is missing (it skips on a developer machine, fails in CI)."""
+    t0 = time.perf_counter()
     missing = [deb for deb, present in CHECK_DEBS.items() if not present()]
     if missing and hasattr(os, "geteuid") and os.geteuid() == 0 and shutil.which("apt-get"):
         print(f"[tasks] installing {' '.join(missing)} (apt-get) for the CF/GDAL check", flush=True)
@@ -89,6 +97,40 @@ def ensure_check_tools() -> None:
     if res.returncode:
         print("[tasks] warning: could not set up the cfchecker environment (tools/cf_check.py --setup)",
               file=sys.stderr, flush=True)
+    print(f"[tasks] CF/GDAL check tools ready ({time.perf_counter() - t0:.0f} s)", flush=True)
+
+
+#: most pytest-xdist workers `tasks.py test` starts (each holds ~0.5 GB and its own loaded numba kernels)
+MAX_TEST_WORKERS = 4
+
+
+def _test_workers() -> int:
+    """The cores this process may use (CI: 2), at most :data:`MAX_TEST_WORKERS`."""
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    return max(1, min(cores, MAX_TEST_WORKERS))
+
+
+def pytest_args(rest: list[str]) -> list[str]:
+    """pytest's arguments for ``tasks.py test [--slow] [--serial] ARGS``: ``-m "not slow"`` unless ``--slow``;
+    the tests spread over the cores by pytest-xdist (``-n N --dist loadfile``: every test of a file in one worker,
+    so a module-scoped fixture — a closure run several tests check — is computed once; ``loadgroup`` would not
+    keep it so: xdist 3.8 marks a group by rewriting ``item._nodeid``, which pytest 9.2's ``nodeid`` ignores)
+    unless ``--serial``, one core, or the caller chose ``-n`` / ``-p no:xdist`` itself (``--dist load``: another
+    order)."""
+    rest = list(rest)
+    markers = ["-m", "not slow"]
+    if "--slow" in rest:
+        rest.remove("--slow")
+        markers = []
+    parallel = []
+    if "--serial" in rest:
+        rest.remove("--serial")
+    elif not any(a in {"-n", "--numprocesses", "no:xdist"} or a.startswith(("-n", "--numprocesses="))
+                 for a in rest) and _test_workers() > 1:
+        parallel = ["-n", str(_test_workers())]
+        if not any(a.startswith("--dist") for a in rest):
+            parallel += ["--dist", "loadfile"]
+    return [*markers, *parallel, *rest]
 
 
 def main(argv: list[str]) -> int:
@@ -96,6 +138,12 @@ def main(argv: list[str]) -> int:
         print(__doc__)
         return 0
     task, rest = argv[0], argv[1:]
+    tools = None
+    if task == "test":
+        # the CF/GDAL tools (apt-get, the cfchecker venv: network and disk) install while this environment is
+        # installed and the numba warm-up compiles (one core): on CI's 2 cores they overlap
+        tools = threading.Thread(target=ensure_check_tools, name="check-tools")
+        tools.start()
     ensure_env()
     env = dict(os.environ)
     # numba's on-disk cache lives next to the sources (cache=True), keyed on their state (_numba_cache_dir)
@@ -103,12 +151,8 @@ def main(argv: list[str]) -> int:
     if task == "run":
         cmd = [str(BIN / "breachflow"), "run", *rest]
     elif task == "test":
-        ensure_check_tools()
-        markers = ["-m", "not slow"]
-        if "--slow" in rest:
-            rest.remove("--slow")
-            markers = []
-        cmd = [str(PY), "-m", "pytest", *markers, *rest]
+        tools.join()
+        cmd = [str(PY), "-m", "pytest", *pytest_args(rest)]
     elif task == "bench":
         cmd = [str(PY), str(ROOT / "benchmarks" / "run.py"), *rest]
     elif task == "shell":

@@ -1,5 +1,6 @@
 """`breachflow run` (the README's main command) on the embedded default scenario, and `combine`."""
 import numpy as np
+import pytest
 import xarray as xr
 from typer.testing import CliRunner
 
@@ -9,9 +10,17 @@ from breachflow.output import RunDirectory
 runner = CliRunner()
 
 
-def test_default_run_closes_the_breach_and_combines(tmp_path):
-    out = tmp_path / "run"
-    res = runner.invoke(app, ["run", "--out", str(out)], terminal_width=200)
+@pytest.fixture(scope="module")
+def default_run(tmp_path_factory):
+    """``breachflow run --out D`` on the embedded default scenario, once for the tests of this module (the
+    default run is the most expensive thing here): ``(D, CliRunner result)``. Wide enough (400 columns) that
+    a progress line is not wrapped."""
+    out = tmp_path_factory.mktemp("default_run") / "run"
+    return out, runner.invoke(app, ["run", "--out", str(out)], terminal_width=400)
+
+
+def test_default_run_closes_the_breach_and_combines(default_run, tmp_path):
+    out, res = default_run
     assert res.exit_code == 0, res.output
     assert "closure summary" in res.output and "closure achieved" in res.output
     rd = RunDirectory(out)
@@ -100,15 +109,13 @@ def _hand_seepage(rd, man, half=6.0):
     return tuple(2 * half * q_of(L) for L in (length(0.0), length(h1)))
 
 
-def test_progress_lines_show_the_criteria(tmp_path):
-    res = runner.invoke(app, ["run", "--out", str(tmp_path / "r")], terminal_width=400)
+def test_progress_lines_show_the_criteria(default_run):
+    _, res = default_run
     assert res.exit_code == 0, res.output
     assert "[overflow_discharge " in res.output and "seepage_fraction " in res.output
 
 
 # --------------------------------------------------------------------------- issue 15: never lose a user's run
-import pytest  # noqa: E402
-
 from breachflow.cli.run import check_run_target  # noqa: E402
 from breachflow.cycle.main import default_scenario_text, run_closure  # noqa: E402
 from breachflow.errors import InputError, ParseError  # noqa: E402
