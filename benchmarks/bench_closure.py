@@ -171,7 +171,9 @@ def report(rows) -> None:
               f"tonnage placed {r['tonnage']:.0f} t")
     if len(rows) > 1:
         a, b = rows[0], rows[-1]
-        if a["q0"] and b["q0"]:
+        # the resolutions' difference: only between runs that differ in nothing else (tolerance, seed)
+        if a["q0"] and b["q0"] and a["label"] != b["label"] and (a.get("tolerance"), a.get("seed")) == (
+                b.get("tolerance"), b.get("seed")):
             same = bool(a["closed"]) == bool(b["closed"])
             tons = (f"tonnage {100 * (a['tonnage'] - b['tonnage']) / max(b['tonnage'], 1e-9):+.1f} %" if same else
                     "tonnage not comparable (the outcomes differ: "
@@ -210,7 +212,7 @@ def _span(vals, fmt="{:.0f}") -> str:
 def sweep_table(rows) -> None:
     """Per resolution and tolerance, over the seeds: outcomes, cycles, masses, tonnage, lost, CPU time."""
     print("\ntolerance x seed sweep (mean (min-max) over the seeds; each run one closure):")
-    hdr = ("cells", "tolerance", "seeds", "outcomes", "cycles", "tonnage t", "lost", "final Q m3/s",
+    hdr = ("cells", "tolerance", "seeds", "outcomes", "cycles", "tonnage t", "lost", "open Q m3/s", "final Q m3/s",
            "CPU s", "solve CPU s/cycle")
     print("  " + " | ".join(hdr))
     groups: dict = {}
@@ -220,6 +222,7 @@ def sweep_table(rows) -> None:
         outs = ", ".join(f"{_outcome(r)} [{r['seed']}]" for r in g)
         print("  " + " | ".join((label, tol, str(len(g)), outs, _span([r["cycles"] for r in g], "{:.1f}"),
                                  _span([r["tonnage"] for r in g]), _span([r["lost"] for r in g], "{:.1f}"),
+                                 _span([r["q0"] or float("nan") for r in g]),
                                  _span([r["q"][-1] if r["q"] else float("nan") for r in g], "{:.1f}"),
                                  _span([r["cpu"] for r in g]), _span([_mean(r["cpu_solve"]) for r in g], "{:.2f}"))))
     print("\nper run: breach discharge (m3/s) after each cycle, seepage after the last")
