@@ -22,8 +22,8 @@ peak speed is ~6.1 m/s) and the tonnage each resolution needs.
 ``--tolerances`` and ``--seeds`` sweep the steady-state tolerance of the SWE solves (``[hydro] tolerance``,
 1/s) and the placement seed (``[closure] seed``: the ``line`` strategy's jitter of the drop points): every
 resolution runs at every tolerance for every seed, and a table per resolution and tolerance gives the
-verdicts, cycles, masses, tonnage and losses over the seeds (mean, min-max) next to the seed-to-seed spread
-at the tightest tolerance, so that the tolerance's effect on the closure answer is read against the
+verdicts, cycles, tonnage in place (placed minus carried away), losses and the open breach's discharge
+over the seeds (mean, min-max), so that the tolerance's effect on the closure answer is read against the
 spread one placement seed makes. ``--json`` writes every run's figures to a file.
 
 ``--no-dem`` skips the DEM measurement: cycle 1 of the embedded default scenario (1 m cells, 5 masses)
@@ -139,7 +139,7 @@ def _mean(a):
 
 def report(rows) -> None:
     print("\ntypical breach (examples/typical_breach.toml), one run per resolution, this machine now:")
-    hdr = ("cells", "tolerance", "seed", "wall s", "CPU s", "max RSS MB", "cycles", "masses", "tonnage t", "lost",
+    hdr = ("cells", "tolerance", "seed", "wall s", "CPU s", "max RSS MB", "cycles", "masses", "in place t", "lost",
            "outcome")
     print("  " + " | ".join(f"{h:>10}" for h in hdr))
     for r in rows:
@@ -168,7 +168,7 @@ def report(rows) -> None:
     for r in rows:
         print(f"  {r['label']}: peak speed {r['vmax0'] or float('nan'):.2f} m/s, gap speed "
               f"{r['gap0'] or float('nan'):.2f} m/s, breach discharge {r['q0'] or float('nan'):.0f} m3/s, "
-              f"tonnage placed {r['tonnage']:.0f} t")
+              f"tonnage in place {r['tonnage']:.0f} t (placed {r['tonnage'] + r['lost_t']:.0f} t)")
     if len(rows) > 1:
         a, b = rows[0], rows[-1]
         # the resolutions' difference: only between runs that differ in nothing else (tolerance, seed)
@@ -212,7 +212,7 @@ def _span(vals, fmt="{:.0f}") -> str:
 def sweep_table(rows) -> None:
     """Per resolution and tolerance, over the seeds: outcomes, cycles, masses, tonnage, lost, CPU time."""
     print("\ntolerance x seed sweep (mean (min-max) over the seeds; each run one closure):")
-    hdr = ("cells", "tolerance", "seeds", "outcomes", "cycles", "tonnage t", "lost", "open Q m3/s", "final Q m3/s",
+    hdr = ("cells", "tolerance", "seeds", "outcomes", "cycles", "in place t", "lost", "open Q m3/s", "final Q m3/s",
            "CPU s", "solve CPU s/cycle")
     print("  " + " | ".join(hdr))
     groups: dict = {}
