@@ -1,7 +1,7 @@
 """The report's typical breach closed end to end, timed against the issue-16 targets.
 
     python3 tasks.py bench closure [--resolutions 4,2] [--scenario examples/typical_breach.toml] [--no-dem]
-                                   [--threads N]
+                                   [--threads N] [--tolerances 2e-3,5e-4,2e-4] [--seeds 1,2,3] [--json FILE]
 
 Each item of ``--resolutions`` is ``RES[/window|/full][+FINE]``: the cell size (m), optionally the warm
 re-solve (``[hydro] resolve``, default the scenario's) and a nested fine grid of FINE m around the breach
@@ -18,6 +18,13 @@ the measured CPU time of one member (27 x CPU / 2 — a projection, not a measur
 Error figures that go with the speed figures: the open breach's peak gap speed and breach discharge at
 each resolution (their change from 4 m to 2 m is the discretisation error of the answer; the report's ADH
 peak speed is ~6.1 m/s) and the tonnage each resolution needs.
+
+``--tolerances`` and ``--seeds`` sweep the steady-state tolerance of the SWE solves (``[hydro] tolerance``,
+1/s) and the placement seed (``[closure] seed``: the ``line`` strategy's jitter of the drop points): every
+resolution runs at every tolerance for every seed, and a table per resolution and tolerance gives the
+verdicts, cycles, tonnage in place (placed minus carried away), losses and the open breach's discharge
+over the seeds (mean, min-max), so that the tolerance's effect on the closure answer is read against the
+spread one placement seed makes. ``--json`` writes every run's figures to a file.
 
 ``--no-dem`` skips the DEM measurement: cycle 1 of the embedded default scenario (1 m cells, 5 masses)
 stepped three ways in the same process: the fluid forces term by term (``FluidForces(compiled=False)``, the
@@ -68,19 +75,38 @@ def parse_item(item: str):
     return res, resolve, fine, label
 
 
-def one_resolution(scenario: Path, item: str, work: Path, threads: int | None = None) -> dict:
+def override(text: str, section: str, key: str, value: str, where: str) -> str:
+    """*text* with ``[section] key = value`` (replaced, or added at the section's head)."""
+    from breachflow.scenario.toml import scenario_with
+
+    try:
+        return scenario_with(text, {f"{section}.{key}": value})
+    except Exception as exc:  # noqa: BLE001 - a benchmark's input error, named
+        raise SystemExit(f"{where}: cannot set [{section}] {key} = {value!r}: {exc}") from exc
+
+
+def one_resolution(scenario: Path, item: str, work: Path, threads: int | None = None,
+                   tolerance: str | None = None, seed: int | None = None) -> dict:
     res_m, resolve, fine, label = parse_item(item)
     text = scenario.read_text(encoding="utf-8")
     text, n = re.subn(r'resolution = "[^"]*"', f'resolution = "{res_m:g} m"', text)
     if n != 1:
         raise SystemExit(f"{scenario}: no single [hydro] resolution to override")
+    if tolerance is not None:
+        text = override(text, "hydro", "tolerance", f"{float(tolerance):g} 1/s", str(scenario))
+    if seed is not None:
+        text = override(text, "closure", "seed", int(seed), str(scenario))
+    tol_m = re.search(r'^tolerance = "([^"]*)"', text, flags=re.M)
+    seed_m = re.search(r'^seed = ([0-9]+)', text, flags=re.M)
+    tol_s = tol_m[1] if tol_m else "default"
+    seed_v = int(seed_m[1]) if seed_m else None
     text = re.sub(r'^(resolve|refine) = .*\n', "", text, flags=re.M)
     if threads:
         text = re.sub(r'^threads = .*\n', "", text, flags=re.M)
     extra = ((f'resolve = "{resolve}"\n' if resolve else "") + (f'refine = "{fine:g} m"\n' if fine else "")
              + (f"threads = {threads}\n" if threads else ""))
     text = text.replace("[hydro]\n", "[hydro]\n" + extra, 1)
-    tag = re.sub(r"[^0-9a-z]+", "_", label)
+    tag = re.sub(r"[^0-9a-z]+", "_", f"{label} {tol_s} s{seed_v}")
     sc = work / f"typical_{tag}.toml"
     sc.write_text(text, encoding="utf-8")
     out, rfile = work / f"run_{tag}", work / f"res_{tag}.json"
@@ -94,7 +120,9 @@ def one_resolution(scenario: Path, item: str, work: Path, threads: int | None = 
     init = man.get("metadata", {}).get("initial") or man.get("initial") or {}
     if threads:
         label += f" ({threads} threads)"
-    r.update(res=res_m, fine=fine or res_m, label=label, cycles=len(cyc),
+    r.update(res=res_m, fine=fine or res_m, label=label, cycles=len(cyc), tolerance=tol_s, seed=seed_v,
+             q=[c.get("breach_discharge", float("nan")) for c in cyc],
+             seepage=[c.get("seepage_discharge", float("nan")) for c in cyc],
              windows=[c.get("hydro", "") for c in cyc], masses=last.get("masses", 0), tonnage=last.get("tonnage", 0.0),
              lost=last.get("left_domain", 0), lost_t=last.get("lost_tonnage", 0.0),
              solve=[c.get("time_solve", float("nan")) for c in cyc], dem=[c.get("time_dem", float("nan")) for c in cyc],
@@ -111,11 +139,13 @@ def _mean(a):
 
 def report(rows) -> None:
     print("\ntypical breach (examples/typical_breach.toml), one run per resolution, this machine now:")
-    hdr = ("cells", "wall s", "CPU s", "max RSS MB", "cycles", "masses", "tonnage t", "lost", "outcome")
+    hdr = ("cells", "tolerance", "seed", "wall s", "CPU s", "max RSS MB", "cycles", "masses", "in place t", "lost",
+           "outcome")
     print("  " + " | ".join(f"{h:>10}" for h in hdr))
     for r in rows:
         outcome = "closed (" + r["governing"] + ")" if r["closed"] else (r["verdict"] or "not closed")
-        print("  " + " | ".join(f"{v:>10}" for v in (r["label"], f"{r['wall_total']:.0f}", f"{r['cpu']:.0f}",
+        print("  " + " | ".join(f"{v:>10}" for v in (r["label"], r.get("tolerance", ""), str(r.get("seed", "")),
+                                                      f"{r['wall_total']:.0f}", f"{r['cpu']:.0f}",
                                                       f"{r['maxrss_mb']:.0f}", r["cycles"], r["masses"],
                                                       f"{r['tonnage']:.0f}", f"{r['lost']} ({r['lost_t']:.0f} t)"))
               + f" | {outcome}")
@@ -138,10 +168,12 @@ def report(rows) -> None:
     for r in rows:
         print(f"  {r['label']}: peak speed {r['vmax0'] or float('nan'):.2f} m/s, gap speed "
               f"{r['gap0'] or float('nan'):.2f} m/s, breach discharge {r['q0'] or float('nan'):.0f} m3/s, "
-              f"tonnage placed {r['tonnage']:.0f} t")
+              f"tonnage in place {r['tonnage']:.0f} t (placed {r['tonnage'] + r['lost_t']:.0f} t)")
     if len(rows) > 1:
         a, b = rows[0], rows[-1]
-        if a["q0"] and b["q0"]:
+        # the resolutions' difference: only between runs that differ in nothing else (tolerance, seed)
+        if a["q0"] and b["q0"] and a["label"] != b["label"] and (a.get("tolerance"), a.get("seed")) == (
+                b.get("tolerance"), b.get("seed")):
             same = bool(a["closed"]) == bool(b["closed"])
             tons = (f"tonnage {100 * (a['tonnage'] - b['tonnage']) / max(b['tonnage'], 1e-9):+.1f} %" if same else
                     "tonnage not comparable (the outcomes differ: "
@@ -162,6 +194,42 @@ def report(rows) -> None:
               f"{MEMBERS} x {r['cpu']:.0f} CPU s / {CORES} cores = {proj / 3600:.1f} h — {ok} (projection from "
               f"one run, {how} after {r['cycles']} cycles; `breachflow ensemble "
               f"examples/ensembles/typical_feasibility.toml` measures it)")
+
+
+def _outcome(r) -> str:
+    return "closed" if r["closed"] else ("not closable" if r["verdict"] else "not closed")
+
+
+def _span(vals, fmt="{:.0f}") -> str:
+    vals = [v for v in vals if v == v]
+    if not vals:
+        return "-"
+    if len(vals) == 1:
+        return fmt.format(vals[0])
+    return f"{fmt.format(_mean(vals))} ({fmt.format(min(vals))}-{fmt.format(max(vals))})"
+
+
+def sweep_table(rows) -> None:
+    """Per resolution and tolerance, over the seeds: outcomes, cycles, masses, tonnage, lost, CPU time."""
+    print("\ntolerance x seed sweep (mean (min-max) over the seeds; each run one closure):")
+    hdr = ("cells", "tolerance", "seeds", "outcomes", "cycles", "in place t", "lost", "open Q m3/s", "final Q m3/s",
+           "CPU s", "solve CPU s/cycle")
+    print("  " + " | ".join(hdr))
+    groups: dict = {}
+    for r in rows:
+        groups.setdefault((r["label"], r["tolerance"]), []).append(r)
+    for (label, tol), g in groups.items():
+        outs = ", ".join(f"{_outcome(r)} [{r['seed']}]" for r in g)
+        print("  " + " | ".join((label, tol, str(len(g)), outs, _span([r["cycles"] for r in g], "{:.1f}"),
+                                 _span([r["tonnage"] for r in g]), _span([r["lost"] for r in g], "{:.1f}"),
+                                 _span([r["q0"] or float("nan") for r in g]),
+                                 _span([r["q"][-1] if r["q"] else float("nan") for r in g], "{:.1f}"),
+                                 _span([r["cpu"] for r in g]), _span([_mean(r["cpu_solve"]) for r in g], "{:.2f}"))))
+    print("\nper run: breach discharge (m3/s) after each cycle, seepage after the last")
+    for r in rows:
+        qs = " ".join(f"{q:.0f}" for q in r["q"])
+        print(f"  {r['label']} tol {r['tolerance']} seed {r['seed']}: {_outcome(r)}, Q {qs}; seepage "
+              f"{(r['seepage'] or [float('nan')])[-1]:.0f}")
 
 
 def dem_ratio(n_steps: int = 1500) -> None:
@@ -231,17 +299,32 @@ def main(argv) -> int:
     ap.add_argument("--no-dem", action="store_true")
     ap.add_argument("--threads", type=int, default=None,
                     help="[hydro] threads of the re-solves (numba threads; default the scenario's)")
+    ap.add_argument("--tolerances", default="",
+                    help="comma-separated [hydro] tolerance values in 1/s (default: the scenario's)")
+    ap.add_argument("--seeds", default="", help="comma-separated [closure] seed values (default: the scenario's)")
+    ap.add_argument("--json", default=None, help="write every run's figures to this JSON file")
     a = ap.parse_args(argv)
+    tols = [t.strip() for t in a.tolerances.split(",") if t.strip()] or [None]
+    seeds = [int(x) for x in a.seeds.split(",") if x.strip()] or [None]
+    for t in tols:
+        if t is not None and not (float(t) > 0.0):
+            raise SystemExit(f"--tolerances: {t!r} is not a positive number (1/s)")
     if not a.no_dem:
         dem_ratio()
     rows = []
     with tempfile.TemporaryDirectory(prefix="bench-closure-") as tmp:
         for item in [r for r in a.resolutions.split(",") if r.strip()]:
-            rows.append(one_resolution(Path(a.scenario), item, Path(tmp), a.threads))
-            report(rows[-1:])
+            for tol in tols:
+                for seed in seeds:
+                    rows.append(one_resolution(Path(a.scenario), item, Path(tmp), a.threads, tol, seed))
+                    report(rows[-1:])
+                    if a.json:  # after every run: a long sweep keeps what it measured
+                        Path(a.json).write_text(json.dumps(rows, indent=1, default=str))
     if len(rows) > 1:
-        print("\n=== all resolutions ===")
+        print("\n=== all runs ===")
         report(rows)
+    if len(tols) > 1 or len(seeds) > 1:
+        sweep_table(rows)
     return 0
 
 

@@ -13,7 +13,8 @@ from breachflow.scenario.config import parse_scenario
 from breachflow.scenario.reference import MARKDOWN_PATH, SCHEMA_PATH, render
 
 ROOT = Path(__file__).resolve().parents[2]
-SHIPPED = sorted((ROOT / "src" / "breachflow" / "data").glob("*.toml"))
+# the embedded scenarios and the shipped example scenario of the report's typical breach (README)
+SHIPPED = sorted((ROOT / "src" / "breachflow" / "data").glob("*.toml")) + [ROOT / "examples" / "typical_breach.toml"]
 
 
 @pytest.fixture(scope="module")
