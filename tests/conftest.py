@@ -5,8 +5,8 @@
   each cache file atomically (a unique temporary file, then ``os.replace``), but adding an entry reads the
   function's index, picks the next free data-file number and writes both back without a lock: two processes
   that compile *different* signatures of one function at the same moment can both pick number ``n``, and the
-  index left behind may then point one signature at the other's machine code. Saving is serialised here with
-  an exclusive ``flock`` on a lock file beside the index, in every worker.
+  index left behind may then point one signature at the other's machine code. Saving is serialised in every
+  worker (:func:`breachflow.numba_cache.serialise_cache_saves`, as the ensemble's workers do).
 * An xdist worker starts with ``COLUMNS=80`` and ``LINES=24`` in its environment even when the run has none;
   the CLI's console wraps piped output at ``$COLUMNS`` (``breachflow.cli._common``), so paths and messages
   the tests look for were broken over lines in a worker only. Each worker gets the run's own values back.
@@ -16,32 +16,10 @@ import os
 import pytest
 
 
-def _lock_numba_cache_saves() -> None:
-    try:
-        import fcntl
-
-        from numba.core.caching import IndexDataCacheFile
-    except ImportError:  # not POSIX, or a numba without this class: nothing to serialise
-        return
-    save = IndexDataCacheFile.save
-    if getattr(save, "_breachflow_locked", False):
-        return
-
-    def locked_save(self, key, data):
-        os.makedirs(os.path.dirname(self._index_path), exist_ok=True)
-        with open(self._index_path + ".lock", "a") as lock:
-            fcntl.flock(lock, fcntl.LOCK_EX)
-            try:
-                save(self, key, data)
-            finally:
-                fcntl.flock(lock, fcntl.LOCK_UN)
-
-    locked_save._breachflow_locked = True
-    IndexDataCacheFile.save = locked_save
-
-
 if os.environ.get("PYTEST_XDIST_WORKER"):
-    _lock_numba_cache_saves()
+    from breachflow.numba_cache import serialise_cache_saves
+
+    serialise_cache_saves()
 
 
 #: environment variables a worker takes from the run that started it (None: unset)

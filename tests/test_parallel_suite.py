@@ -4,19 +4,15 @@ import os
 import subprocess
 import sys
 import time
-from pathlib import Path
 
-CONFTEST = Path(__file__).resolve().parent / "conftest.py"
 
 #: one process adding N entries to a function's numba cache index, as a worker compiling N signatures
 SAVER = """
-import importlib.util, sys, time
+import sys, time
 from numba.core.caching import IndexDataCacheFile
-path, tag, n, start, conftest = sys.argv[1], sys.argv[2], int(sys.argv[3]), float(sys.argv[4]), sys.argv[5]
-spec = importlib.util.spec_from_file_location("suite_conftest", conftest)
-mod = importlib.util.module_from_spec(spec)
-spec.loader.exec_module(mod)
-mod._lock_numba_cache_saves()
+from breachflow.numba_cache import serialise_cache_saves
+path, tag, n, start = sys.argv[1], sys.argv[2], int(sys.argv[3]), float(sys.argv[4])
+assert serialise_cache_saves()
 cache = IndexDataCacheFile(path, "kernel-1.py311", "stamp")
 while time.time() < start:  # both processes start saving at the same moment
     pass
@@ -27,13 +23,14 @@ for i in range(n):
 
 def test_two_processes_saving_into_one_numba_cache_keep_every_entry_with_its_own_code(tmp_path):
     """Two processes add 300 entries each to one function's cache at the same time (as two xdist workers
-    compiling different signatures of one kernel). With the saves serialised (tests/conftest.py) every entry is
+    compiling different signatures of one kernel, or two ensemble workers). With the saves serialised
+    (:func:`breachflow.numba_cache.serialise_cache_saves`) every entry is
     kept and each points at its own data. numba's own save, the same two processes on this machine: 568 of
     600 entries kept, 13 of them pointing at the other process's data."""
     from numba.core.caching import IndexDataCacheFile
 
     n, start = 300, time.time() + 2.0
-    procs = [subprocess.Popen([sys.executable, "-c", SAVER, str(tmp_path), tag, str(n), str(start), str(CONFTEST)])
+    procs = [subprocess.Popen([sys.executable, "-c", SAVER, str(tmp_path), tag, str(n), str(start)])
              for tag in ("a", "b")]
     assert [p.wait(120) for p in procs] == [0, 0]
     cache = IndexDataCacheFile(str(tmp_path), "kernel-1.py311", "stamp")
@@ -53,3 +50,32 @@ def test_the_cli_console_in_a_worker_is_as_wide_as_in_the_run_that_started_it(re
         run_env = {"COLUMNS": os.environ.get("COLUMNS")}
     cols = run_env["COLUMNS"]
     assert _width(io.StringIO()) == (int(cols) if cols and cols.isdigit() and int(cols) > 0 else PIPE_WIDTH)
+
+
+def test_ensemble_workers_serialise_their_numba_cache_saves(monkeypatch, tmp_path):
+    """An ensemble's dask workers compile into the one cache at the same time (numba issue #4807): the
+    function each worker runs before any member (``execute._warm_up``) and each member itself
+    (``execute.execute_member``, here one whose scenario cannot be written: a recorded failure) serialise the
+    saves of their process."""
+    from types import SimpleNamespace
+
+    from numba.core.caching import IndexDataCacheFile
+
+    from breachflow.ensemble import execute
+
+    def plain_save(self, key, data):  # numba's own, unlocked
+        raise AssertionError("not called here")
+
+    def unwritable(*args, **kwargs):
+        raise OSError("no scenario here")
+
+    locked = lambda: getattr(IndexDataCacheFile.save, "_breachflow_locked", False)  # noqa: E731
+    monkeypatch.setattr(IndexDataCacheFile, "save", plain_save)
+    execute._warm_up(())
+    assert locked()
+    monkeypatch.setattr(IndexDataCacheFile, "save", plain_save)
+    scenario = SimpleNamespace(key="m0", number=0, values={}, values_si={}, paths=[], write=unwritable)
+    task = SimpleNamespace(run_dir=str(tmp_path / "m0"), scenario=scenario, index=(0,), seed=0, runner_name="x",
+                           options={}, fingerprint="", command="test", runner_cls=object)
+    record = execute.execute_member(task)
+    assert record["status"] == "failed" and locked()

@@ -54,8 +54,10 @@ def execute_member(task: MemberTask) -> dict:
     """Run one member in its directory and write ``result.json`` atomically; never raises for member
     errors (they are recorded with their type and message). The member's files record the ensemble's
     command (``task.command``), not the worker process's command line."""
+    from ..numba_cache import serialise_cache_saves
     from ..output.provenance import using_command
 
+    serialise_cache_saves()  # workers compiling into one cache at once (breachflow.numba_cache)
     run_dir = Path(task.run_dir)
     run_dir.mkdir(parents=True, exist_ok=True)
     (run_dir / RESULT_FILE).unlink(missing_ok=True)
@@ -100,6 +102,9 @@ def _worker_name() -> str:
 def _warm_up(modules: tuple[str, ...]) -> int:
     import importlib
 
+    from ..numba_cache import serialise_cache_saves
+
+    serialise_cache_saves()
     for m in modules:
         importlib.import_module(m)
     return os.getpid()
