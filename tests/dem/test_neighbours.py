@@ -374,3 +374,24 @@ def test_dense_bins_pairs_equal_brute_force_at_unfavourable_layouts(case, period
         d = pos[sim._pb] - pos[sim._pa]
         assert (np.abs(d[:, 0]) > L / 2).any() and (np.abs(d[:, 1]) > L / 2).any()
         assert ((np.abs(d[:, 0]) > L / 2) & (np.abs(d[:, 1]) > L / 2)).any()
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+@pytest.mark.parametrize("periodic", [False, True])
+@pytest.mark.parametrize("spare", [-3, -1, 0, 1])
+def test_dense_search_fills_buffers_of_any_capacity_with_the_right_pairs(spare, periodic, seed):
+    """The dense search writes every candidate after the last kept pair (branch-free) and only counts the
+    pairs beyond its buffers' capacity. With buffers of exactly the pair count (spare 0), a candidate met
+    after the last pair could overwrite it: the stored pairs must still be brute force's (the callers take a
+    count equal to the capacity as complete); one slot more, or too few (counted, caller retries)."""
+    pos, radius, skin, L = _scene("crowded, mixed sizes", seed, periodic)
+    kw = dict(periodic_x=(0.0, L), periodic_y=(0.0, L)) if periodic else {}
+    sim = DemSimulation(ParticleState.spheres(pos, radius), gravity=(0, 0, 0), skin=skin, sleeping=False, **kw)
+    want = sorted(brute_pairs(pos, radius, skin, (L, L) if periodic else (None, None)))
+    cap = len(want) + spare
+    a, b = np.empty(cap, np.int64), np.empty(cap, np.int64)
+    n = neighbours._find_pairs_dense(sim.idx, sim.state.pos, sim.state.radius, 0.5 * skin, sim.geom, sim.periodic,
+                                     sim.ncell, a, b)
+    assert n == len(want)
+    if n <= cap:
+        assert sorted(zip(a[:n].tolist(), b[:n].tolist())) == want

@@ -153,10 +153,28 @@ def search_bins(dim, start, bid, bp, out_a, out_b):
     the later entries of its own cell and the 13 forward cells (x + 1; the row y + 1 at z; the three rows
     at z + 1), read as 5 contiguous runs of entries (cells x - 1, x, x + 1 of a row are consecutive), so
     each pair is met once (through a ghost copy across a periodic seam). Returns the pair count (pairs
-    beyond the capacity of *out_a* are counted, not stored). The pair order is the scan's (callers sort)."""
-    if out_a.shape[0] == 0:  # no capacity: count only (the pairs are written to a scratch slot)
-        out_a = np.empty(1, np.int64)
-        out_b = np.empty(1, np.int64)
+    beyond the capacity of *out_a* are counted, not stored). The pair order is the scan's (callers sort).
+
+    Every candidate is written to the slot after the last kept pair (:func:`_near_in`), the last slot once
+    the buffers are full: when the count equals the capacity exactly, a candidate met after the last pair
+    may have overwritten it, so the scan is repeated with one spare slot (rare; tests/dem/test_neighbours.py)."""
+    cap = out_a.shape[0]
+    if cap == 0:  # no capacity: count only (the pairs are written to a scratch slot)
+        return _scan_bins(dim, start, bid, bp, np.empty(1, np.int64), np.empty(1, np.int64))
+    n = _scan_bins(dim, start, bid, bp, out_a, out_b)
+    if n == cap:
+        a = np.empty(cap + 1, np.int64)
+        b = np.empty(cap + 1, np.int64)
+        _scan_bins(dim, start, bid, bp, a, b)
+        out_a[:] = a[:cap]
+        out_b[:] = b[:cap]
+    return n
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _scan_bins(dim, start, bid, bp, out_a, out_b):
+    """The scan of :func:`search_bins` into buffers of at least one slot (the last one is the scratch slot
+    once they are full)."""
     nx = dim[0]
     ny = dim[1]
     DX = nx + 2
