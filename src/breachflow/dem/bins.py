@@ -155,7 +155,7 @@ def search_bins(dim, start, bid, bp, out_a, out_b):
     each pair is met once (through a ghost copy across a periodic seam). Returns the pair count (pairs
     beyond the capacity of *out_a* are counted, not stored). The pair order is the scan's (callers sort).
 
-    Every candidate is written to the slot after the last kept pair (:func:`_near_in`), the last slot once
+    Every candidate is written to the slot after the last kept pair (``_near_in``), the last slot once
     the buffers are full: when the count equals the capacity exactly, a candidate met after the last pair
     may have overwritten it, so the scan is repeated with one spare slot (rare; tests/dem/test_neighbours.py)."""
     cap = out_a.shape[0]
