@@ -7,45 +7,37 @@
 >>> result.converged
 True
 
-Neighbour list: pairs closer than ``skin`` are listed (hashed cell grid, :mod:`.contacts`) and
-reused until some awake particle has moved more than ``skin/2`` or particles fell asleep / woke /
-were inserted. Each pair keeps its shear history across steps and across rebuilds; when both
-partners sleep the history is parked in a sorted "frozen" store and restored when one wakes.
+The driver holds the set-up, the force assembly the integrators call and the stepping; by concept, its
+other parts are mixins in their own modules:
 
-Sleeping: an awake particle whose speed and ``r |w|`` stay below ``sleep_velocity`` for
-``sleep_steps`` consecutive steps is put to sleep (transitions are applied every ``sleep_check``
-steps, so that one O(N) re-binning serves a batch of new sleepers) (not integrated, velocity zero, still a contact
-partner). It is woken when a moving particle (contact-point speed above ``wake_velocity``, default
-10 ``sleep_velocity``) touches it, when a moving boundary touches it, or when the force models' force on it changes by more than
-``wake_force_fraction`` of its weight. Per-step work is proportional to the awake particles and their
-pairs; the O(N) work (re-binning sleeping particles, merging parked histories) happens only when
-particles fall asleep or wake. :meth:`DemSimulation.sleep` puts given particles to sleep at once (the
-cycle's masses that rested at the end of the previous cycle).
-
-Each listed pair keeps a shear history (``_hist``, m) and a rolling-moment history (``_rhist``, N m,
-for ``rolling_friction`` > 0, :func:`.contact_law.rolling_law`); both are parked and restored together.
-:meth:`DemSimulation.save_state` / :meth:`DemSimulation.from_state` round-trip everything for a
-bit-identical continuation.
+- :mod:`.pairlist` — the neighbour list: pairs closer than ``skin`` are listed and reused until some awake
+  particle has moved more than ``skin/2`` or particles fell asleep / woke / were inserted; each pair keeps
+  its shear and rolling histories across steps and rebuilds (parked while both partners sleep);
+- :mod:`.sleeping` — sleeping and waking (SPEC §5): slow particles are put to sleep (not integrated,
+  still contact partners) and woken by a moving contact, a moving boundary or a change of the force
+  models' force; :meth:`DemSimulation.sleep` puts given particles to sleep at once;
+- :mod:`.checkpoint` — :meth:`DemSimulation.save_state` / :meth:`DemSimulation.from_state` round-trip
+  everything for a bit-identical continuation; :meth:`DemSimulation.memory_bytes`.
 """
 from __future__ import annotations
 
 import inspect
 import math
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import InputError, PhysicsError
-from . import contacts, memory, neighbours, steploop
-from .boundaries import Boundary, Plane
+from ..errors import InputError
+from . import contacts, neighbours, steploop
+from .boundaries import Boundary, Plane  # Plane: the example above
+from .checkpoint import CheckpointMixin
 from .contact_laws import resolve as resolve_contact_law
 from .forces import G, ForceModel, Gravity, add_global_damping, zero_rows
 from .integrators import integrators
+from .pairlist import _EMPTY_I, PairListMixin
+from .sleeping import SleepingMixin
 from .state import Material, ParticleState
 from .timestep import SAFETY, check_dt, stable_dt
-
-_EMPTY_I = np.zeros(0, np.int64)
-_EMPTY_GRID = (np.zeros(2, np.int64), _EMPTY_I, _EMPTY_I, 0)
 
 
 @dataclass
@@ -59,7 +51,7 @@ class EquilibriumResult:
     particle_steps: int  # sum over steps of the number of integrated (awake) particles
 
 
-class DemSimulation:
+class DemSimulation(PairListMixin, SleepingMixin, CheckpointMixin):
     """A DEM scene of spheres.
 
     Parameters (SI): ``boundaries`` planes / height fields; ``models`` extra :class:`~breachflow.dem.forces.ForceModel` s (fluid);
@@ -346,168 +338,6 @@ class DemSimulation:
         s = self.state
         add_global_damping(self.idx, vel, omega, s.c_gn, s.c_gw, float(scale), force, torque)
 
-    def after_drift(self):
-        """Wrap periodic coordinates, retire particles that left the domain, refuse NaN."""
-        s = self.state
-        nleft, bad = neighbours.wrap_and_check(self.idx, s.pos, s.vel, s.omega, self.geom, self.periodic, self._box,
-                                             self._use_box, s.active, s.awake, self._tmp_ids)
-        if bad >= 0:
-            raise PhysicsError(
-                f"particle {bad} has a non-finite position/velocity at t={self.t:.6g} s; the time step "
-                f"{self._dt:.3g} s (stable limit {self.dt_limit:.3g} s) or the inputs are unstable")
-        if nleft:
-            self.left_domain.extend(int(i) for i in self._tmp_ids[:nleft])
-            self.idx = self.idx[s.active[self.idx]]
-            self._dirty = True
-            self._sleep_grid_dirty = True
-
-    # ------------------------------------------------------------------ neighbour list
-    def relist_inline(self) -> bool:
-        """Whether the pair list can be rebuilt by :func:`.neighbours.rebuild` (also inside the compiled
-        many-steps loops): the sleeping grid is current (no sleep, wake or retirement since it was built),
-        or there is no sleeping particle and no parked history (then the grid is rebuilt empty), so no
-        history has to be parked or restored."""
-        s = self.state
-        if not self._sleep_grid_dirty and hasattr(self, "_sgrid"):
-            return True
-        return bool(self.single_bin and self._frozen_keys.size == 0 and not (s.active & ~s.awake).any())
-
-    def _relist(self):
-        """The rebuild of :meth:`relist_inline`: the same compiled :func:`.neighbours.rebuild` as the
-        many-steps loops, so the pair list is the same on both paths."""
-        s = self.state
-        if self._sleep_grid_dirty:
-            self._sgrid = self._grid(_EMPTY_I)
-        bufs = getattr(self, "_pbufs", None) or neighbours.empty_buffers()
-        self._pa, self._pb, self._hist, self._rhist, self._touch, self._pbufs = neighbours.rebuild(
-            self.idx, s.pos, s.radius, 0.5 * self.skin, self.geom, self.periodic, self.ncell, bool(self.single_bin),
-            self._sgrid, self._pa, self._pb, self._hist, self._rhist, self._pos_build, bufs)
-        self._dirty = False
-        self._sleep_grid_dirty = False
-
-    def _rebuild(self):
-        """Rebuild the pair list: between events ``_relist``; after a sleep, wake or retirement (the
-        sleeping grid is out of date) re-bin the sleepers, restore parked histories of pairs found again
-        and park those of pairs whose partners now both sleep."""
-        if self.relist_inline():
-            return self._relist()
-        s = self.state
-        sleep_idx = np.flatnonzero(~s.awake & s.active).astype(np.int64)
-        self._sgrid = self._grid(sleep_idx)
-        self._agrid = self._grid(self.idx)
-        pa, pb = self._find(self.idx, self._agrid, self._sgrid)
-        n = pa.size
-        keys = (pa[:n] << 32) | pb[:n]
-        if self.single_bin and self._sgrid[1].size == 0:
-            keys = np.sort(keys)  # one cell per particle, one grid: each pair is found once
-        else:  # a woken particle may still sit in the (stale) sleeping grid as well as in the awake one
-            keys = np.unique(keys)
-        n = keys.size
-        new_hist = np.zeros((n, 6))
-        old_keys = (self._pa << 32) | self._pb
-        old_hist = np.concatenate([self._hist, self._rhist], axis=1)  # (shear, rolling) per pair
-        if self._frozen_keys.size:
-            src_keys = np.concatenate([old_keys, self._frozen_keys])
-            src_hist = np.concatenate([old_hist, self._frozen_hist])
-            o = np.argsort(src_keys, kind="stable")
-            src_keys, src_hist = src_keys[o], src_hist[o]
-        else:
-            src_keys, src_hist = old_keys, old_hist  # old list is sorted
-        if src_keys.size and n:
-            loc = np.minimum(np.searchsorted(src_keys, keys), src_keys.size - 1)
-            hit = src_keys[loc] == keys
-            new_hist[hit] = src_hist[loc[hit]]
-        if src_keys.size:  # park the histories of pairs that are now between two sleeping particles
-            in_new = np.zeros(src_keys.size, bool)
-            if n:
-                loc2 = np.minimum(np.searchsorted(keys, src_keys), max(n - 1, 0))
-                in_new = keys[loc2] == src_keys
-            a, b = src_keys >> 32, src_keys & 0xFFFFFFFF
-            park = (~in_new & ~s.awake[a] & ~s.awake[b] & s.active[a] & s.active[b]
-                    & np.any(src_hist != 0.0, axis=1))
-            self._frozen_keys, self._frozen_hist = src_keys[park], src_hist[park]
-        self._pa, self._pb = keys >> 32, keys & 0xFFFFFFFF
-        self._hist = np.ascontiguousarray(new_hist[:, :3])
-        self._rhist = np.ascontiguousarray(new_hist[:, 3:])
-        self._touch = np.zeros(n, bool)
-        self._pos_build[self.idx] = s.pos[self.idx]
-        self._dirty = False
-        self._sleep_grid_dirty = False
-
-    def _on_sleep(self):
-        """New sleepers: re-bin the sleeping particles (O(N_sleep), once per sleep_check batch) and park
-        the histories of listed pairs whose partners now both sleep; no new pair search is needed."""
-        if self._dirty or self._sleep_grid_dirty or not hasattr(self, "_sgrid"):
-            self._dirty = True
-            self._sleep_grid_dirty = True
-            return
-        s = self.state
-        self._sgrid = self._grid(np.flatnonzero(~s.awake & s.active).astype(np.int64))
-        both = ~s.awake[self._pa] & ~s.awake[self._pb]
-        if not both.any():
-            return
-        pair_hist = np.concatenate([self._hist, self._rhist], axis=1)
-        park = both & np.any(pair_hist != 0.0, axis=1)
-        if park.any():
-            keys = (self._pa[park] << 32) | self._pb[park]
-            at = np.searchsorted(self._frozen_keys, keys)
-            self._frozen_keys = np.insert(self._frozen_keys, at, keys)
-            self._frozen_hist = np.insert(self._frozen_hist, at, pair_hist[park], axis=0)
-        keep = ~both
-        self._pa, self._pb = self._pa[keep], self._pb[keep]
-        self._hist, self._rhist = self._hist[keep], self._rhist[keep]
-        self._touch = self._touch[keep]
-
-    def _find(self, search, grid_a, grid_s):
-        s = self.state
-        cap = max(64, 16 * search.size)
-        while True:
-            pa = np.empty(cap, np.int64)
-            pb = np.empty(cap, np.int64)
-            n = contacts.find_pairs(search, s.pos, s.radius, 0.5 * self.skin, self.geom, self.periodic, self.ncell,
-                                    *grid_a, *grid_s, self.single_bin, pa, pb)
-            if n <= cap:
-                return pa[:n], pb[:n]
-            cap = int(n * 1.2) + 16
-
-    def _attach_woken(self, ids):
-        """Add the pairs of freshly woken particles with sleeping ones (their pairs with awake particles
-        are listed already), restoring parked histories: O(woken + awake pairs), no O(N) rebuild."""
-        if self._dirty or self._sleep_grid_dirty or not hasattr(self, "_sgrid"):
-            return  # a full rebuild is due anyway
-        pa, pb = self._find(ids, _EMPTY_GRID, self._sgrid)
-        keys = np.unique((pa << 32) | pb)
-        old = (self._pa << 32) | self._pb
-        if old.size and keys.size:
-            loc = np.minimum(np.searchsorted(old, keys), old.size - 1)
-            keys = keys[old[loc] != keys]
-        if keys.size == 0:
-            return
-        hist = np.zeros((keys.size, 6))
-        fk = self._frozen_keys
-        if fk.size:
-            loc = np.minimum(np.searchsorted(fk, keys), fk.size - 1)
-            hit = fk[loc] == keys
-            hist[hit] = self._frozen_hist[loc[hit]]
-            keep = np.ones(fk.size, bool)
-            keep[loc[hit]] = False
-            self._frozen_keys, self._frozen_hist = fk[keep], self._frozen_hist[keep]
-        allk = np.concatenate([old, keys])
-        order = np.argsort(allk, kind="stable")
-        merged = np.concatenate([np.concatenate([self._hist, self._rhist], axis=1), hist])[order]
-        self._hist = np.ascontiguousarray(merged[:, :3])
-        self._rhist = np.ascontiguousarray(merged[:, 3:])
-        allk = allk[order]
-        self._pa, self._pb = allk >> 32, allk & 0xFFFFFFFF
-        self._touch = np.zeros(allk.size, bool)
-
-    def _grid(self, idx):
-        est = max(1024, 16 * idx.size)
-        bits = int(math.ceil(math.log2(est)))
-        start, ep, ec = contacts.build_grid(idx, self.state.pos, self.state.radius, 0.5 * self.skin, self.geom,
-                                            self.periodic, self.ncell, bits, self.single_bin)
-        return start, ep, ec, bits
-
     # ------------------------------------------------------------------ stepping
     def step(self, n: int = 1):
         """Advance *n* steps of ``dt``; returns the last (max, sum) per-step displacement (m)."""
@@ -580,111 +410,6 @@ class DemSimulation:
         self._dirty = True
         self._refresh_idx()
 
-    def sleep(self, ids) -> np.ndarray:
-        """Put particles *ids* to sleep now (e.g. masses that were at rest at the end of the previous
-        cycle); returns the ids actually put to sleep (active, not fixed).
-
-        Like the automatic transition (SPEC §5 sleeping): velocities and spins are zeroed (also the
-        previous-step ones the report scheme uses); they are no longer integrated but remain contact
-        partners. The force models' force on each is evaluated now, at rest, and kept as the reference of
-        the wake-by-force check, so they wake only on a real change of that force (more than
-        ``wake_force_fraction`` of the weight), when a moving particle (contact-point speed above
-        ``wake_velocity``) or a moving boundary touches them. The neighbour list is rebuilt at the next
-        step, parking the (shear, rolling) histories of pairs whose partners now both sleep.
-        """
-        s = self.state
-        ids = np.unique(np.asarray(ids, np.int64).ravel())
-        if ids.size and (ids[0] < 0 or ids[-1] >= s.n):
-            raise InputError(f"sleep: particle ids must be in [0, {s.n}), got {ids[0]}..{ids[-1]}")
-        ids = ids[s.active[ids] & ~self._fixed[ids]]
-        if ids.size == 0:
-            return ids
-        s.awake[ids] = False
-        for a in (s.vel, s.omega, s.vel_prev, s.omega_prev, self.work["v"], self.work["w"]):
-            a[ids] = 0.0
-        self._sleep_count[ids] = 0
-        self._wake_flag[ids] = False
-        if self.models:
-            fm, tm = np.zeros((s.n, 3)), np.zeros((s.n, 3))
-            for m in self.models:
-                m.accumulate(s, s.pos, s.vel, s.omega, self.t, fm, tm)
-            self._fm_sleep[ids] = fm[ids]
-        self._dirty = self._sleep_grid_dirty = True
-        self._refresh_idx()
-        return ids
-
-    def _wake(self, ids):
-        if len(ids) == 0:
-            return 0
-        s = self.state
-        ids = np.asarray(ids, np.int64)
-        ids = ids[~self._fixed[ids]]
-        if ids.size == 0:
-            return 0
-        s.awake[ids] = True
-        self._wake_flag[ids] = False
-        self._sleep_count[ids] = 0
-        # a sleeping particle was in equilibrium: its net force (hence a(t) for the Verlet kick) is ~0;
-        # refreshing F(t) exactly would cost one contact evaluation per wake event
-        self.force[ids] = 0.0
-        self.torque[ids] = 0.0
-        self.work["fp"][ids] = 0.0  # previous-step force (predicted_verlet's trend): none
-        self.work["tp"][ids] = 0.0
-        self._pos_build[ids] = s.pos[ids]
-        self.idx = np.union1d(self.idx, ids).astype(np.int64)
-        self._attach_woken(ids)
-        return ids.size
-
-    def _sleep_and_wake(self):
-        s = self.state
-        changed = False
-        nw = int(self._n_wake[0])
-        if nw:
-            ids = self._wake_ids[:nw].copy()
-            self._wake_flag[ids] = False
-            self._wake(ids)
-        if self.models and not self.static_models:
-            self._wake_by_force()
-        # transitions to sleep only every sleep_check steps: one O(N) regrid per batch of sleepers
-        ns = contacts.sleep_update(self.idx, s.vel, s.omega, s.vel_prev, s.omega_prev, s.radius, self.sleep_velocity,
-                                   self.sleep_steps, self._sleep_count, s.awake, self._tmp_ids,
-                                   self.steps % self.sleep_check == 0)
-        if ns:
-            self._after_sleep(ns)
-
-    def _after_sleep(self, ns):
-        """Bookkeeping of the *ns* particles that just fell asleep (listed in ``_tmp_ids``)."""
-        s = self.state
-        ids = self._tmp_ids[:ns]
-        self._fm_sleep[ids] = self._fm[ids]
-        self.idx = self.idx[s.awake[self.idx]]
-        self._on_sleep()
-
-    def _wake_by_force(self):
-        """Wake sleepers whose force-model force (last evaluated into ``_fm``) moved away from the value
-        recorded when they fell asleep by more than ``wake_force_fraction`` of their weight."""
-        s = self.state
-        asleep = np.flatnonzero(~s.awake & s.active)
-        if asleep.size:
-            dF = np.linalg.norm(self._fm[asleep] - self._fm_sleep[asleep], axis=1)
-            woke = asleep[dF > self.wake_force_fraction * s.mass[asleep] * np.linalg.norm(self.gravity.g)]
-            self._wake(woke)
-
-    def _wake_from_boundaries(self):
-        s = self.state
-        for b in self.boundaries:
-            if b.moving and isinstance(b, Plane):
-                asleep = np.flatnonzero(~s.awake & s.active)
-                if asleep.size:
-                    gap = (s.pos[asleep] - b.point) @ b.normal - s.radius[asleep]
-                    touching = asleep[gap < self.skin]
-                    self._wake(touching)
-
-    def wake_all(self):
-        s = self.state
-        self._dirty = self._sleep_grid_dirty = True
-        self._wake(np.flatnonzero(~s.awake & s.active & ~self._fixed))
-
     def run(self, duration: float):
         """Advance by *duration* seconds (rounded up to whole steps; a variable-step integrator lands on it)."""
         if not getattr(self.integrator, "variable_step", False):
@@ -724,121 +449,6 @@ class DemSimulation:
             if ok >= consecutive:
                 return EquilibriumResult(True, self.steps - st0, self.t, disp[k], self.particle_steps - ps0)
         return EquilibriumResult(False, self.steps - st0, self.t, disp[k], self.particle_steps - ps0)
-
-    # ------------------------------------------------------------------ save / restore
-    _SAVED_ARRAYS = ("force", "torque", "_pos_build", "_fm", "_tm", "_fm_sleep", "_sleep_count", "_wake_flag", "_fixed",
-                     "_pa", "_pb", "_hist", "_rhist", "_touch", "_frozen_keys", "_frozen_hist", "geom", "ncell",
-                     "periodic", "_box")
-    _SAVED_SCALARS = {"t": float, "steps": int, "particle_steps": int, "n_contacts": int, "_dt": float,
-                      "dt_limit": float, "skin": float, "single_bin": bool, "_dirty": bool,
-                      "_sleep_grid_dirty": bool, "forces_stale": bool, "_use_box": bool}
-
-    def save_state(self) -> dict[str, np.ndarray]:
-        """Everything a bit-identical continuation needs, as a flat dict of numpy arrays (copies):
-        the particle arrays (``state.*``), forces of the last step, integrator work arrays, sleep
-        counters and wake references, the neighbour list with its shear / rolling histories (live and
-        parked), the sleeping-particle grid, the boundaries' histories and motion (``boundary<k>.*``),
-        ``t``, ``steps``, ``dt``, and the memory of the integrator and of force models with one
-        (``integrator.*``, ``model<k>.*``, :mod:`.memory`). Force models themselves are not saved (they are
-        passed again to :meth:`from_state`, which restores their memory into them).
-        Save with e.g. ``np.savez(path, **sim.save_state())``.
-        """
-        out: dict[str, np.ndarray] = {}
-        for f in fields(self.state):
-            out["state." + f.name] = np.array(getattr(self.state, f.name), copy=True)
-        for name in self._SAVED_ARRAYS:
-            out["sim." + name] = np.array(getattr(self, name), copy=True)
-        for name in self._SAVED_SCALARS:
-            out["sim." + name] = np.array(getattr(self, name))
-        for k, a in self.work.items():
-            out["work." + k] = a.copy()
-        out["sim.left_domain"] = np.asarray(self.left_domain, np.int64)
-        grid = getattr(self, "_sgrid", None)
-        if grid is not None:
-            for name, a in zip(("start", "ent_p", "ent_c"), grid[:3]):
-                out["sgrid." + name] = a.copy()
-            out["sgrid.bits"] = np.array(grid[3])
-        out["n_boundaries"] = np.array(len(self.boundaries))
-        for k, b in enumerate(self.boundaries):
-            out[f"boundary{k}.hist"] = b.hist.copy()
-            out[f"boundary{k}.rhist"] = b.rhist.copy()
-            if isinstance(b, Plane):
-                for name in ("point", "velocity", "reaction"):
-                    out[f"boundary{k}.{name}"] = getattr(b, name).copy()
-        memory.save(self.integrator, "integrator.", out)
-        for k, m in enumerate(self.models):
-            memory.save(m, f"model{k}.", out)
-        return out
-
-    @classmethod
-    def from_state(cls, data, *, boundaries=(), models=(), **kwargs) -> "DemSimulation":
-        """A simulation continuing exactly from ``data`` (:meth:`save_state`, or an ``np.load`` of it).
-
-        *boundaries* must be the same kinds in the same order as when saved (their histories and plane
-        motion are restored into them); *models* and the other keyword arguments are those of the
-        constructor and should match the saved run (the time step and cell geometry are restored from
-        *data* regardless). The integrator and the models get their saved memory back; one whose memory
-        does not match the saved one (e.g. the Basset force on in one, off in the other) is an InputError.
-        """
-        try:
-            state = ParticleState(**{f.name: np.array(data["state." + f.name]) for f in fields(ParticleState)})
-            nb = int(data["n_boundaries"])
-        except KeyError as e:
-            raise InputError(f"DEM state lacks entry {e.args[0]!r} (not written by save_state?)") from None
-        boundaries = list(boundaries)
-        if nb != len(boundaries):
-            raise InputError(f"DEM state was saved with {nb} boundaries, {len(boundaries)} given")
-        sim = cls(state, boundaries=boundaries, models=models, **kwargs)
-        for name in cls._SAVED_ARRAYS:
-            setattr(sim, name, np.array(data["sim." + name], copy=True))
-        for name, typ in cls._SAVED_SCALARS.items():
-            setattr(sim, name, typ(data["sim." + name][()]))
-        for k in sim.work:
-            if "work." + k in data:
-                sim.work[k] = np.array(data["work." + k], copy=True)
-        for k, f in (("fp", "force"), ("tp", "torque")):  # saved before the force trend was kept: none
-            if "work." + k not in data:
-                sim.work[k] = np.array(data["sim." + f], copy=True)
-        sim.left_domain = [int(i) for i in data["sim.left_domain"]]
-        if "sgrid.start" in data:
-            sim._sgrid = tuple(np.array(data["sgrid." + n], copy=True) for n in ("start", "ent_p", "ent_c")) + (
-                int(data["sgrid.bits"][()]),)
-        for k, b in enumerate(boundaries):
-            if isinstance(b, Plane) != (f"boundary{k}.point" in data):
-                raise InputError(f"boundary {k} is not of the kind saved")
-            b.hist = np.array(data[f"boundary{k}.hist"], copy=True)
-            b.rhist = np.array(data[f"boundary{k}.rhist"], copy=True)
-            if isinstance(b, Plane):
-                for name in ("point", "velocity", "reaction"):
-                    setattr(b, name, np.array(data[f"boundary{k}.{name}"], copy=True))
-        memory.restore(sim.integrator, "integrator.", data, "integrator")
-        for k, m in enumerate(sim.models):
-            memory.restore(m, f"model{k}.", data, f"force model {k}")
-        beyond = [k for k in data if k.startswith("model") and not k.startswith(tuple(f"model{j}." for j in
-                                                                                     range(len(sim.models))))]
-        if beyond:
-            raise InputError(f"DEM state holds {', '.join(sorted(beyond))} of force models beyond the "
-                             f"{len(sim.models)} given")
-        sim._inv_m = 1.0 / sim.state.mass
-        sim._inv_i = 1.0 / sim.state.inertia
-        sim._refresh_idx()
-        return sim
-
-    def memory_bytes(self) -> int:
-        """Bytes held by the particle state, work arrays, neighbour list and histories."""
-        total = self.state.nbytes() + sum(a.nbytes for a in self.work.values())
-        for name in ("force", "torque", "_pos_build", "_fm", "_tm", "_fm_sleep", "_sleep_count", "_wake_flag", "_fixed",
-                     "_wake_ids", "_tmp_ids", "_pa", "_pb", "_hist", "_rhist", "_touch", "_frozen_keys", "_frozen_hist"):
-            total += getattr(self, name).nbytes
-        for g in (getattr(self, "_agrid", None), getattr(self, "_sgrid", None)):
-            if g is not None:
-                total += sum(a.nbytes for a in g[:3])
-        total += sum(b.hist.nbytes + b.rhist.nbytes for b in self.boundaries)
-        bufs = getattr(self, "_pbufs", ())  # the list's capacity: the live list may be a view into it
-        total += sum(a.nbytes for a in bufs)
-        total -= sum(getattr(self, name).nbytes for name in ("_pa", "_pb", "_hist", "_rhist", "_touch")
-                     if any(np.may_share_memory(getattr(self, name), a) for a in bufs))
-        return total
 
 
 def _accepts_idx(method) -> bool:
