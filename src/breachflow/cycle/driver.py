@@ -148,8 +148,8 @@ class CycleReport:
     lost_cycle_tonnage: float = 0.0  #: their tonnage (t)
     placed_cycle_tonnage: float = 0.0  #: tonnage placed in this cycle (t)
     lost_cycle_placed_tonnage: float = 0.0  #: of lost_cycle_tonnage, the masses placed in this cycle (t)
-    #: of the cycles whose masses left in this one, the largest share of a cycle's placement carried away so
-    #: far, and that cycle (0: none; :class:`~breachflow.cycle.losses.CycleLosses`)
+    #: largest share of a cycle's placement carried away so far among the cycles whose masses left in this one,
+    #: and that cycle (0: none; :class:`~breachflow.cycle.losses.CycleLosses`)
     cohort_lost_fraction: float = 0.0
     cohort_cycle: int = 0
     lost_tonnage: float = 0.0  #: tonnage lost over the run so far (t); the number is ``left_domain``
@@ -359,8 +359,7 @@ class ClosureRun(CycleDem):
         losses = cycle_losses(st.mass, placed_cycle, active0, st.active, g)
         lost_total_t = float(st.mass[:st.n][~st.active[:st.n]].sum()) / 1000.0
         area = s.area if s.area is not None else (-np.inf, np.inf, -np.inf, np.inf)
-        gspeed = gap_speed(new_snapshot, area)
-        verdict = self._verdict(g, closed, losses, lost_now, new_ids, rel, snapshot, area)
+        gspeed, verdict = gap_speed(new_snapshot, area), self._verdict(g, closed, losses, lost_now, new_ids, rel, snapshot, area)
         rep = CycleReport(cycle=g, masses=masses, tonnage=tonnage, operation_time=rel.time, max_speed=max_speed,
                           discharge_proxy=proxy, breach_discharge=q_breach, criteria=results, closed=closed, governing=governing,
                           dem_steps=sim.steps - steps0, dem_particle_steps=sim.particle_steps - ps0,
@@ -368,8 +367,7 @@ class ClosureRun(CycleDem):
                           wall_time=_time.perf_counter() - wall0, left_domain=int((~st.active[:st.n]).sum()),
                           lost_cycle=int(lost_now.size), lost_cycle_tonnage=losses.lost, placed_cycle_tonnage=losses.placed,
                           lost_cycle_placed_tonnage=losses.lost_placed, cohort_lost_fraction=losses.cohort_fraction,
-                          cohort_cycle=losses.cohort,
-                          lost_tonnage=lost_total_t, gap_speed=gspeed, verdict=verdict,
+                          cohort_cycle=losses.cohort, lost_tonnage=lost_total_t, gap_speed=gspeed, verdict=verdict,
                           losses_flagged=losses_flagged(lost_total_t, tonnage + lost_total_t, s.loss_limit),
                           time_solve=t_solve, time_dem=t_dem, cpu_solve=c_solve, cpu_dem=c_dem,
                           seepage_discharge=ctx.seepage_discharge,
@@ -390,10 +388,9 @@ class ClosureRun(CycleDem):
         return rep, new_rec, new_snapshot
 
     def _verdict(self, g, closed, losses, lost_now, new_ids, rel, snapshot, area) -> str:
-        """The "not closable" statement (:func:`~breachflow.cycle.losses.not_closable_verdict`) when the verdict
-        rule (:func:`~breachflow.cycle.losses.cannot_close`) holds for cycle *g*, "" otherwise; judged on the
-        field *snapshot* the masses felt: the gap speed against Izbash's, the profile's speed at a mass's
-        centre on the bed there against the speed at which a lone mass rolls on the bare bed."""
+        """The "not closable" statement (:func:`~breachflow.cycle.losses.not_closable_verdict`) when the rule
+        :func:`~breachflow.cycle.losses.cannot_close` holds for cycle *g* ("" otherwise), in the field *snapshot*
+        the masses felt: gap speed against Izbash's, speed at a mass's centre against the rolling speed."""
         s, d = self.setup, self.setup.dem
         if closed or not carried_away_faster(losses, s.loss_limit):
             return ""
