@@ -35,7 +35,8 @@ from ..output import RunDirectory, particles_dataset, trajectories_dataset
 from ..output.cf import pad_particles
 from .dem_cycle import CycleDem, dem_view  # noqa: F401  (dem_view: re-exported, the nested tests import it here)
 from .criteria import CycleContext, EndCriteria, gap_section_speeds, section_discharge, seepage_in_section
-from .losses import LOSS_LIMIT, gap_speed, gap_speed_and_depth, losses_flagged, not_closable_verdict, rolling_speed
+from .losses import (LOSS_LIMIT, cannot_close, carried_away_faster, cycle_losses, gap_speed, gap_speed_and_depth,
+                     izbash_speed, losses_flagged, not_closable_verdict, rolling_speed)
 from .placement import PlacementPlan
 from .strategies import PileView
 from .strategies import band as strategy_band
@@ -91,8 +92,8 @@ class ClosureSetup:
     ``breach_x`` the breach extent along the levee at ``levee_y``; ``flood_level`` flood-side water
     elevation; ``bottom`` the breach bottom elevation (for the cross-section criteria); ``area`` the
     breach area ``(x0, x1, y0, y1)`` outside which masses are removed and counted as lost (None: the
-    whole domain); ``loss_limit`` the fraction of a cycle's tonnage whose loss ends the run with a
-    verdict (:mod:`~breachflow.cycle.losses`).
+    whole domain); ``loss_limit`` the fraction of a cycle's placement whose loss (whenever its masses leave),
+    in a flow faster than the masses withstand, ends the run with a verdict (:mod:`~breachflow.cycle.losses`).
     """
 
     domain: object
@@ -146,6 +147,11 @@ class CycleReport:
     lost_cycle: int = 0  #: masses carried out of the breach area in this cycle
     lost_cycle_tonnage: float = 0.0  #: their tonnage (t)
     placed_cycle_tonnage: float = 0.0  #: tonnage placed in this cycle (t)
+    lost_cycle_placed_tonnage: float = 0.0  #: of lost_cycle_tonnage, the masses placed in this cycle (t)
+    #: largest share of a cycle's placement carried away so far among the cycles whose masses left in this one,
+    #: and that cycle (0: none; :class:`~breachflow.cycle.losses.CycleLosses`)
+    cohort_lost_fraction: float = 0.0
+    cohort_cycle: int = 0
     lost_tonnage: float = 0.0  #: tonnage lost over the run so far (t); the number is ``left_domain``
     gap_speed: float = 0.0  #: largest flow speed in the breach area (m/s)
     losses_flagged: bool = False  #: more than ``loss_limit`` of all placed tonnage lost so far
@@ -350,21 +356,18 @@ class ClosureRun(CycleDem):
         # 6. write the cycle
         masses = int(st.n)
         tonnage = float(st.mass[st.active].sum()) / 1000.0
-        placed_t = float(st.mass[new_ids].sum()) / 1000.0
-        lost_t = float(st.mass[lost_now].sum()) / 1000.0
+        losses = cycle_losses(st.mass, placed_cycle, active0, st.active, g)
         lost_total_t = float(st.mass[:st.n][~st.active[:st.n]].sum()) / 1000.0
         area = s.area if s.area is not None else (-np.inf, np.inf, -np.inf, np.inf)
-        gspeed = gap_speed(new_snapshot, area)
-        verdict = ""
-        if not closed and placed_t > 0 and lost_t > s.loss_limit * placed_t:
-            verdict = self._verdict(g, lost_now, new_ids, lost_t, placed_t, rel, snapshot, area)
+        gspeed, verdict = gap_speed(new_snapshot, area), self._verdict(g, closed, losses, lost_now, new_ids, rel, snapshot, area)
         rep = CycleReport(cycle=g, masses=masses, tonnage=tonnage, operation_time=rel.time, max_speed=max_speed,
                           discharge_proxy=proxy, breach_discharge=q_breach, criteria=results, closed=closed, governing=governing,
                           dem_steps=sim.steps - steps0, dem_particle_steps=sim.particle_steps - ps0,
                           dem_converged=converged, hydro=hydro, stability=stability,
                           wall_time=_time.perf_counter() - wall0, left_domain=int((~st.active[:st.n]).sum()),
-                          lost_cycle=int(lost_now.size), lost_cycle_tonnage=lost_t, placed_cycle_tonnage=placed_t,
-                          lost_tonnage=lost_total_t, gap_speed=gspeed, verdict=verdict,
+                          lost_cycle=int(lost_now.size), lost_cycle_tonnage=losses.lost, placed_cycle_tonnage=losses.placed,
+                          lost_cycle_placed_tonnage=losses.lost_placed, cohort_lost_fraction=losses.cohort_fraction,
+                          cohort_cycle=losses.cohort, lost_tonnage=lost_total_t, gap_speed=gspeed, verdict=verdict,
                           losses_flagged=losses_flagged(lost_total_t, tonnage + lost_total_t, s.loss_limit),
                           time_solve=t_solve, time_dem=t_dem, cpu_solve=c_solve, cpu_dem=c_dem,
                           seepage_discharge=ctx.seepage_discharge,
@@ -384,19 +387,24 @@ class ClosureRun(CycleDem):
         self._live = (g, sim)
         return rep, new_rec, new_snapshot
 
-    def _verdict(self, g, lost_now, new_ids, lost_t, placed_t, rel, snapshot, area) -> str:
-        """The "not closable" statement (:func:`~breachflow.cycle.losses.not_closable_verdict`) for the field
-        *snapshot* the masses felt: the gap speed, the profile's speed at a mass's centre on the bed there and
-        the speed at which a lone mass rolls on the bare bed."""
-        d = self.setup.dem
+    def _verdict(self, g, closed, losses, lost_now, new_ids, rel, snapshot, area) -> str:
+        """The "not closable" statement (:func:`~breachflow.cycle.losses.not_closable_verdict`) when the rule
+        :func:`~breachflow.cycle.losses.cannot_close` holds for cycle *g* ("" otherwise), in the field *snapshot*
+        the masses felt: gap speed against Izbash's, speed at a mass's centre against the rolling speed."""
+        s, d = self.setup, self.setup.dem
+        if closed or not carried_away_faster(losses, s.loss_limit):
+            return ""
         diam = float(np.median(2.0 * rel.radius))
         rho = float(np.median(rel.density))
         speed, depth = gap_speed_and_depth(snapshot, area)
         factor = float(profile_factors(d.velocity_profile, 0.5 * diam, depth, self._fluid_roughness()))
         roll = rolling_speed(diam, rho, d.material.rolling_friction, d.drag_law)
-        return not_closable_verdict(g, lost_now.size, len(new_ids), lost_t, placed_t, 2.0 * rel.radius, rel.density,
-                                    speed, lost_placed=int(np.isin(lost_now, new_ids).sum()), roll_speed=roll,
-                                    bed_factor=factor)
+        if not cannot_close(losses, s.loss_limit, speed=speed, izbash=float(izbash_speed(diam, rho)),
+                            felt_speed=factor * speed, roll_speed=roll):
+            return ""
+        return not_closable_verdict(g, lost_now.size, len(new_ids), losses.lost, losses.placed, 2.0 * rel.radius,
+                                    rel.density, speed, lost_placed=int(np.isin(lost_now, new_ids).sum()),
+                                    roll_speed=roll, bed_factor=factor, cohort=losses)
 
     def _pile_view(self, sim, rec) -> PileView:
         """The sill along the placement's gap line before this cycle's release, for the strategies that

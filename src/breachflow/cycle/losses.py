@@ -13,9 +13,45 @@ overrides the box.
 
 Verdict
 -------
-A cycle that loses more than ``loss_limit`` (default 0.5) of the tonnage it placed ends the run with a
-verdict instead of running into ``max_cycles``: the masses are carried away faster than they build up.
-The statement names what was lost and compares the largest flow speed in the breach area ("gap speed")
+A run ends with a "not closable" verdict instead of running into ``max_cycles`` when a cycle shows that
+the masses are carried away faster than they build up — the closure engineer's test of a dumping
+rate against an eroding flow: more of a dumping was carried out of the gap than stayed, and the flow
+there is strong enough to move the masses. Both must hold (:func:`cannot_close`):
+
+1. **Losses against the placement they belong to** (:func:`carried_away_faster`). Every mass is counted
+   against the tonnage placed with it, whenever it leaves: masses still rolling when a cycle's DEM stops,
+   or knocked off the pile later, may leave in a later cycle. With ``P_k`` the tonnage placed in cycle
+   ``k`` and ``L_k`` the part of it carried out of the breach area so far, cycle ``g`` gives the verdict
+   when, for a cycle ``k <= g`` whose masses left in cycle ``g`` (:class:`CycleLosses`)::
+
+       L_k > loss_limit * P_k
+
+   (``loss_limit`` default 0.5): more than half of a dumping was carried away, at whatever pace. For
+   ``k = g`` this is the cycle's own batch; an older mass is no longer counted against this cycle's
+   placement, nor can one straggler decide (it is one of its batch). A cycle that placed nothing gives no
+   verdict (nothing was tried), nor does a closed breach. A pile that loses a few masses of each of many
+   cycles gives none either: such losses show in ``losses_flagged`` and the cycle count.
+2. **The flow exceeds what the masses withstand** (:func:`flow_moves_masses`): the largest speed in the
+   breach area of the field the masses felt (the gap speed, depth-averaged) exceeds Izbash's
+   exposed-stone speed for the placed masses' median diameter, or the speed at a mass's centre on the
+   bed there (the velocity profile's factor times the gap speed) exceeds the lone-mass rolling speed on
+   the bare bed (below). Below both, the flow cannot be what carries the masses away — masses knocked
+   off the pile's flank by the next ones, or rolling down a slope, are a placement's scatter, not a
+   verdict on the mass size; such losses are counted and, beyond ``loss_limit`` of all placed tonnage,
+   flagged (``losses_flagged``), and a run that never closes ends at ``max_cycles`` saying so.
+
+Why not the tonnage lost in a cycle over that cycle's placement (the rule before session 10): masses
+still rolling from earlier cycles, or pile masses knocked loose, leave in a later cycle; counted against
+that cycle's five masses they ended the default scene (seed 2, tolerance 2e-3) "not closable" at 26 m³/s
+(of the open breach's 85.6): 34.1 t lost of 51.4 t placed, but two of the three masses were cycle 7's,
+knocked off the pile's top onto the intact levee and the flood-side slope (cycle 7 lost 23.7 of its
+55.5 t, cycle 8 10.4 of 51.4 t), in a gap speed of 3.80 m/s, below both Izbash's 6.71 m/s and the
+5.51 m/s that rolls a lone mass. Nor the tonnage lost in a cycle over the tonnage in play in it (its
+placement plus the older masses still moving): masses that roll out slowly never reach the limit — in
+the CI scene with 1 m masses free to roll and a 5 s cycle cap every batch leaves two cycles after its
+release, and that ratio stays at 4.16 of 12.49 t.
+
+The statement names what was lost and compares the gap speed
 with Izbash's critical speed for the masses' diameter (Izbash 1935, *Construction of dams by dumping
 stones into flowing water*; Izbash & Khaldre 1970)::
 
@@ -43,12 +79,14 @@ next one).
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
 #: Izbash coefficients (exposed stone, embedded stone)
 IZBASH_C = (0.86, 1.20)
-#: default fraction of a cycle's tonnage whose loss ends the run with a "not closable" verdict
+#: default fraction of a cycle's placement whose loss (whenever its masses leave, in a flow that moves them)
+#: ends the run with a "not closable" verdict; also the fraction of all placed tonnage above which losses are flagged
 LOSS_LIMIT = 0.5
 
 
@@ -114,11 +152,12 @@ def rolling_speed(diameter: float, density: float, rolling_friction: float, drag
 
 def not_closable_verdict(cycle: int, lost: int, placed: int, lost_t: float, placed_t: float, diameters,
                          density, speed: float, *, lost_placed: int | None = None, roll_speed: float | None = None,
-                         bed_factor: float = 1.0) -> str:
-    """The statement a run ends with when a cycle loses more than ``loss_limit`` of its tonnage.
+                         bed_factor: float = 1.0, cohort: CycleLosses | None = None) -> str:
+    """The statement a run ends with when :func:`cannot_close` holds for a cycle.
 
     *lost* masses (*lost_t* t) left the breach area in *cycle*, *lost_placed* of them placed in it (None:
-    not known); *placed* masses (*placed_t* t) were placed. *speed* is the gap speed (depth-averaged) of the
+    not known); *placed* masses (*placed_t* t) were placed; *cohort* the cycle's :class:`CycleLosses` when
+    an earlier cycle's placement decides (None: not stated). *speed* is the gap speed (depth-averaged) of the
     field the masses felt; *bed_factor* the velocity profile's factor at the centre of a mass resting on
     the bed there (the speed it feels is ``bed_factor * speed``); *roll_speed* the speed at which a lone
     mass rolls on the bare bed (:func:`rolling_speed`; None: not stated)."""
@@ -132,7 +171,8 @@ def not_closable_verdict(cycle: int, lost: int, placed: int, lost_t: float, plac
         who += f", {lost_placed} of them placed in this cycle,"
     cmp = "exceeds" if speed > lo else "is below"
     text = (f"not closable with D = {dtxt} masses of {rho:.0f} kg/m3: in cycle {cycle}, {who} were carried out "
-            f"of the breach area ({placed} masses, {placed_t:.1f} t placed in it); gap speed {speed:.2f} m/s "
+            f"of the breach area ({placed} masses, {placed_t:.1f} t placed in it{_cohort(cohort, cycle)}); "
+            f"gap speed {speed:.2f} m/s "
             f"(depth-averaged")
     if abs(bed_factor - 1.0) > 1e-9:
         text += f"; {felt:.2f} m/s at the centre of a mass on the bed"
@@ -147,6 +187,80 @@ def not_closable_verdict(cycle: int, lost: int, placed: int, lost_t: float, plac
     return text
 
 
+def _cohort(c, cycle) -> str:
+    if c is None or c.cohort in (0, cycle):
+        return ""
+    return (f"; cycle {c.cohort}'s placement has lost {c.cohort_lost:.1f} of its {c.cohort_placed:.1f} t "
+            f"({c.cohort_fraction:.0%})")
+
+
 def losses_flagged(lost_t: float, placed_t: float, limit: float) -> bool:
     """True when more than *limit* of the placed tonnage over the run was lost."""
     return placed_t > 0 and lost_t > limit * placed_t and math.isfinite(lost_t)
+
+
+@dataclass(frozen=True)
+class CycleLosses:
+    """One cycle's tonnage (t): *placed* in it; *lost* (carried out of the breach area in it), of which
+    *lost_placed* placed in it. *cohort*: of the cycles whose masses left in this one, the cycle whose
+    placement has lost the largest share so far (0: no mass left), *cohort_placed* its placement and
+    *cohort_lost* the part of it carried away up to now (in this cycle or before)."""
+
+    placed: float
+    lost: float
+    lost_placed: float
+    cohort: int = 0
+    cohort_placed: float = 0.0
+    cohort_lost: float = 0.0
+
+    @property
+    def cohort_fraction(self) -> float:
+        """Share of the cohort's placement carried away so far (0 without a cohort)."""
+        return self.cohort_lost / self.cohort_placed if self.cohort_placed > 0 else 0.0
+
+
+def cycle_losses(mass, placed_cycle, active_before, active_after, cycle: int) -> CycleLosses:
+    """:class:`CycleLosses` of *cycle* from the DEM's per-slot arrays: *mass* (kg); *placed_cycle* the cycle
+    each slot was released in (its length is the number of slots used); *active_before* after this cycle's
+    release, *active_after* when its DEM stopped (a slot lost in an earlier cycle is inactive in both)."""
+    pc = np.asarray(placed_cycle, int)
+    n = pc.size
+    m = np.asarray(mass, float)[:n] / 1000.0
+    after = np.asarray(active_after, bool)[:n]
+    lost_now = np.asarray(active_before, bool)[:n] & ~after
+    new = pc == cycle
+    best = (0, 0.0, 0.0)
+    for k in np.unique(pc[lost_now]):
+        sel = pc == k
+        placed_k, lost_k = float(m[sel].sum()), float(m[sel & ~after].sum())
+        if placed_k > 0 and (best[0] == 0 or lost_k * best[1] > best[2] * placed_k):
+            best = (int(k), placed_k, lost_k)
+    return CycleLosses(placed=float(m[new].sum()), lost=float(m[lost_now].sum()),
+                       lost_placed=float(m[lost_now & new].sum()), cohort=best[0], cohort_placed=best[1],
+                       cohort_lost=best[2])
+
+
+def carried_away_faster(losses: CycleLosses, limit: float) -> bool:
+    """Part 1 of the verdict (module docstring): something was placed in the cycle, and more than *limit*
+    of the placement of a cycle whose masses left in it has been carried away, ``L_k > limit * P_k``."""
+    if not (losses.placed > 0 and losses.cohort_placed > 0 and math.isfinite(losses.cohort_lost)):
+        return False
+    return losses.cohort_lost > limit * losses.cohort_placed
+
+
+def flow_moves_masses(speed: float, izbash: float, felt_speed: float | None = None,
+                      roll_speed: float | None = None) -> bool:
+    """Part 2 of the verdict: the depth-averaged gap *speed* exceeds Izbash's (exposed-stone) speed
+    *izbash*, or the speed at a mass's centre on the bed *felt_speed* exceeds the lone-mass rolling speed
+    *roll_speed* (None: not judged)."""
+    if speed > izbash:
+        return True
+    return felt_speed is not None and roll_speed is not None and felt_speed > roll_speed
+
+
+def cannot_close(losses: CycleLosses, limit: float, *, speed: float, izbash: float, felt_speed: float | None = None,
+                 roll_speed: float | None = None, closed: bool = False) -> bool:
+    """The verdict rule (module docstring): not *closed*, :func:`carried_away_faster` and
+    :func:`flow_moves_masses`."""
+    return (not closed and carried_away_faster(losses, limit)
+            and flow_moves_masses(speed, izbash, felt_speed, roll_speed))

@@ -99,8 +99,9 @@ class ClosureSection:
     ``no_flow``), ``seed``, ``porous_law`` (``ergun`` | ``van_gent``: Forchheimer coefficients of a porous
     pile), ``area`` (the breach area ``[x0, x1, y0, y1]`` outside which masses count as carried away
     and where ``max_speed`` judges the flow; default from the scene, see
-    :mod:`~breachflow.cycle.losses`), ``loss_limit`` (fraction of a cycle's tonnage whose loss ends the run with a
-    "not closable" verdict, default 0.5), ``pile_sampling`` (how the pile enters ``raised_bed`` / ``no_flow``:
+    :mod:`~breachflow.cycle.losses`), ``loss_limit`` (fraction of a cycle's placement whose loss — whenever its masses
+    leave — in a flow faster than the masses withstand ends the run with a "not closable" verdict; also
+    the fraction of all placed tonnage above which the losses are flagged; default 0.5), ``pile_sampling`` (how the pile enters ``raised_bed`` / ``no_flow``:
     ``centre``, the default: the sphere top above each cell centre | ``cell_average``: the cell average of
     the pile top, blocked where it stands above the water over half the cell, :mod:`~breachflow.cycle.remap`)."""
 
