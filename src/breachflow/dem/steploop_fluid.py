@@ -4,7 +4,7 @@ The cycle's DEM (``cycle/driver.py``) has the terrain as a :class:`~.boundaries.
 flow field as a :class:`~breachflow.fluid.forces.FluidForces` model (``static_models``).
 :func:`fluid_verlet_steps` is the one compiled loop of :mod:`.steploop` (which runs it for dry scenes
 without these) with, in the order of ``DemSimulation._one_step``: the height-field contacts
-(:func:`.contacts.heightfield_forces`, in the boundaries' order among fixed planes), gravity, the fluid
+(:func:`.walls.heightfield_forces`, in the boundaries' order among fixed planes), gravity, the fluid
 forces (:func:`breachflow.fluid.compiled.grid_fluid_forces_phi`: buoyancy, drag with the vertical
 velocity profile, convective apparent mass, gridpoint torque, into ``sim._fm``/``_tm`` and then added) and
 the global damping; the inverse mass ``1/(m + m_added)`` of the kicks is the integrators'
