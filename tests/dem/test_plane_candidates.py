@@ -104,7 +104,7 @@ def test_plane_lists_give_the_python_steps_bit_for_bit(integrator, law, monkeypa
 
 
 @pytest.mark.parametrize("integrator", ["velocity_verlet", "predicted_verlet"])
-@pytest.mark.parametrize("speed", [2.0, 40.0, 120.0, 400.0])
+@pytest.mark.parametrize("speed", [2.0, 40.0, 120.0, 200.0, 400.0])
 def test_a_sphere_just_outside_the_margin_hitting_the_floor_right_after_a_build(integrator, speed):
     """One sphere whose gap is the margin (and one a rounding above it) at a build, then thrown at the floor
     at up to 400 m/s (a drift of 20 cm, more than the margin, per step; the window reaches 10 cm): its
