@@ -19,7 +19,7 @@ of walls alike): built with the pair list, from the build positions, they hold t
 gap to the plane was below the skin ``margin`` or whose plane histories are not +0.0. Each step checks that
 no particle left out can reach its plane: it moved at most ``moved`` since the build (measured after the
 drift by ``first_pass``) and the window-averaged law looks ``max(-lo, hi) |v . n|`` further
-(|v| at most ``mx / dt`` for ``velocity_verlet``, the predicted velocities' maximum for ``predicted_verlet``),
+(``|v|`` at most ``mx / dt`` for ``velocity_verlet``, the predicted velocities' maximum for ``predicted_verlet``),
 which must stay below the margin (:func:`.walls.candidates_hold`). If it does not, that step and all up to
 the next build run over all particles, as the Python step does. The particles left out are far, as the full
 loop would find them, and their history rows +0.0, as it would leave them: the results are bit-identical
