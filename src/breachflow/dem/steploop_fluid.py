@@ -4,7 +4,7 @@ The cycle's DEM (``cycle/driver.py``) has the terrain as a :class:`~.boundaries.
 flow field as a :class:`~breachflow.fluid.forces.FluidForces` model (``static_models``).
 :func:`fluid_verlet_steps` is the one compiled loop of :mod:`.steploop` (which runs it for dry scenes
 without these) with, in the order of ``DemSimulation._one_step``: the height-field contacts
-(:func:`.contacts.heightfield_forces`, in the boundaries' order among fixed planes), gravity, the fluid
+(:func:`.walls.heightfield_forces`, in the boundaries' order among fixed planes), gravity, the fluid
 forces (:func:`breachflow.fluid.compiled.grid_fluid_forces_phi`: buoyancy, drag with the vertical
 velocity profile, convective apparent mass, gridpoint torque, into ``sim._fm``/``_tm`` and then added) and
 the global damping; the inverse mass ``1/(m + m_added)`` of the kicks is the integrators'
@@ -13,6 +13,17 @@ the apparent mass of the next step (at the same positions) reuses the submerged 
 force evaluation (:func:`breachflow.fluid.compiled.apparent_mass`, the formula of
 :func:`~breachflow.fluid.compiled.grid_added_masses`). The kernels are the ones the Python path calls, in
 the same order, so the results are bit-identical (tests/dem/test_steploop_fluid.py).
+
+The fixed planes' contact loops run over candidate lists (:func:`list_planes`, LAMMPS keeps neighbour lists
+of walls alike): built with the pair list, from the build positions, they hold the awake particles whose
+gap to the plane was below the skin ``margin`` or whose plane histories are not +0.0. Each step checks that
+no particle left out can reach its plane: it moved at most ``moved`` since the build (measured after the
+drift by ``first_pass``) and the window-averaged law looks ``max(-lo, hi) |v . n|`` further
+(``|v|`` at most ``mx / dt`` for ``velocity_verlet``, the predicted velocities' maximum for ``predicted_verlet``),
+which must stay below the margin (:func:`.walls.candidates_hold`). If it does not, that step and all up to
+the next build run over all particles, as the Python step does. The particles left out are far, as the full
+loop would find them, and their history rows +0.0, as it would leave them: the results are bit-identical
+(tests/dem/test_plane_candidates.py). A plane whose normal has a component along a periodic axis has no list.
 
 :func:`eligible` says when it applies: a fixed-step Verlet integrator, fixed planes and at most one height
 field, no force model or one ``FluidForces`` whose fused kernels apply (a
@@ -28,10 +39,12 @@ import numba
 import numpy as np
 
 from ..fluid.compiled import apparent_mass, grid_added_masses, grid_fluid_forces_phi
+from .contact_law import WINDOW_AVERAGED
 from .contacts import heightfield_forces, pair_forces_window, plane_forces
 from .forces import _add_gravity, zero_rows
 from .neighbours import displacement_since, rebuild
 from .steploop import BAD, DONE, any_damping, first_pass, second_pass, step_event
+from .walls import candidates_hold, max_speed, plane_candidates
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -40,6 +53,15 @@ def _inverse_masses(idx, mass, radius, phi, xi, rho_w, rho_a, inv_m):
     for k in range(idx.shape[0]):
         i = idx[k]
         inv_m[i] = 1.0 / (mass[i] + apparent_mass(xi, radius[i], phi[k], rho_w, rho_a))
+
+
+@numba.njit(cache=True, error_model="numpy")
+def list_planes(idx, pos_build, radius, pl_point, pl_normal, margin, pl_hist, pl_rhist, listable, cand, ncand):
+    """The candidate lists of the fixed planes (:func:`.walls.plane_candidates` with *margin*) into the rows
+    of *cand*, their lengths into *ncand*; a plane not *listable* lists none (its loop runs over all)."""
+    for p in range(pl_point.shape[0]):
+        ncand[p] = plane_candidates(idx, pos_build, radius, pl_point[p], pl_normal[p], margin, pl_hist[p],
+                                    pl_rhist[p], cand[p]) if listable[p] else 0
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -84,10 +106,26 @@ def fluid_verlet_steps(nmax, t, idx, pos, vel, omega, vel_prev, omega_prev, forc
     done = 0
     damp = any_damping(idx, c_gn, c_gw)  # else the damping pass is skipped (second_pass)
     moved = displacement_since(idx, pos, pos_build, geom, periodic)
+    # the fixed planes' loops run over candidate lists (module docstring), rebuilt with the pair list
+    npl = pl_point.shape[0]
+    margin = 2.0 * half_skin
+    reach_t = max(-lo, hi) if law == WINDOW_AVERAGED else 0.0
+    listable = np.empty(npl, np.bool_)
+    for p in range(npl):  # a plane across a periodic axis: a wrapped particle jumps, no lists
+        listable[p] = not ((periodic[0] and pl_normal[p, 0] != 0.0) or (periodic[1] and pl_normal[p, 1] != 0.0))
+    cand = np.empty((npl, idx.shape[0]), np.int64)
+    ncand = np.zeros(npl, np.int64)
+    listed = npl > 0 and margin > 0.0 and moved <= half_skin
+    if listed:
+        list_planes(idx, pos_build, radius, pl_point, pl_normal, margin, pl_hist, pl_rhist, listable, cand, ncand)
     for _ in range(nmax):
         if moved > half_skin:  # (after the first step: measured in first_pass)
             pa, pb, hist, rhist, touch, bufs = rebuild(idx, pos, radius, half_skin, geom, periodic, ncell, single,
                                                        sgrid, pa, pb, hist, rhist, pos_build, bufs)
+            listed = npl > 0 and margin > 0.0
+            if listed:
+                list_planes(idx, pos_build, radius, pl_point, pl_normal, margin, pl_hist, pl_rhist, listable, cand,
+                            ncand)
         n_wake[0] = 0
         bad, nleft, idx, kicked, ve, we, mx, sm, moved = first_pass(idx, pos, vel, omega, force, torque, fp, tp, vp,
                                                                     wp, inv_m, inv_i, lmask, rmask, h, dt, predict,
@@ -96,6 +134,11 @@ def fluid_verlet_steps(nmax, t, idx, pos, vel, omega, vel_prev, omega_prev, forc
         if bad >= 0:
             stats[3] = bad
             return done, BAD, t, pa, pb, hist, rhist, touch, bufs
+        if listed and nleft:  # leavers retired from idx: from the lists too
+            list_planes(idx, pos_build, radius, pl_point, pl_normal, margin, pl_hist, pl_rhist, listable, cand, ncand)
+        if listed:  # else the loops run over all and the lists are stale (histories set) until the next build
+            listed = candidates_hold(moved, 0.0 if reach_t == 0.0 else reach_t * (
+                max_speed(idx, ve) if predict else mx / dt), margin)
         nc = pair_forces_window(pa, pb, hist, rhist, touch, pos, ve, we, vel, omega, predict, radius, mass, inertia,
                                 props, awake, active, geom, periodic, dt, wake_speed, force, torque, wake, wake_ids,
                                 n_wake, lo, hi, law)
@@ -106,9 +149,9 @@ def fluid_verlet_steps(nmax, t, idx, pos, vel, omega, vel_prev, omega_prev, forc
                                          mass, inertia, props, dt, force, torque, lo, hi, vel, omega, law)
                 continue
             pl_reaction[p, :] = 0.0
-            nc += plane_forces(idx, pl_point[p], pl_normal[p], pl_vel[p], pl_props[p], pl_hist[p], pl_rhist[p], pos,
-                               ve, we, radius, mass, inertia, props, dt, force, torque, pl_reaction[p], lo, hi, vel,
-                               omega, law)
+            nc += plane_forces(cand[p, :ncand[p]] if listed and listable[p] else idx, pl_point[p], pl_normal[p],
+                               pl_vel[p], pl_props[p], pl_hist[p], pl_rhist[p], pos, ve, we, radius, mass, inertia,
+                               props, dt, force, torque, pl_reaction[p], lo, hi, vel, omega, law)
             p += 1
         if fluid_on:  # static models: the awake rows of _fm/_tm, then added (DemSimulation.body_forces)
             _add_gravity(idx, mass, g, force)
