@@ -121,7 +121,7 @@ def _pair_loop(pa, pb, hist, rhist, touching, pos, vel, omega, vel_h, omega_h, s
     """
     mr = np.empty(3)
     # flat views of the (N, 3) arrays, element 3 i + k (U1..U3: unsigned offsets): the row length is a constant
-    # instead of a stride loaded for each access (old/new 1.02-1.06 for either law on the 1000-sphere bed,
+    # instead of a stride loaded for each access (old/new 1.01-1.06 for either law on the 1000-sphere bed,
     # ``python3 tasks.py bench dem_kernel --old <src>``); the same arithmetic, results bit for bit
     posf, velf, omegaf = pos.reshape(-1), vel.reshape(-1), omega.reshape(-1)
     vel_hf, omega_hf, forcef, torquef = vel_h.reshape(-1), omega_h.reshape(-1), force.reshape(-1), torque.reshape(-1)
