@@ -13,7 +13,7 @@ point-evaluated law), in CPU ns per listed pair; ``contacts.plane_forces`` (the 
 and a loop over the same pair list that only adds ``k_N overlap`` along the normal (what any contact code
 must do at least). Each kernel is called ``--calls`` times inside one compiled loop; best and median of
 ``--reps``, interleaved in alternating order. ``--old <src>``: the same kernels of another source tree
-(``dem/contacts.py`` with its ``contact_law.py`` and ``neighbours.py``, imported under another name), timed
+(``dem/contacts.py`` with the ``dem`` modules it imports, under another package name), timed
 in the same process, with the old/new ratios (best, and mean ± sd of the paired repeats; identical trees
 give 0.97-1.05 on this loaded machine).
 
@@ -353,7 +353,8 @@ def compile_cost(a) -> int:
 
 def _old_contacts(src):
     """dem/contacts.py of another source tree (*src*: its ``src`` directory), imported under another name
-    (it imports only .contact_law and .neighbours)."""
+    (with the other modules of its ``dem`` package beside it, for the ones it imports: .contact_law,
+    .neighbours, .bins, ...)."""
     import importlib
     import shutil
     import tempfile
@@ -362,8 +363,9 @@ def _old_contacts(src):
     pkg = tmp / "old_breachflow_dem"
     pkg.mkdir()
     (pkg / "__init__.py").write_text("")
-    for name in ("contacts.py", "contact_law.py", "neighbours.py"):
-        shutil.copy(Path(src) / "breachflow" / "dem" / name, pkg / name)
+    for f in (Path(src) / "breachflow" / "dem").glob("*.py"):  # the modules contacts.py imports, and the rest
+        if f.name != "__init__.py":
+            shutil.copy(f, pkg / f.name)
     sys.path.insert(0, str(tmp))
     return importlib.import_module("old_breachflow_dem.contacts")
 

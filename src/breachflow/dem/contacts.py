@@ -20,6 +20,10 @@ from .walls import (_bilinear, heightfield_forces, plane_candidates, plane_force
                     wall_contact)
 
 
+#: unsigned offsets for the flat (3 N) views of the pair loop (mixed signed/unsigned int64 would be float)
+U1, U2, U3 = np.uint64(1), np.uint64(2), np.uint64(3)
+
+
 @numba.njit(cache=True, error_model="numpy")
 def pair_forces(pa, pb, hist, touching, pos, vel, omega, radius, props, awake, active, geom, periodic,
                 dt, wake_speed, force, torque, wake, wake_ids, n_wake, lo=0.0, hi=0.0):
@@ -113,9 +117,14 @@ def _pair_loop(pa, pb, hist, rhist, touching, pos, vel, omega, vel_h, omega_h, s
     moving particle (contact-point speed > wake_speed) gets wake[j] = True and is listed in
     wake_ids[n_wake[0]...]. Forces are averaged over the force window ``[lo, hi]`` (s, relative to now;
     :func:`~breachflow.dem.contact_law.contact_law`), so a pair that touches only within it gets its
-    share. Returns #contacts (overlapping now).
+    share. Returns #contacts (overlapping now). The (N, 3) arrays must be C-contiguous (flat views below).
     """
     mr = np.empty(3)
+    # flat views of the (N, 3) arrays, element 3 i + k (U1..U3: unsigned offsets): the row length is a constant
+    # instead of a stride loaded for each access (old/new 1.01-1.06 for either law on the 1000-sphere bed,
+    # ``python3 tasks.py bench dem_kernel --old <src>``); the same arithmetic, results bit for bit
+    posf, velf, omegaf = pos.reshape(-1), vel.reshape(-1), omega.reshape(-1)
+    vel_hf, omega_hf, forcef, torquef = vel_h.reshape(-1), omega_h.reshape(-1), force.reshape(-1), torque.reshape(-1)
     ncontacts = 0
     # uniform: the pair's properties are the (common) row 0, bit for bit min(props[i], props[j])
     kn_u, ks_u, ccn_u, ccs_u, ccf_u, al_u, be_u, mur_u = (props[0, 2], props[0, 3], props[0, 4], props[0, 5], props[0, 6],
@@ -130,19 +139,19 @@ def _pair_loop(pa, pb, hist, rhist, touching, pos, vel, omega, vel_h, omega_h, s
         i = np.uint64(pa[p])  # unsigned: no negative-index wraparound test on each access
         j = np.uint64(pb[p])
         if i != ci:
-            force[ci, 0] += fix
-            force[ci, 1] += fiy
-            force[ci, 2] += fiz
-            torque[ci, 0] += tix
-            torque[ci, 1] += tiy
-            torque[ci, 2] += tiz
+            forcef[U3 * ci] += fix
+            forcef[U3 * ci + U1] += fiy
+            forcef[U3 * ci + U2] += fiz
+            torquef[U3 * ci] += tix
+            torquef[U3 * ci + U1] += tiy
+            torquef[U3 * ci + U2] += tiz
             fix = fiy = fiz = tix = tiy = tiz = 0.0
             ci = i
         if not uniform and (not (awake[i] or awake[j]) or not (active[i] and active[j])):
             continue
-        dx = min_image(pos[j, 0] - pos[i, 0], geom[6], periodic[0])
-        dy = min_image(pos[j, 1] - pos[i, 1], geom[7], periodic[1])
-        dz = pos[j, 2] - pos[i, 2]
+        dx = min_image(posf[U3 * j] - posf[U3 * i], geom[6], periodic[0])
+        dy = min_image(posf[U3 * j + U1] - posf[U3 * i + U1], geom[7], periodic[1])
+        dz = posf[U3 * j + U2] - posf[U3 * i + U2]
         d2 = dx * dx + dy * dy + dz * dz
         ri = radius[i]
         rj = radius[j]
@@ -152,8 +161,8 @@ def _pair_loop(pa, pb, hist, rhist, touching, pos, vel, omega, vel_h, omega_h, s
             if law == HOOKE_HISTORY:  # point values: apart (reach_t = 0)
                 apart = True
             else:  # reach_t |dv.d| <= (d^2 - rs^2)/2 <= d (d - rs): no contact in the window either, no sqrt
-                vd = reach_t * abs((vel[i, 0] - vel[j, 0]) * dx + (vel[i, 1] - vel[j, 1]) * dy
-                                   + (vel[i, 2] - vel[j, 2]) * dz)
+                vd = reach_t * abs((velf[U3 * i] - velf[U3 * j]) * dx + (velf[U3 * i + U1] - velf[U3 * j + U1]) * dy
+                                   + (velf[U3 * i + U2] - velf[U3 * j + U2]) * dz)
                 apart = vd <= 0.5 * gap2 or (vd + (rs - math.sqrt(d2)) * math.sqrt(d2) <= 0.0)
             if apart:
                 hist[p, 0] = 0.0
@@ -174,20 +183,20 @@ def _pair_loop(pa, pb, hist, rhist, touching, pos, vel, omega, vel_h, omega_h, s
         else:  # coincident centres: any direction will do, pick +z
             nx, ny, nz = 0.0, 0.0, 1.0
         # velocity of j's contact point relative to i's: v_j - v_i - (ri w_i + rj w_j) x n
-        wx = ri * omega[i, 0] + rj * omega[j, 0]
-        wy = ri * omega[i, 1] + rj * omega[j, 1]
-        wz = ri * omega[i, 2] + rj * omega[j, 2]
-        vx = vel[j, 0] - vel[i, 0] - (wy * nz - wz * ny)
-        vy = vel[j, 1] - vel[i, 1] - (wz * nx - wx * nz)
-        vz = vel[j, 2] - vel[i, 2] - (wx * ny - wy * nx)
+        wx = ri * omegaf[U3 * i] + rj * omegaf[U3 * j]
+        wy = ri * omegaf[U3 * i + U1] + rj * omegaf[U3 * j + U1]
+        wz = ri * omegaf[U3 * i + U2] + rj * omegaf[U3 * j + U2]
+        vx = velf[U3 * j] - velf[U3 * i] - (wy * nz - wz * ny)
+        vy = velf[U3 * j + U1] - velf[U3 * i + U1] - (wz * nx - wx * nz)
+        vz = velf[U3 * j + U2] - velf[U3 * i + U2] - (wx * ny - wy * nx)
         gx, gy, gz = vx, vy, vz
         if split:
-            wx = ri * omega_h[i, 0] + rj * omega_h[j, 0]
-            wy = ri * omega_h[i, 1] + rj * omega_h[j, 1]
-            wz = ri * omega_h[i, 2] + rj * omega_h[j, 2]
-            gx = vel_h[j, 0] - vel_h[i, 0] - (wy * nz - wz * ny)
-            gy = vel_h[j, 1] - vel_h[i, 1] - (wz * nx - wx * nz)
-            gz = vel_h[j, 2] - vel_h[i, 2] - (wx * ny - wy * nx)
+            wx = ri * omega_hf[U3 * i] + rj * omega_hf[U3 * j]
+            wy = ri * omega_hf[U3 * i + U1] + rj * omega_hf[U3 * j + U1]
+            wz = ri * omega_hf[U3 * i + U2] + rj * omega_hf[U3 * j + U2]
+            gx = vel_hf[U3 * j] - vel_hf[U3 * i] - (wy * nz - wz * ny)
+            gy = vel_hf[U3 * j + U1] - vel_hf[U3 * i + U1] - (wz * nx - wx * nz)
+            gz = vel_hf[U3 * j + U2] - vel_hf[U3 * i + U2] - (wx * ny - wy * nx)
         if uniform:
             kn, ks, ccn, ccs, ccf, alpha, beta = kn_u, ks_u, ccn_u, ccs_u, ccf_u, al_u, be_u
         else:
@@ -216,9 +225,9 @@ def _pair_loop(pa, pb, hist, rhist, touching, pos, vel, omega, vel_h, omega_h, s
         fix += fx
         fiy += fy
         fiz += fz
-        force[j, 0] -= fx
-        force[j, 1] -= fy
-        force[j, 2] -= fz
+        forcef[U3 * j] -= fx
+        forcef[U3 * j + U1] -= fy
+        forcef[U3 * j + U2] -= fz
         # torque (r n) x f_t on i, and (r_j (-n)) x (-f_t) on j
         cx = ny * ftz - nz * fty
         cy = nz * ftx - nx * ftz
@@ -226,33 +235,37 @@ def _pair_loop(pa, pb, hist, rhist, touching, pos, vel, omega, vel_h, omega_h, s
         tix += ri * cx
         tiy += ri * cy
         tiz += ri * cz
-        torque[j, 0] += rj * cx
-        torque[j, 1] += rj * cy
-        torque[j, 2] += rj * cz
+        torquef[U3 * j] += rj * cx
+        torquef[U3 * j + U1] += rj * cy
+        torquef[U3 * j + U2] += rj * cz
         mu_r = mur_u if uniform else min(props[i, 7], props[j, 7])
         if mu_r > 0.0 and overlap > 0.0:
             i_eff = 1.0 / (1.0 / (inertia[i] + mass[i] * ri * ri) + 1.0 / (inertia[j] + mass[j] * rj * rj))
-            rolling_law(nx, ny, nz, omega[i, 0] - omega[j, 0], omega[i, 1] - omega[j, 1],
-                        omega[i, 2] - omega[j, 2], fn, ri * rj / (ri + rj), mu_r, kn, i_eff, rhist, p, dt, mr)
-            for d in range(3):
-                torque[i, d] += mr[d]
-                torque[j, d] -= mr[d]
+            rolling_law(nx, ny, nz, omegaf[U3 * i] - omegaf[U3 * j], omegaf[U3 * i + U1] - omegaf[U3 * j + U1],
+                        omegaf[U3 * i + U2] - omegaf[U3 * j + U2], fn, ri * rj / (ri + rj), mu_r, kn, i_eff, rhist, p,
+                        dt, mr)
+            torquef[U3 * i] += mr[0]
+            torquef[U3 * i + U1] += mr[1]
+            torquef[U3 * i + U2] += mr[2]
+            torquef[U3 * j] -= mr[0]
+            torquef[U3 * j + U1] -= mr[1]
+            torquef[U3 * j + U2] -= mr[2]
         if not uniform and awake[i] != awake[j]:
             m = i if awake[i] else j
             s = j if awake[i] else i
-            sp = math.sqrt(vel[m, 0] ** 2 + vel[m, 1] ** 2 + vel[m, 2] ** 2) + radius[m] * math.sqrt(
-                omega[m, 0] ** 2 + omega[m, 1] ** 2 + omega[m, 2] ** 2)
+            sp = (math.sqrt(velf[U3 * m] ** 2 + velf[U3 * m + U1] ** 2 + velf[U3 * m + U2] ** 2)
+                  + radius[m] * math.sqrt(omegaf[U3 * m] ** 2 + omegaf[U3 * m + U1] ** 2 + omegaf[U3 * m + U2] ** 2))
             if sp > wake_speed and not wake[s]:
                 wake[s] = True
                 wake_ids[n_wake[0]] = s
                 n_wake[0] += 1
     if pa.shape[0]:
-        force[ci, 0] += fix
-        force[ci, 1] += fiy
-        force[ci, 2] += fiz
-        torque[ci, 0] += tix
-        torque[ci, 1] += tiy
-        torque[ci, 2] += tiz
+        forcef[U3 * ci] += fix
+        forcef[U3 * ci + U1] += fiy
+        forcef[U3 * ci + U2] += fiz
+        torquef[U3 * ci] += tix
+        torquef[U3 * ci + U1] += tiy
+        torquef[U3 * ci + U2] += tiz
     return ncontacts
 
 
