@@ -13,6 +13,8 @@ from breachflow.dem.forces import _add_gravity, add_global_damping, zero_rows
 from breachflow.dem.integrators import drift, kick, predict_extrapolated
 from breachflow.dem.neighbours import displacement_since, wrap_and_check
 
+from .test_steploop import assert_same
+
 MASKS = {"3d": ((1.0, 1.0, 1.0), (1.0, 1.0, 1.0)), "plane_2d": ((1.0, 0.0, 1.0), (0.0, 1.0, 0.0)),
          "other axes": ((0.0, 1.0, 1.0), (1.0, 1.0, 0.0))}
 #: (periodic x, periodic y), a domain box or not
@@ -160,14 +162,6 @@ def drop_2d(integrator, compiled, seed):
     sim.state.c_gn[:] = 3.0 * sim.state.mass
     sim.state.c_gw[:] = 3.0 * sim.state.inertia
     return sim
-
-
-def assert_same(a, b):
-    sa, sb = a.save_state(), b.save_state()
-    assert sa.keys() == sb.keys()
-    for k in sa:
-        np.testing.assert_array_equal(sa[k], sb[k], err_msg=k, strict=True)
-    assert a.left_domain == b.left_domain and a.particle_steps == b.particle_steps and a.t == b.t
 
 
 @pytest.mark.parametrize("integrator", ["velocity_verlet", "predicted_verlet"])
