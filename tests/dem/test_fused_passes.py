@@ -8,7 +8,7 @@ mixed calls, a restart from a saved state after a compiled call)."""
 import numpy as np
 import pytest
 
-from breachflow.dem import DemSimulation, Material, Plane, steploop
+from breachflow.dem import DemSimulation, Material, Plane, steploop, walls
 from breachflow.dem.forces import _add_gravity, add_global_damping, zero_rows
 from breachflow.dem.integrators import drift, kick, predict_extrapolated
 from breachflow.dem.neighbours import displacement_since, wrap_and_check
@@ -82,6 +82,7 @@ def test_first_pass_equals_the_separate_kernels(predict, masks, periodic, use_bo
         assert (out[0], out[1], out[6], out[7], out[8]) == (bad, nleft, mx, sm, moved)
         assert bad == -1 and (nleft > 5 if use_box else nleft == 0)
         np.testing.assert_array_equal(out[2], keep, strict=True)
+        assert out[9] == (walls.max_speed(keep, new["vp"]) if predict else 0.0)  # the plane lists' speed bound
         np.testing.assert_array_equal(out[3], ref["idx"], strict=True)  # the kicked ones, leavers included
         ve, we = (new["vp"], new["wp"]) if predict else (new["vel"], new["omega"])
         assert np.shares_memory(out[4], ve) and np.shares_memory(out[5], we)

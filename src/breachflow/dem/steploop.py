@@ -57,7 +57,8 @@ def first_pass(idx, pos, vel, omega, force, torque, fp, tp, vp, wp, inv_m, inv_i
     bit-identical to them), and the displacement since the last list build (after
     the drift: the rebuild check of the next step, as :func:`.neighbours.displacement_since`). Returns
     (bad id or -1, #left, idx, the kicked idx, ve, we, max and sum step displacement, max displacement
-    since the build).
+    since the build, the largest predicted speed ``|vp|`` of the active particles if *predict*, else 0: the
+    plane lists' check, :func:`.walls.candidates_hold`).
 
     Each particle's rows are loaded once into scalars and stored once (numba cannot tell that the arrays do
     not overlap, so it reloads a row after every store), and the rows are indexed with an unsigned index
@@ -66,6 +67,7 @@ def first_pass(idx, pos, vel, omega, force, torque, fp, tp, vp, wp, inv_m, inv_i
     mx = 0.0
     sm = 0.0
     m2 = 0.0
+    vp2 = 0.0
     nleft = 0
     bad = -1
     c = extrapolate
@@ -122,9 +124,13 @@ def first_pass(idx, pos, vel, omega, force, torque, fp, tp, vp, wp, inv_m, inv_i
         if predict:
             g0, g1, g2 = fp[i, 0], fp[i, 1], fp[i, 2]
             q0, q1, q2 = tp[i, 0], tp[i, 1], tp[i, 2]
-            vp[i, 0] = v0 + h * (f0 + c * (f0 - g0)) * im * l0
-            vp[i, 1] = v1 + h * (f1 + c * (f1 - g1)) * im * l1
-            vp[i, 2] = v2 + h * (f2 + c * (f2 - g2)) * im * l2
+            a0 = v0 + h * (f0 + c * (f0 - g0)) * im * l0
+            a1 = v1 + h * (f1 + c * (f1 - g1)) * im * l1
+            a2 = v2 + h * (f2 + c * (f2 - g2)) * im * l2
+            vp[i, 0], vp[i, 1], vp[i, 2] = a0, a1, a2
+            a0 = a0 * a0 + a1 * a1 + a2 * a2
+            if active[i] and a0 > vp2:
+                vp2 = a0
             wp[i, 0] = w0 + h * (t0 + c * (t0 - q0)) * ii * r0
             wp[i, 1] = w1 + h * (t1 + c * (t1 - q1)) * ii * r1
             wp[i, 2] = w2 + h * (t2 + c * (t2 - q2)) * ii * r2
@@ -141,12 +147,12 @@ def first_pass(idx, pos, vel, omega, force, torque, fp, tp, vp, wp, inv_m, inv_i
                 m2 = d2
     kicked = idx
     if bad >= 0:
-        return bad, nleft, idx, kicked, vel, omega, mx, sm, 0.0
+        return bad, nleft, idx, kicked, vel, omega, mx, sm, 0.0, 0.0
     if nleft:
         idx = still_active(idx, active)
     if predict:
-        return bad, nleft, idx, kicked, vp, wp, mx, sm, math.sqrt(m2)
-    return bad, nleft, idx, kicked, vel, omega, mx, sm, math.sqrt(m2)
+        return bad, nleft, idx, kicked, vp, wp, mx, sm, math.sqrt(m2), math.sqrt(vp2)
+    return bad, nleft, idx, kicked, vel, omega, mx, sm, math.sqrt(m2), 0.0
 
 
 @numba.njit(cache=True, error_model="numpy")

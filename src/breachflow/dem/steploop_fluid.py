@@ -44,7 +44,7 @@ from .contacts import heightfield_forces, pair_forces_window, plane_forces
 from .forces import _add_gravity, zero_rows
 from .neighbours import displacement_since, rebuild
 from .steploop import BAD, DONE, any_damping, first_pass, second_pass, step_event
-from .walls import candidates_hold, max_speed, plane_candidates
+from .walls import candidates_hold, plane_candidates
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -127,7 +127,7 @@ def fluid_verlet_steps(nmax, t, idx, pos, vel, omega, vel_prev, omega_prev, forc
                 list_planes(idx, pos_build, radius, pl_point, pl_normal, margin, pl_hist, pl_rhist, listable, cand,
                             ncand)
         n_wake[0] = 0
-        bad, nleft, idx, kicked, ve, we, mx, sm, moved = first_pass(idx, pos, vel, omega, force, torque, fp, tp, vp,
+        bad, nleft, idx, kicked, ve, we, mx, sm, moved, vpmax = first_pass(idx, pos, vel, omega, force, torque, fp, tp, vp,
                                                                     wp, inv_m, inv_i, lmask, rmask, h, dt, predict,
                                                                     extrapolate, geom, periodic, box, use_box,
                                                                     active, awake, left_ids, pos_build)
@@ -138,7 +138,7 @@ def fluid_verlet_steps(nmax, t, idx, pos, vel, omega, vel_prev, omega_prev, forc
             list_planes(idx, pos_build, radius, pl_point, pl_normal, margin, pl_hist, pl_rhist, listable, cand, ncand)
         if listed:  # else the loops run over all and the lists are stale (histories set) until the next build
             listed = candidates_hold(moved, 0.0 if reach_t == 0.0 else reach_t * (
-                max_speed(idx, ve) if predict else mx / dt), margin)
+                vpmax if predict else mx / dt), margin)
         nc = pair_forces_window(pa, pb, hist, rhist, touch, pos, ve, we, vel, omega, predict, radius, mass, inertia,
                                 props, awake, active, geom, periodic, dt, wake_speed, force, torque, wake, wake_ids,
                                 n_wake, lo, hi, law)
