@@ -8,7 +8,7 @@ cells, as LAMMPS' half lists), on a dense cell array when compact (:mod:`.bins`:
 padded bins with ghost copies across periodic seams, so the search reads 5 contiguous runs of entries per
 cell with plain distances). Only awake particles search (sleeping ones sit in a
 separate grid rebuilt on sleep/wake). Elsewhere periodic x / y use minimum-image distances and wrapped
-cell coordinates. The list is kept until some awake particle moved more than skin/2
+cell coordinates. The list is kept until some awake particle moved more than skin/2, checked after each drift
 (:func:`displacement_since`, as LAMMPS' ``neigh_modify check yes``).
 """
 from __future__ import annotations

@@ -28,7 +28,9 @@ class PairListMixin:
     documented there): the pair list with its shear / rolling histories, its rebuild, the cell grids."""
 
     def after_drift(self):
-        """Wrap periodic coordinates, retire particles that left the domain, refuse NaN."""
+        """Wrap periodic coordinates, retire particles that left the domain, refuse NaN; then, before the
+        forces at these positions, rebuild the pair list if some awake particle moved more than ``skin/2``
+        since the build (``_relist_after_drift``)."""
         s = self.state
         nleft, bad = neighbours.wrap_and_check(self.idx, s.pos, s.vel, s.omega, self.geom, self.periodic, self._box,
                                              self._use_box, s.active, s.awake, self._tmp_ids)
@@ -41,6 +43,23 @@ class PairListMixin:
             self.idx = self.idx[s.active[self.idx]]
             self._dirty = True
             self._sleep_grid_dirty = True
+        self._relist_after_drift()
+
+    def _relist_after_drift(self):
+        """The rebuild check of a step, after its drift and before its force evaluation, as LAMMPS' Verlet
+        (``neighbor->decide()`` after the drift): a check before the drift lets the forces see positions up to
+        ``skin/2 + |v| dt`` from the build, so two spheres that each moved nearly ``skin/2`` toward each
+        other could touch while unlisted. The rebuild is the compiled loop's (``fluid_verlet_steps``):
+        :func:`.neighbours.rebuild` on the current sleeping grid, so both paths keep the same list; when
+        awake particles left the domain in this drift (the grid of the sleepers is still right) the flags
+        stay set for the next step's full rebuild, as after the compiled loop's LEFT event."""
+        s = self.state
+        if neighbours.displacement_since(self.idx, s.pos, self._pos_build, self.geom,
+                                         self.periodic) > 0.5 * self.skin:
+            if self._sleep_grid_dirty and hasattr(self, "_sgrid"):
+                self._rebuild_list()
+            else:
+                self._rebuild()
 
     def relist_inline(self) -> bool:
         """Whether the pair list can be rebuilt by :func:`.neighbours.rebuild` (also inside the compiled
@@ -55,15 +74,19 @@ class PairListMixin:
     def _relist(self):
         """The rebuild of :meth:`relist_inline`: the same compiled :func:`.neighbours.rebuild` as the
         many-steps loops, so the pair list is the same on both paths."""
-        s = self.state
         if self._sleep_grid_dirty:
             self._sgrid = self._grid(_EMPTY_I)
+        self._rebuild_list()
+        self._dirty = False
+        self._sleep_grid_dirty = False
+
+    def _rebuild_list(self):
+        """:func:`.neighbours.rebuild` of the awake particles on the sleeping grid ``_sgrid`` as it is."""
+        s = self.state
         bufs = getattr(self, "_pbufs", None) or neighbours.empty_buffers()
         self._pa, self._pb, self._hist, self._rhist, self._touch, self._pbufs = neighbours.rebuild(
             self.idx, s.pos, s.radius, 0.5 * self.skin, self.geom, self.periodic, self.ncell, bool(self.single_bin),
             self._sgrid, self._pa, self._pb, self._hist, self._rhist, self._pos_build, bufs)
-        self._dirty = False
-        self._sleep_grid_dirty = False
 
     def _rebuild(self):
         """Rebuild the pair list: between events ``_relist``; after a sleep, wake or retirement (the

@@ -378,6 +378,8 @@ class DemSimulation(PairListMixin, SleepingMixin, CheckpointMixin):
             for b in self.boundaries:
                 b.advance(self._dt)
             return (0.0, 0.0)
+        # events (insertion, sleep, wake, retirement) and positions changed between steps; the per-step check
+        # is after the drift, before the forces (after_drift)
         if self._dirty or neighbours.displacement_since(self.idx, s.pos, self._pos_build, self.geom,
                                                       self.periodic) > 0.5 * self.skin:
             self._rebuild()

@@ -5,9 +5,10 @@ The loop itself is :func:`.steploop_fluid.fluid_verlet_steps`, one loop for the 
 scene (a height field and fluid forces). It runs the steps of the two Verlet integrators
 (``velocity_verlet``, ``predicted_verlet``, :mod:`.integrators`) with the same kernels in the same order as
 the step-by-step path of ``DemSimulation._one_step``, so the results are bit-identical
-(tests/dem/test_steploop.py, test_steploop_fluid.py), without a Python round trip per step. Before a step
-that needs a neighbour-list rebuild (some awake particle moved more than ``skin/2`` since the last build, as
-LAMMPS' ``neigh_modify check yes``) it rebuilds inside the call with :func:`.neighbours.rebuild`, the
+(tests/dem/test_steploop.py, test_steploop_fluid.py), without a Python round trip per step. When a step's
+drift needs a neighbour-list rebuild (some awake particle moved more than ``skin/2`` since the last build, as
+LAMMPS' ``neigh_modify check yes``, decided after the drift, before the forces) it rebuilds inside the call
+with :func:`.neighbours.rebuild`, the
 driver's rebuild between events (``DemSimulation._relist``), so the list — awake particles with each other
 and with sleeping ones, histories carried over — is the same on both paths, with or without sleepers. It
 stops after a step with an event the driver handles in Python: a particle left the domain, a sleeping
@@ -55,7 +56,7 @@ def first_pass(idx, pos, vel, omega, force, torque, fp, tp, vp, wp, inv_m, inv_i
     (:func:`.neighbours.wrap_and_check`), predict (:func:`.integrators.predict_extrapolated`), zero the force and
     torque rows of those still active (each particle's operations in the order of those passes, so
     bit-identical to them), and the displacement since the last list build (after
-    the drift: the rebuild check of the next step, as :func:`.neighbours.displacement_since`). Returns
+    the drift: this step's rebuild check, as :func:`.neighbours.displacement_since`). Returns
     (bad id or -1, #left, idx, the kicked idx, ve, we, max and sum step displacement, max displacement
     since the build, the largest predicted speed ``|vp|`` of the active particles if *predict*, else 0: the
     plane lists' check, :func:`.walls.candidates_hold`).

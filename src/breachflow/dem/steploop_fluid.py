@@ -72,8 +72,9 @@ def fluid_verlet_steps(nmax, t, idx, pos, vel, omega, vel_prev, omega_prev, forc
                        pos_build, half_skin, sleeping, v_sleep, n_sleep, sleep_count, sleep_ids, sleep_check, step0,
                        e_tol, crit, consecutive, ok, stats, law, ncell, single, sgrid, bufs):
     """Up to *nmax* Verlet steps (kick, drift, wrap, contacts, boundaries, gravity, fluid forces, damping, kick)
-    of the awake particles *idx*, rebuilding the pair list *pa*, *pb*, *hist*, *rhist*, *touch* when some
-    awake particle moved more than *half_skin* (:func:`.neighbours.rebuild` with cells per period *ncell*,
+    of the awake particles *idx*, rebuilding the pair list *pa*, *pb*, *hist*, *rhist*, *touch* after the drift,
+    before the forces, when some awake particle moved more than *half_skin* since the build (so the forces
+    are always evaluated within *half_skin* of it; :func:`.neighbours.rebuild` with cells per period *ncell*,
     one cell per particle or not *single*, the current sleeping grid *sgrid* and the pair buffers *bufs*);
     returns (steps done, reason, time, the list pa, pb, hist, rhist, touch, the pair buffers).
 
@@ -119,13 +120,6 @@ def fluid_verlet_steps(nmax, t, idx, pos, vel, omega, vel_prev, omega_prev, forc
     if listed:
         list_planes(idx, pos_build, radius, pl_point, pl_normal, margin, pl_hist, pl_rhist, listable, cand, ncand)
     for _ in range(nmax):
-        if moved > half_skin:  # (after the first step: measured in first_pass)
-            pa, pb, hist, rhist, touch, bufs = rebuild(idx, pos, radius, half_skin, geom, periodic, ncell, single,
-                                                       sgrid, pa, pb, hist, rhist, pos_build, bufs)
-            listed = npl > 0 and margin > 0.0
-            if listed:
-                list_planes(idx, pos_build, radius, pl_point, pl_normal, margin, pl_hist, pl_rhist, listable, cand,
-                            ncand)
         n_wake[0] = 0
         bad, nleft, idx, kicked, ve, we, mx, sm, moved, vpmax = first_pass(idx, pos, vel, omega, force, torque, fp, tp, vp,
                                                                     wp, inv_m, inv_i, lmask, rmask, h, dt, predict,
@@ -134,7 +128,15 @@ def fluid_verlet_steps(nmax, t, idx, pos, vel, omega, vel_prev, omega_prev, forc
         if bad >= 0:
             stats[3] = bad
             return done, BAD, t, pa, pb, hist, rhist, touch, bufs
-        if listed and nleft:  # leavers retired from idx: from the lists too
+        if moved > half_skin:  # after the drift, before the forces (LAMMPS' Verlet: neighbor->decide())
+            pa, pb, hist, rhist, touch, bufs = rebuild(idx, pos, radius, half_skin, geom, periodic, ncell, single,
+                                                       sgrid, pa, pb, hist, rhist, pos_build, bufs)
+            moved = 0.0  # the build positions are these
+            listed = npl > 0 and margin > 0.0
+            if listed:
+                list_planes(idx, pos_build, radius, pl_point, pl_normal, margin, pl_hist, pl_rhist, listable, cand,
+                            ncand)
+        elif listed and nleft:  # leavers retired from idx: from the lists too
             list_planes(idx, pos_build, radius, pl_point, pl_normal, margin, pl_hist, pl_rhist, listable, cand, ncand)
         if listed:  # else the loops run over all and the lists are stale (histories set) until the next build
             listed = candidates_hold(moved, 0.0 if reach_t == 0.0 else reach_t * (
