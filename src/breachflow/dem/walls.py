@@ -14,8 +14,6 @@ import numpy as np
 
 from .contact_law import HOOKE_HISTORY, WINDOW_AVERAGED, contact_law, hooke_history, rolling_law
 
-#: unsigned offsets for the flat (3 N) views (as :data:`breachflow.dem.contacts.U1`; mixed signed/unsigned int64 would be float)
-U1, U2, U3 = np.uint64(1), np.uint64(2), np.uint64(3)
 
 #: the kinds of boundary of :func:`_wall_loop` (compile-time constants)
 PLANE, HEIGHT_FIELD = 0, 1
@@ -67,17 +65,16 @@ def _wall_loop(idx, geom, bed, wprops, hist, rhist, pos, vel, omega, radius, mas
     ``[lo, hi]`` (:func:`~breachflow.dem.contact_law.contact_law`); *vel*, *omega* at the evaluation time,
     *vel_h*, *omega_h* over the last step; hist / rhist: the boundary's (N, 3) per-particle shear /
     rolling-moment histories; the contact's properties are the minimum of the particle's row of *props* and
-    *wprops*. The (N, 3) arrays must be C-contiguous (flat views, as in the pair loop).
+    *wprops*.
 
     Written as one loop with the contact law called in it, and no helper between them: a helper inlined with
     array arguments (as ``wall_contact`` was, with 17) costs an ``NRT_incref`` / ``NRT_decref`` call pair
     (atomic) per array and contact that numba's reference-count pruning leaves in place; those calls were
-    most of a plane contact's cost. The floor loop of the 1000-sphere settled bed is 3.6-3.8 x faster than
-    main 8a4c097 (``python3 tasks.py bench dem_plane --old <src>``), with the same results bit for bit.
+    most of a plane contact's cost (about 100 against 20 ns on the 1000-sphere settled bed, ``python3 tasks.py
+    bench dem_plane --old <src>``), with the same results bit for bit. Rows are indexed unsigned and 2-D: flat
+    views (as in the pair loop) cost about 120 ns per call for their reshapes and gained nothing per contact.
     """
     mr = np.empty(3)
-    posf, velf, omegaf = pos.reshape(-1), vel.reshape(-1), omega.reshape(-1)
-    vel_hf, omega_hf, forcef, torquef = vel_h.reshape(-1), omega_h.reshape(-1), force.reshape(-1), torque.reshape(-1)
     n = 0
     reach_t = max(-lo, hi) if law == WINDOW_AVERAGED else 0.0  # hooke_history: point values
     # plane: point p, unit normal q into the domain, velocity u (locals: a store into the histories may alias
@@ -92,19 +89,18 @@ def _wall_loop(idx, geom, bed, wprops, hist, rhist, pos, vel, omega, radius, mas
     rx, ry, rz = reaction[0], reaction[1], reaction[2]  # the plane's reaction, summed in registers
     for k in range(idx.shape[0]):
         i = np.uint64(idx[k])  # unsigned: no negative-index wraparound test on each access
-        i3 = U3 * i
         ri = radius[i]
-        v0, v1, v2 = velf[i3], velf[i3 + U1], velf[i3 + U2]
+        v0, v1, v2 = vel[i, 0], vel[i, 1], vel[i, 2]
         if kind == PLANE:
-            dist = ((posf[i3] - px) * qx + (posf[i3 + U1] - py) * qy
-                    + (posf[i3 + U2] - pz) * qz)
+            dist = ((pos[i, 0] - px) * qx + (pos[i, 1] - py) * qy
+                    + (pos[i, 2] - pz) * qz)
             overlap = ri - dist
             apart = overlap <= 0.0 and (law == HOOKE_HISTORY or overlap + reach_t * abs(
                 (v0 - ux) * qx + (v1 - uy) * qy + (v2 - uz) * qz) <= 0.0)
         else:
-            cx = posf[i3]
-            cy = posf[i3 + U1]
-            cz = posf[i3 + U2]
+            cx = pos[i, 0]
+            cy = pos[i, 1]
+            cz = pos[i, 2]
             apart = cx < x0 or cx > xmax or cy < y0 or cy > ymax  # outside the grid: no contact
             overlap = 0.0
             if not apart:
@@ -137,19 +133,19 @@ def _wall_loop(idx, geom, bed, wprops, hist, rhist, pos, vel, omega, radius, mas
             n += 1
         nx, ny, nz = -qx, -qy, -qz
         # velocity of the boundary's contact point relative to i's: u - v_i - (r_i w_i) x n
-        o0, o1, o2 = omegaf[i3], omegaf[i3 + U1], omegaf[i3 + U2]
+        o0, o1, o2 = omega[i, 0], omega[i, 1], omega[i, 2]
         wx = ri * o0
         wy = ri * o1
         wz = ri * o2
         vx = ux - v0 - (wy * nz - wz * ny)
         vy = uy - v1 - (wz * nx - wx * nz)
         vz = uz - v2 - (wx * ny - wy * nx)
-        wx = ri * omega_hf[i3]
-        wy = ri * omega_hf[i3 + U1]
-        wz = ri * omega_hf[i3 + U2]
-        gx = ux - vel_hf[i3] - (wy * nz - wz * ny)
-        gy = uy - vel_hf[i3 + U1] - (wz * nx - wx * nz)
-        gz = uz - vel_hf[i3 + U2] - (wx * ny - wy * nx)
+        wx = ri * omega_h[i, 0]
+        wy = ri * omega_h[i, 1]
+        wz = ri * omega_h[i, 2]
+        gx = ux - vel_h[i, 0] - (wy * nz - wz * ny)
+        gy = uy - vel_h[i, 1] - (wz * nx - wx * nz)
+        gz = uz - vel_h[i, 2] - (wx * ny - wy * nx)
         kn = min(props[i, 2], kn_w)
         if law == HOOKE_HISTORY:
             phi, fx, fy, fz, ftx, fty, ftz, fn = hooke_history(nx, ny, nz, overlap, vx, vy, vz, gx, gy, gz, hist, i,
@@ -167,18 +163,18 @@ def _wall_loop(idx, geom, bed, wprops, hist, rhist, pos, vel, omega, radius, mas
             rhist[i, 2] = 0.0
             if phi <= 0.0:
                 continue
-        forcef[i3] += fx
-        forcef[i3 + U1] += fy
-        forcef[i3 + U2] += fz
-        torquef[i3] += ri * (ny * ftz - nz * fty)
-        torquef[i3 + U1] += ri * (nz * ftx - nx * ftz)
-        torquef[i3 + U2] += ri * (nx * fty - ny * ftx)
+        force[i, 0] += fx
+        force[i, 1] += fy
+        force[i, 2] += fz
+        torque[i, 0] += ri * (ny * ftz - nz * fty)
+        torque[i, 1] += ri * (nz * ftx - nx * ftz)
+        torque[i, 2] += ri * (nx * fty - ny * ftx)
         mu_r = min(props[i, 7], mur_w)
         if mu_r > 0.0 and overlap > 0.0:
             rolling_law(nx, ny, nz, o0, o1, o2, fn, ri, mu_r, kn, inertia[i] + mass[i] * ri * ri, rhist, i, dt, mr)
-            torquef[i3] += mr[0]
-            torquef[i3 + U1] += mr[1]
-            torquef[i3 + U2] += mr[2]
+            torque[i, 0] += mr[0]
+            torque[i, 1] += mr[1]
+            torque[i, 2] += mr[2]
         if phi <= 0.0:
             continue
         rx -= fx
