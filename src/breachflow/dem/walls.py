@@ -15,7 +15,7 @@ import numpy as np
 from .contact_law import HOOKE_HISTORY, WINDOW_AVERAGED, contact_law, hooke_history, rolling_law
 
 
-#: the kinds of boundary of :func:`_wall_loop` (compile-time constants)
+#: the kinds of boundary of ``_wall_loop`` (compile-time constants)
 PLANE, HEIGHT_FIELD = 0, 1
 
 
@@ -23,7 +23,7 @@ PLANE, HEIGHT_FIELD = 0, 1
 def plane_forces(idx, point, normal, wvel, wprops, hist, rhist, pos, vel, omega, radius, mass, inertia, props,
                  dt, force, torque, reaction, lo, hi, vel_h, omega_h, law=0):
     """Contacts of particles *idx* with the plane through *point* with unit *normal* (into the domain)
-    moving at *wvel* (:func:`_wall_loop`).
+    moving at *wvel* (``_wall_loop``).
 
     Adds the force on the plane (minus the sum of particle forces) to *reaction*; returns #contacts
     (overlapping now). Forces are averaged over the force window ``[lo, hi]``
@@ -42,7 +42,7 @@ def plane_forces(idx, point, normal, wvel, wprops, hist, rhist, pos, vel, omega,
 @numba.njit(cache=True, error_model="numpy")
 def heightfield_forces(idx, x0, y0, hx, hy, bed, wprops, hist, rhist, pos, vel, omega, radius, mass, inertia,
                        props, dt, force, torque, lo, hi, vel_h, omega_h, law=0):
-    """Contacts with the terrain ``z = bed(x, y)`` (bilinear through the grid's cell centres; :func:`_wall_loop`).
+    """Contacts with the terrain ``z = bed(x, y)`` (bilinear through the grid's cell centres; ``_wall_loop``).
 
     The contact point is the foot of the perpendicular from the centre on the local tangent plane,
     refined by three fixed-point iterations (exact on planar patches). Outside the grid: no contact.
