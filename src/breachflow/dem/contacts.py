@@ -16,8 +16,7 @@ from .contact_law import (HOOKE_HISTORY, ROLLING_DAMPING_RATIO, ROLLING_STIFFNES
                           contact_law, contact_window, hooke_history, rolling_law)
 from .neighbours import (build_grid, displacement_since, find_pairs, min_image,  # noqa: F401  (re-exported)
                          wrap_and_check)
-from .walls import (_bilinear, heightfield_forces, plane_candidates, plane_forces,  # noqa: F401  (re-exported)
-                    wall_contact)
+from .walls import _bilinear, heightfield_forces, plane_candidates, plane_forces  # noqa: F401  (re-exported)
 
 
 #: unsigned offsets for the flat (3 N) views of the pair loop (mixed signed/unsigned int64 would be float)

@@ -14,101 +14,114 @@ import numpy as np
 
 from .contact_law import HOOKE_HISTORY, WINDOW_AVERAGED, contact_law, hooke_history, rolling_law
 
-@numba.njit(cache=True, inline="always", error_model="numpy")
-def wall_contact(i, nx, ny, nz, overlap, wvel, hist, rhist, pos, vel, omega, vel_h, omega_h, radius, mass, inertia,
-                 props, wprops, dt, lo, hi, force, torque, out, mr, law=0):
-    """Contact of particle i with a boundary (n from the centre towards the boundary), averaged over the
-    force window ``[lo, hi]`` (:func:`~breachflow.dem.contact_law.contact_law`); returns the window fraction in contact.
-    Inlined into the plane and height-field loops (plane kernel 8-10 % faster on the 1000-sphere bed,
-    ``python3 tasks.py bench dem_kernel --old <main's src>``).
 
-    hist / rhist: the boundary's (N, 3) per-particle shear / rolling-moment histories."""
-    ri = radius[i]
-    wx = ri * omega[i, 0]
-    wy = ri * omega[i, 1]
-    wz = ri * omega[i, 2]
-    vx = wvel[0] - vel[i, 0] - (wy * nz - wz * ny)
-    vy = wvel[1] - vel[i, 1] - (wz * nx - wx * nz)
-    vz = wvel[2] - vel[i, 2] - (wx * ny - wy * nx)
-    wx = ri * omega_h[i, 0]
-    wy = ri * omega_h[i, 1]
-    wz = ri * omega_h[i, 2]
-    gx = wvel[0] - vel_h[i, 0] - (wy * nz - wz * ny)
-    gy = wvel[1] - vel_h[i, 1] - (wz * nx - wx * nz)
-    gz = wvel[2] - vel_h[i, 2] - (wx * ny - wy * nx)
-    if law == HOOKE_HISTORY:
-        phi, fx, fy, fz, ftx, fty, ftz, fn = hooke_history(
-            nx, ny, nz, overlap, vx, vy, vz, gx, gy, gz, hist, i, min(props[i, 2], wprops[2]),
-            min(props[i, 3], wprops[3]), min(props[i, 4], wprops[4]), min(props[i, 5], wprops[5]),
-            min(props[i, 0], wprops[0]), min(props[i, 1], wprops[1]), dt)
-    else:
-        phi, fx, fy, fz, ftx, fty, ftz, fn = contact_law(
-            nx, ny, nz, overlap, vx, vy, vz, gx, gy, gz, hist, i, min(props[i, 2], wprops[2]),
-            min(props[i, 3], wprops[3]), min(props[i, 4], wprops[4]), min(props[i, 5], wprops[5]),
-            min(props[i, 6], wprops[6]), min(props[i, 0], wprops[0]), min(props[i, 1], wprops[1]), dt, lo, hi)
-    out[0] = fx
-    out[1] = fy
-    out[2] = fz
-    if overlap <= 0.0:
-        rhist[i, 0] = 0.0
-        rhist[i, 1] = 0.0
-        rhist[i, 2] = 0.0
-        if phi <= 0.0:
-            return phi
-    force[i, 0] += fx
-    force[i, 1] += fy
-    force[i, 2] += fz
-    torque[i, 0] += ri * (ny * ftz - nz * fty)
-    torque[i, 1] += ri * (nz * ftx - nx * ftz)
-    torque[i, 2] += ri * (nx * fty - ny * ftx)
-    mu_r = min(props[i, 7], wprops[7])
-    if mu_r > 0.0 and overlap > 0.0:
-        rolling_law(nx, ny, nz, omega[i, 0], omega[i, 1], omega[i, 2], fn, ri, mu_r,
-                    min(props[i, 2], wprops[2]), inertia[i] + mass[i] * ri * ri, rhist, i, dt, mr)
-        torque[i, 0] += mr[0]
-        torque[i, 1] += mr[1]
-        torque[i, 2] += mr[2]
-    return phi
+#: the kinds of boundary of ``_wall_loop`` (compile-time constants)
+PLANE, HEIGHT_FIELD = 0, 1
 
 
 @numba.njit(cache=True, error_model="numpy")
 def plane_forces(idx, point, normal, wvel, wprops, hist, rhist, pos, vel, omega, radius, mass, inertia, props,
                  dt, force, torque, reaction, lo, hi, vel_h, omega_h, law=0):
-    """Contacts of particles *idx* with the plane through *point* with unit *normal* (into the domain).
+    """Contacts of particles *idx* with the plane through *point* with unit *normal* (into the domain)
+    moving at *wvel* (``_wall_loop``).
 
     Adds the force on the plane (minus the sum of particle forces) to *reaction*; returns #contacts
     (overlapping now). Forces are averaged over the force window ``[lo, hi]``
-    (:func:`~breachflow.dem.contact_law.contact_law`). The plane's point, normal and velocity are held in
-    locals (otherwise reloaded for every particle: the stores into the histories may alias them), 10 % faster
-    on the 1000-sphere bed (``python3 tasks.py bench dem_kernel --old <src>``). The loop is compiled once
-    per contact law (*law* a constant in each copy), as the pair loop: with both laws in one loop, the
-    window law's code slowed the loop by 12 % for either law.
+    (:func:`~breachflow.dem.contact_law.contact_law`). The loop is compiled once per contact law (*law* a
+    constant in each copy), as the pair loop: with both laws in one loop, the window law's code slowed the
+    loop by 12 % for either law.
     """
+    geom = (point[0], point[1], point[2], normal[0], normal[1], normal[2], wvel[0], wvel[1], wvel[2])
     if law == HOOKE_HISTORY:
-        return _plane_loop(idx, point, normal, wvel, wprops, hist, rhist, pos, vel, omega, radius, mass, inertia,
-                           props, dt, force, torque, reaction, lo, hi, vel_h, omega_h, HOOKE_HISTORY)
-    return _plane_loop(idx, point, normal, wvel, wprops, hist, rhist, pos, vel, omega, radius, mass, inertia, props,
-                       dt, force, torque, reaction, lo, hi, vel_h, omega_h, WINDOW_AVERAGED)
+        return _wall_loop(idx, geom, hist, wprops, hist, rhist, pos, vel, omega, radius, mass, inertia, props, dt,
+                          force, torque, reaction, lo, hi, vel_h, omega_h, HOOKE_HISTORY, PLANE)
+    return _wall_loop(idx, geom, hist, wprops, hist, rhist, pos, vel, omega, radius, mass, inertia, props, dt, force,
+                      torque, reaction, lo, hi, vel_h, omega_h, WINDOW_AVERAGED, PLANE)
+
+
+@numba.njit(cache=True, error_model="numpy")
+def heightfield_forces(idx, x0, y0, hx, hy, bed, wprops, hist, rhist, pos, vel, omega, radius, mass, inertia,
+                       props, dt, force, torque, lo, hi, vel_h, omega_h, law=0):
+    """Contacts with the terrain ``z = bed(x, y)`` (bilinear through the grid's cell centres; ``_wall_loop``).
+
+    The contact point is the foot of the perpendicular from the centre on the local tangent plane,
+    refined by three fixed-point iterations (exact on planar patches). Outside the grid: no contact.
+    Forces are averaged over the force window ``[lo, hi]`` (:func:`~breachflow.dem.contact_law.contact_law`).
+    Returns #contacts (overlapping now).
+    """
+    geom = (x0, y0, hx, hy, 0.0, 0.0, 0.0, 0.0, 0.0)
+    return _wall_loop(idx, geom, bed, wprops, hist, rhist, pos, vel, omega, radius, mass, inertia, props, dt, force,
+                      torque, np.zeros(3), lo, hi, vel_h, omega_h, law, HEIGHT_FIELD)
 
 
 @numba.njit(cache=True, inline="always", error_model="numpy")
-def _plane_loop(idx, point, normal, wvel, wprops, hist, rhist, pos, vel, omega, radius, mass, inertia, props,
-                dt, force, torque, reaction, lo, hi, vel_h, omega_h, law):
-    """The loop of :func:`plane_forces` (arguments there)."""
-    out = np.empty(7)
+def _wall_loop(idx, geom, bed, wprops, hist, rhist, pos, vel, omega, radius, mass, inertia, props, dt, force, torque,
+               reaction, lo, hi, vel_h, omega_h, law, kind):
+    """Contacts of particles *idx* with one boundary: a plane (*kind* PLANE, *geom* = point, unit normal into
+    the domain, velocity; *bed* unused; the reaction added to *reaction*) or the height field *bed* (*kind*
+    HEIGHT_FIELD, *geom* = x0, y0, hx, hy, ...; at rest). Returns #contacts (overlapping now).
+
+    Contact (SPEC §5) with the normal n from the centre towards the boundary, averaged over the force window
+    ``[lo, hi]`` (:func:`~breachflow.dem.contact_law.contact_law`); *vel*, *omega* at the evaluation time,
+    *vel_h*, *omega_h* over the last step; hist / rhist: the boundary's (N, 3) per-particle shear /
+    rolling-moment histories; the contact's properties are the minimum of the particle's row of *props* and
+    *wprops*.
+
+    Written as one loop with the contact law called in it, and no helper between them: a helper inlined with
+    array arguments (as ``wall_contact`` was, with 17) costs an ``NRT_incref`` / ``NRT_decref`` call pair
+    (atomic) per array and contact that numba's reference-count pruning leaves in place; those calls were
+    most of a plane contact's cost (about 100 against 20 ns on the 1000-sphere settled bed, ``python3 tasks.py
+    bench dem_plane --old <src>``), with the same results bit for bit. Rows are indexed unsigned and 2-D: flat
+    views (as in the pair loop) cost about 120 ns per call for their reshapes and gained nothing per contact.
+    """
     mr = np.empty(3)
     n = 0
     reach_t = max(-lo, hi) if law == WINDOW_AVERAGED else 0.0  # hooke_history: point values
-    px, py, pz = point[0], point[1], point[2]
-    qx, qy, qz = normal[0], normal[1], normal[2]
-    ux, uy, uz = wvel[0], wvel[1], wvel[2]
+    # plane: point p, unit normal q into the domain, velocity u (locals: a store into the histories may alias
+    # the arrays, which would otherwise be reloaded for every particle)
+    px, py, pz, qx, qy, qz, ux, uy, uz = geom
+    x0, y0, hx, hy = px, py, pz, qx  # height field: grid origin and spacing
+    nby, nbx = bed.shape
+    xmax = x0 + (nbx - 1) * hx
+    ymax = y0 + (nby - 1) * hy
+    al_w, be_w, kn_w, ks_w, ccn_w, ccs_w, ccf_w, mur_w = (wprops[0], wprops[1], wprops[2], wprops[3], wprops[4],
+                                                          wprops[5], wprops[6], wprops[7])
+    rx, ry, rz = reaction[0], reaction[1], reaction[2]  # the plane's reaction, summed in registers
     for k in range(idx.shape[0]):
-        i = np.uint64(idx[k])
-        dist = ((pos[i, 0] - px) * qx + (pos[i, 1] - py) * qy
-                + (pos[i, 2] - pz) * qz)
-        overlap = radius[i] - dist
-        if overlap <= 0.0 and (law == HOOKE_HISTORY or overlap + reach_t * abs(
-                (vel[i, 0] - ux) * qx + (vel[i, 1] - uy) * qy + (vel[i, 2] - uz) * qz) <= 0.0):
+        i = np.uint64(idx[k])  # unsigned: no negative-index wraparound test on each access
+        ri = radius[i]
+        v0, v1, v2 = vel[i, 0], vel[i, 1], vel[i, 2]
+        if kind == PLANE:
+            dist = ((pos[i, 0] - px) * qx + (pos[i, 1] - py) * qy
+                    + (pos[i, 2] - pz) * qz)
+            overlap = ri - dist
+            apart = overlap <= 0.0 and (law == HOOKE_HISTORY or overlap + reach_t * abs(
+                (v0 - ux) * qx + (v1 - uy) * qy + (v2 - uz) * qz) <= 0.0)
+        else:
+            cx = pos[i, 0]
+            cy = pos[i, 1]
+            cz = pos[i, 2]
+            apart = cx < x0 or cx > xmax or cy < y0 or cy > ymax  # outside the grid: no contact
+            overlap = 0.0
+            if not apart:
+                sx = cx
+                sy = cy
+                dist = 0.0
+                qx = 0.0
+                qy = 0.0
+                qz = 1.0
+                for it in range(3):
+                    z, gx, gy = _bilinear(x0, y0, hx, hy, bed, min(max(sx, x0), xmax), min(max(sy, y0), ymax))
+                    norm = math.sqrt(gx * gx + gy * gy + 1.0)
+                    qx = -gx / norm
+                    qy = -gy / norm
+                    qz = 1.0 / norm
+                    dist = (cx - sx) * qx + (cy - sy) * qy + (cz - z) * qz
+                    sx = cx - dist * qx
+                    sy = cy - dist * qy
+                overlap = ri - dist
+                apart = overlap <= 0.0 and overlap + reach_t * abs(v0 * qx + v1 * qy + v2 * qz) <= 0.0
+        if apart:
             hist[i, 0] = 0.0
             hist[i, 1] = 0.0
             hist[i, 2] = 0.0
@@ -118,12 +131,59 @@ def _plane_loop(idx, point, normal, wvel, wprops, hist, rhist, pos, vel, omega, 
             continue
         if overlap > 0.0:
             n += 1
-        if wall_contact(i, -normal[0], -normal[1], -normal[2], overlap, wvel, hist, rhist, pos, vel, omega, vel_h,
-                        omega_h, radius, mass, inertia, props, wprops, dt, lo, hi, force, torque, out, mr, law) <= 0.0:
+        nx, ny, nz = -qx, -qy, -qz
+        # velocity of the boundary's contact point relative to i's: u - v_i - (r_i w_i) x n
+        o0, o1, o2 = omega[i, 0], omega[i, 1], omega[i, 2]
+        wx = ri * o0
+        wy = ri * o1
+        wz = ri * o2
+        vx = ux - v0 - (wy * nz - wz * ny)
+        vy = uy - v1 - (wz * nx - wx * nz)
+        vz = uz - v2 - (wx * ny - wy * nx)
+        wx = ri * omega_h[i, 0]
+        wy = ri * omega_h[i, 1]
+        wz = ri * omega_h[i, 2]
+        gx = ux - vel_h[i, 0] - (wy * nz - wz * ny)
+        gy = uy - vel_h[i, 1] - (wz * nx - wx * nz)
+        gz = uz - vel_h[i, 2] - (wx * ny - wy * nx)
+        kn = min(props[i, 2], kn_w)
+        if law == HOOKE_HISTORY:
+            phi, fx, fy, fz, ftx, fty, ftz, fn = hooke_history(nx, ny, nz, overlap, vx, vy, vz, gx, gy, gz, hist, i,
+                                                               kn, min(props[i, 3], ks_w), min(props[i, 4], ccn_w),
+                                                               min(props[i, 5], ccs_w), min(props[i, 0], al_w),
+                                                               min(props[i, 1], be_w), dt)
+        else:
+            phi, fx, fy, fz, ftx, fty, ftz, fn = contact_law(nx, ny, nz, overlap, vx, vy, vz, gx, gy, gz, hist, i, kn,
+                                                             min(props[i, 3], ks_w), min(props[i, 4], ccn_w),
+                                                             min(props[i, 5], ccs_w), min(props[i, 6], ccf_w),
+                                                             min(props[i, 0], al_w), min(props[i, 1], be_w), dt, lo, hi)
+        if overlap <= 0.0:  # touching only within the window: no rolling contact now
+            rhist[i, 0] = 0.0
+            rhist[i, 1] = 0.0
+            rhist[i, 2] = 0.0
+            if phi <= 0.0:
+                continue
+        force[i, 0] += fx
+        force[i, 1] += fy
+        force[i, 2] += fz
+        torque[i, 0] += ri * (ny * ftz - nz * fty)
+        torque[i, 1] += ri * (nz * ftx - nx * ftz)
+        torque[i, 2] += ri * (nx * fty - ny * ftx)
+        mu_r = min(props[i, 7], mur_w)
+        if mu_r > 0.0 and overlap > 0.0:
+            rolling_law(nx, ny, nz, o0, o1, o2, fn, ri, mu_r, kn, inertia[i] + mass[i] * ri * ri, rhist, i, dt, mr)
+            torque[i, 0] += mr[0]
+            torque[i, 1] += mr[1]
+            torque[i, 2] += mr[2]
+        if phi <= 0.0:
             continue
-        reaction[0] -= out[0]
-        reaction[1] -= out[1]
-        reaction[2] -= out[2]
+        rx -= fx
+        ry -= fy
+        rz -= fz
+    if kind == PLANE:
+        reaction[0] = rx
+        reaction[1] = ry
+        reaction[2] = rz
     return n
 
 
@@ -146,66 +206,6 @@ def _bilinear(x0, y0, hx, hy, bed, px, py):
     gy = ((z01 - z00) * (1 - tx) + (z11 - z10) * tx) / hy
     return z, gx, gy
 
-
-@numba.njit(cache=True, error_model="numpy")
-def heightfield_forces(idx, x0, y0, hx, hy, bed, wprops, hist, rhist, pos, vel, omega, radius, mass, inertia,
-                       props, dt, force, torque, lo, hi, vel_h, omega_h, law=0):
-    """Contacts with the terrain ``z = bed(x, y)`` (bilinear through the grid's cell centres).
-
-    The contact point is the foot of the perpendicular from the centre on the local tangent plane,
-    refined by three fixed-point iterations (exact on planar patches). Outside the grid: no contact.
-    Forces are averaged over the force window ``[lo, hi]`` (:func:`~breachflow.dem.contact_law.contact_law`).
-    """
-    out = np.empty(7)
-    mr = np.empty(3)
-    wvel = np.zeros(3)
-    reach_t = max(-lo, hi) if law == WINDOW_AVERAGED else 0.0  # hooke_history: point values
-    ny, nx = bed.shape
-    xmax = x0 + (nx - 1) * hx
-    ymax = y0 + (ny - 1) * hy
-    n = 0
-    for k in range(idx.shape[0]):
-        i = idx[k]
-        px = pos[i, 0]
-        py = pos[i, 1]
-        pz = pos[i, 2]
-        if px < x0 or px > xmax or py < y0 or py > ymax:
-            hist[i, 0] = 0.0
-            hist[i, 1] = 0.0
-            hist[i, 2] = 0.0
-            rhist[i, 0] = 0.0
-            rhist[i, 1] = 0.0
-            rhist[i, 2] = 0.0
-            continue
-        qx = px
-        qy = py
-        dist = 0.0
-        nux = 0.0
-        nuy = 0.0
-        nuz = 1.0
-        for it in range(3):
-            z, gx, gy = _bilinear(x0, y0, hx, hy, bed, min(max(qx, x0), xmax), min(max(qy, y0), ymax))
-            norm = math.sqrt(gx * gx + gy * gy + 1.0)
-            nux = -gx / norm
-            nuy = -gy / norm
-            nuz = 1.0 / norm
-            dist = (px - qx) * nux + (py - qy) * nuy + (pz - z) * nuz
-            qx = px - dist * nux
-            qy = py - dist * nuy
-        overlap = radius[i] - dist
-        if overlap <= 0.0 and overlap + reach_t * abs(vel[i, 0] * nux + vel[i, 1] * nuy + vel[i, 2] * nuz) <= 0.0:
-            hist[i, 0] = 0.0
-            hist[i, 1] = 0.0
-            hist[i, 2] = 0.0
-            rhist[i, 0] = 0.0
-            rhist[i, 1] = 0.0
-            rhist[i, 2] = 0.0
-            continue
-        if overlap > 0.0:
-            n += 1
-        wall_contact(i, -nux, -nuy, -nuz, overlap, wvel, hist, rhist, pos, vel, omega, vel_h, omega_h, radius, mass,
-                     inertia, props, wprops, dt, lo, hi, force, torque, out, mr, law)
-    return n
 
 
 #: the guard of the candidate lists (:func:`candidates_hold`) keeps this fraction of the margin in reserve,
