@@ -15,7 +15,10 @@ stops after a step with an event the driver handles in Python: a particle left t
 particle was touched by a moving one, particles fell asleep, the equilibrium criterion was met, or a
 non-finite position (the driver raises). The sleeping grid is rebuilt (and histories parked or restored)
 only at these events (:func:`current_list`), so between two of them the DEM of the closure cycle, with its
-resting masses asleep, runs in one compiled call.
+resting masses asleep, runs in one compiled call. On dry scenes without sleeping, a step that ends no call
+(not the last, no leaver, not converged: decided before its closing kick) is closed and the next one
+opened in one pass over the particles (:func:`close_and_first_pass`; otherwise :func:`second_pass` then
+:func:`first_pass`), with the same roundings in the same order.
 """
 from __future__ import annotations
 
