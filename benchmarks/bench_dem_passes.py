@@ -1,6 +1,8 @@
 """In-process A/B of the compiled DEM loop's fused per-particle passes (``dem/steploop.py``: ``first_pass`` =
 kick, drift, wrap, predict, zeroing, rebuild check; ``second_pass`` = gravity, damping, closing kick) of this
-tree against another tree's (issue 16).
+tree against another tree's (issue 16); and this tree's ``close_and_first_pass`` (a step's closing pass fused
+with the next step's first pass, the compiled loop's pass between two steps) against the other tree's
+``second_pass`` then ``first_pass`` (row "closing+first").
 
     python3 tasks.py shell python benchmarks/bench_dem_passes.py --old /work/main/src [--n 1000] [--calls 300] [--reps 7]
 
@@ -41,6 +43,13 @@ def _copies(args):
     return tuple(a.copy() if isinstance(a, np.ndarray) else a for a in args)
 
 
+def _shared_copies(*tuples):
+    """Copies of the arrays of several argument tuples, an array shared by two tuples copied once."""
+    memo = {}
+    return [tuple(memo.setdefault(id(x), x.copy()) if isinstance(x, np.ndarray) else x for x in t)
+            for t in tuples]
+
+
 def _same(a1, a2, r1, r2) -> bool:
     same = all(np.array_equal(x, y) for x, y in zip(a1, a2) if isinstance(x, np.ndarray))
     if r1 is not None:
@@ -79,12 +88,25 @@ def main(argv) -> int:
         damp = bool(steploop.any_damping(idx, s.c_gn, s.c_gw))
         second = (idx, s.active, True, s.mass, sim.gravity.g, ve, we, s.c_gn, s.c_gw, damp, sim.force, sim.torque,
                   s.vel, s.omega, sim._inv_m, sim._inv_i, h, sim.lmask, sim.rmask)
-        for name, fo, fn, args in (("first_pass", fo1, steploop.first_pass, first),
-                                   ("second_pass", fo2, steploop.second_pass, second)):
-            a1, a2 = _copies(args), _copies(args)
+        nf = len(first)
+        if hasattr(steploop, "close_and_first_pass"):
+            def sep(*args):  # args: the first pass's, then the second's
+                fo2(*args[nf:])
+                return fo1(*args[:nf])
+
+            def fused(*args):
+                return steploop.close_and_first_pass(*args[:nf], True, True, s.mass, sim.gravity.g, s.c_gn,
+                                                     s.c_gw, damp)
+        cases = [("first_pass", fo1, steploop.first_pass, first), ("second_pass", fo2, steploop.second_pass, second)]
+        if hasattr(steploop, "close_and_first_pass"):
+            cases.append(("closing+first", sep, fused, first + (second[0], first[22]) + second[2:]))
+        for name, fo, fn, args in cases:
+            a1, a2 = (_shared_copies(args[:nf], args[nf:]) for _ in range(2))
+            a1, a2 = a1[0] + a1[1], a2[0] + a2[1]
             same = all(_same(a1, a2, fo(*a1), fn(*a2)) for _ in range(5))
             t_old, t_new = [], []
-            w1, w2 = _copies(args), _copies(args)
+            w1, w2 = (_shared_copies(args[:nf], args[nf:]) for _ in range(2))
+            w1, w2 = w1[0] + w1[1], w2[0] + w2[1]
             for _ in range(a.reps):
                 for f, wa, out in ((fo, w1, t_old), (fn, w2, t_new)):
                     c = time.process_time()

@@ -15,7 +15,10 @@ stops after a step with an event the driver handles in Python: a particle left t
 particle was touched by a moving one, particles fell asleep, the equilibrium criterion was met, or a
 non-finite position (the driver raises). The sleeping grid is rebuilt (and histories parked or restored)
 only at these events (:func:`current_list`), so between two of them the DEM of the closure cycle, with its
-resting masses asleep, runs in one compiled call.
+resting masses asleep, runs in one compiled call. On dry scenes without sleeping, a step that ends no call
+(not the last, no leaver, not converged: decided before its closing kick) is closed and the next one
+opened in one pass over the particles (:func:`close_and_first_pass`; otherwise :func:`second_pass` then
+:func:`first_pass`), with the same roundings in the same order.
 """
 from __future__ import annotations
 
@@ -59,12 +62,31 @@ def first_pass(idx, pos, vel, omega, force, torque, fp, tp, vp, wp, inv_m, inv_i
     the drift: this step's rebuild check, as :func:`.neighbours.displacement_since`). Returns
     (bad id or -1, #left, idx, the kicked idx, ve, we, max and sum step displacement, max displacement
     since the build, the largest predicted speed ``|vp|`` of the active particles if *predict*, else 0: the
-    plane lists' check, :func:`.walls.candidates_hold`).
+    plane lists' check, :func:`.walls.candidates_hold`). :func:`close_and_first_pass` without its closing
+    part.
 
     Each particle's rows are loaded once into scalars and stored once (numba cannot tell that the arrays do
     not overlap, so it reloads a row after every store), and the rows are indexed with an unsigned index
     (no wraparound test for negative indices on each access): the pass costs about 0.75x the row-by-row
     form on the 1000-sphere settled bed (``python3 tasks.py bench dem_kernel --phases``, README)."""
+    return close_and_first_pass(idx, pos, vel, omega, force, torque, fp, tp, vp, wp, inv_m, inv_i, lmask, rmask, h,
+                                dt, predict, extrapolate, geom, periodic, box, use_box, active, awake, left_ids,
+                                pos_build, False, False, inv_m, lmask, inv_m, inv_m, False)
+
+
+@numba.njit(cache=True, error_model="numpy")
+def close_and_first_pass(idx, pos, vel, omega, force, torque, fp, tp, vp, wp, inv_m, inv_i, lmask, rmask, h, dt,
+                         predict, extrapolate, geom, periodic, box, use_box, active, awake, left_ids, pos_build,
+                         close, gravity, mass, g, c_gn, c_gw, damp):
+    """If *close*: the end of a Verlet step (:func:`second_pass` over *idx*: gravity if *gravity*, global
+    damping if *damp* on the velocities of the force evaluation — ``vp``/``wp`` if *predict*, else
+    ``vel``/``omega`` —, the closing kick) fused with the next step's :func:`first_pass` in one pass, so each
+    particle's rows are loaded and stored once per step; per particle the operations of the two passes in
+    their order (two half kicks ``v += h a``, two roundings), so bit-identical to them. The force and torque
+    rows of a particle retired or non-finite in the first part keep the closing pass's sums, as after
+    :func:`second_pass`. Only where the closing pass's particles are the first pass's (no leaver in the
+    closing step) and no event ends the call after it (:func:`.steploop_fluid.fluid_verlet_steps`).
+    Returns as :func:`first_pass`."""
     mx = 0.0
     sm = 0.0
     m2 = 0.0
@@ -78,18 +100,52 @@ def first_pass(idx, pos, vel, omega, force, torque, fp, tp, vp, wp, inv_m, inv_i
     py = periodic[1]
     l0, l1, l2 = lmask[0], lmask[1], lmask[2]
     r0, r1, r2 = rmask[0], rmask[1], rmask[2]
+    g0, g1, g2 = g[0], g[1], g[2]
     for k in range(idx.shape[0]):
         i = np.uint64(idx[k])
         im = inv_m[i]
         ii = inv_i[i]
+        a = active[i]
         f0, f1, f2 = force[i, 0], force[i, 1], force[i, 2]
         t0, t1, t2 = torque[i, 0], torque[i, 1], torque[i, 2]
-        v0 = vel[i, 0] + h * f0 * im * l0  # kick
-        v1 = vel[i, 1] + h * f1 * im * l1
-        v2 = vel[i, 2] + h * f2 * im * l2
-        w0 = omega[i, 0] + h * t0 * ii * r0
-        w1 = omega[i, 1] + h * t1 * ii * r1
-        w2 = omega[i, 2] + h * t2 * ii * r2
+        v0, v1, v2 = vel[i, 0], vel[i, 1], vel[i, 2]
+        w0, w1, w2 = omega[i, 0], omega[i, 1], omega[i, 2]
+        if close:  # second_pass
+            if a:
+                if gravity:
+                    m = mass[i]
+                    f0 += m * g0
+                    f1 += m * g1
+                    f2 += m * g2
+                if damp:
+                    cn = c_gn[i]
+                    cw = c_gw[i]
+                    if predict:
+                        f0 -= 1.0 * cn * vp[i, 0]
+                        f1 -= 1.0 * cn * vp[i, 1]
+                        f2 -= 1.0 * cn * vp[i, 2]
+                        t0 -= 1.0 * cw * wp[i, 0]
+                        t1 -= 1.0 * cw * wp[i, 1]
+                        t2 -= 1.0 * cw * wp[i, 2]
+                    else:
+                        f0 -= 1.0 * cn * v0
+                        f1 -= 1.0 * cn * v1
+                        f2 -= 1.0 * cn * v2
+                        t0 -= 1.0 * cw * w0
+                        t1 -= 1.0 * cw * w1
+                        t2 -= 1.0 * cw * w2
+            v0 = v0 + h * f0 * im * l0  # closing kick
+            v1 = v1 + h * f1 * im * l1
+            v2 = v2 + h * f2 * im * l2
+            w0 = w0 + h * t0 * ii * r0
+            w1 = w1 + h * t1 * ii * r1
+            w2 = w2 + h * t2 * ii * r2
+        v0 = v0 + h * f0 * im * l0  # kick
+        v1 = v1 + h * f1 * im * l1
+        v2 = v2 + h * f2 * im * l2
+        w0 = w0 + h * t0 * ii * r0
+        w1 = w1 + h * t1 * ii * r1
+        w2 = w2 + h * t2 * ii * r2
         x0 = pos[i, 0] + v0 * dt  # drift
         x1 = pos[i, 1] + v1 * dt
         x2 = pos[i, 2] + v2 * dt
@@ -106,6 +162,9 @@ def first_pass(idx, pos, vel, omega, force, torque, fp, tp, vp, wp, inv_m, inv_i
             vel[i, 0], vel[i, 1], vel[i, 2] = v0, v1, v2
             omega[i, 0], omega[i, 1], omega[i, 2] = w0, w1, w2
             pos[i, 0], pos[i, 1], pos[i, 2] = x0, x1, x2
+            if close:
+                force[i, 0], force[i, 1], force[i, 2] = f0, f1, f2
+                torque[i, 0], torque[i, 1], torque[i, 2] = t0, t1, t2
             if bad < 0:
                 bad = idx[k]
             continue
@@ -117,27 +176,28 @@ def first_pass(idx, pos, vel, omega, force, torque, fp, tp, vp, wp, inv_m, inv_i
         if use_box and outside(x0, x1, x2, box, px, py):
             active[i] = False
             awake[i] = False
+            a = False
             v0 = v1 = v2 = w0 = w1 = w2 = 0.0
             left_ids[nleft] = idx[k]
             nleft += 1
         vel[i, 0], vel[i, 1], vel[i, 2] = v0, v1, v2
         omega[i, 0], omega[i, 1], omega[i, 2] = w0, w1, w2
         if predict:
-            g0, g1, g2 = fp[i, 0], fp[i, 1], fp[i, 2]
+            e0, e1, e2 = fp[i, 0], fp[i, 1], fp[i, 2]
             q0, q1, q2 = tp[i, 0], tp[i, 1], tp[i, 2]
-            a0 = v0 + h * (f0 + c * (f0 - g0)) * im * l0
-            a1 = v1 + h * (f1 + c * (f1 - g1)) * im * l1
-            a2 = v2 + h * (f2 + c * (f2 - g2)) * im * l2
+            a0 = v0 + h * (f0 + c * (f0 - e0)) * im * l0
+            a1 = v1 + h * (f1 + c * (f1 - e1)) * im * l1
+            a2 = v2 + h * (f2 + c * (f2 - e2)) * im * l2
             vp[i, 0], vp[i, 1], vp[i, 2] = a0, a1, a2
             a0 = a0 * a0 + a1 * a1 + a2 * a2
-            if active[i] and a0 > vp2:
+            if a and a0 > vp2:
                 vp2 = a0
             wp[i, 0] = w0 + h * (t0 + c * (t0 - q0)) * ii * r0
             wp[i, 1] = w1 + h * (t1 + c * (t1 - q1)) * ii * r1
             wp[i, 2] = w2 + h * (t2 + c * (t2 - q2)) * ii * r2
             fp[i, 0], fp[i, 1], fp[i, 2] = f0, f1, f2
             tp[i, 0], tp[i, 1], tp[i, 2] = t0, t1, t2
-        if active[i]:
+        if a:
             force[i, 0] = force[i, 1] = force[i, 2] = 0.0
             torque[i, 0] = torque[i, 1] = torque[i, 2] = 0.0
             dx = min_image(x0 - pos_build[i, 0], Lx, px)
@@ -146,6 +206,9 @@ def first_pass(idx, pos, vel, omega, force, torque, fp, tp, vp, wp, inv_m, inv_i
             d2 = dx * dx + dy * dy + dz * dz
             if d2 > m2:
                 m2 = d2
+        elif close:
+            force[i, 0], force[i, 1], force[i, 2] = f0, f1, f2
+            torque[i, 0], torque[i, 1], torque[i, 2] = t0, t1, t2
     kicked = idx
     if bad >= 0:
         return bad, nleft, idx, kicked, vel, omega, mx, sm, 0.0, 0.0
@@ -212,6 +275,12 @@ def second_pass(kicked, active, gravity, mass, g, ve, we, c_gn, c_gw, damp, forc
 
 
 @numba.njit(cache=True, error_model="numpy")
+def next_ok(mx, sm, e_tol, crit, ok):
+    """The count of consecutive steps below *e_tol* after a step of (max, sum) displacement *mx*, *sm*."""
+    return ok + 1 if (mx if crit == 0 else sm) < e_tol else 0
+
+
+@numba.njit(cache=True, error_model="numpy")
 def step_event(done, mx, sm, nc, nleft, e_tol, crit, ok, consecutive, stats, sleeping, n_wake, idx, vel, omega,
                vel_prev, omega_prev, radius, v_sleep, n_sleep, sleep_count, awake, sleep_ids, step0, sleep_check):
     """After a finished step: record *stats*, count steps below *e_tol*, and return (the event that ends the
@@ -220,7 +289,7 @@ def step_event(done, mx, sm, nc, nleft, e_tol, crit, ok, consecutive, stats, sle
     stats[1] = sm
     stats[2] = nc
     if e_tol >= 0.0:
-        ok = ok + 1 if (mx if crit == 0 else sm) < e_tol else 0
+        ok = next_ok(mx, sm, e_tol, crit, ok)
         stats[4] = ok
     if nleft:
         stats[3] = nleft

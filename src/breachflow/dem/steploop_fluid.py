@@ -43,7 +43,7 @@ from .contact_law import WINDOW_AVERAGED
 from .contacts import heightfield_forces, pair_forces_window, plane_forces
 from .forces import _add_gravity, zero_rows
 from .neighbours import displacement_since, rebuild
-from .steploop import BAD, DONE, any_damping, first_pass, second_pass, step_event
+from .steploop import BAD, DONE, any_damping, close_and_first_pass, first_pass, next_ok, second_pass, step_event
 from .walls import candidates_hold, plane_candidates
 
 
@@ -119,12 +119,14 @@ def fluid_verlet_steps(nmax, t, idx, pos, vel, omega, vel_prev, omega_prev, forc
     listed = npl > 0 and margin > 0.0 and moved <= half_skin
     if listed:
         list_planes(idx, pos_build, radius, pl_point, pl_normal, margin, pl_hist, pl_rhist, listable, cand, ncand)
+    opened = False  # this step's first pass done by the last step's closing pass (close_and_first_pass)
     for _ in range(nmax):
-        n_wake[0] = 0
-        bad, nleft, idx, kicked, ve, we, mx, sm, moved, vpmax = first_pass(idx, pos, vel, omega, force, torque, fp, tp, vp,
-                                                                    wp, inv_m, inv_i, lmask, rmask, h, dt, predict,
-                                                                    extrapolate, geom, periodic, box, use_box,
-                                                                    active, awake, left_ids, pos_build)
+        if not opened:
+            n_wake[0] = 0
+            bad, nleft, idx, kicked, ve, we, mx, sm, moved, vpmax = first_pass(
+                idx, pos, vel, omega, force, torque, fp, tp, vp, wp, inv_m, inv_i, lmask, rmask, h, dt, predict,
+                extrapolate, geom, periodic, box, use_box, active, awake, left_ids, pos_build)
+        opened = False
         if bad >= 0:
             stats[3] = bad
             return done, BAD, t, pa, pb, hist, rhist, touch, bufs
@@ -166,13 +168,27 @@ def fluid_verlet_steps(nmax, t, idx, pos, vel, omega, vel_prev, omega_prev, forc
                 for d in range(3):
                     force[i, d] += fm[i, d]
                     torque[i, d] += tm[i, d]
+        t += dt
+        done += 1
+        if (done < nmax and nleft == 0 and not fluid_on and not sleeping
+                and not (e_tol >= 0.0 and next_ok(mx, sm, e_tol, crit, ok) >= consecutive)):
+            # no event ends the call after this step (step_event, whose sleep test needs the closed
+            # velocities, runs before the closing kick): close it and open the next one in one pass
+            reason, ok = step_event(done, mx, sm, nc, nleft, e_tol, crit, ok, consecutive, stats, sleeping, n_wake,
+                                    idx, vel, omega, vel_prev, omega_prev, radius, v_sleep, n_sleep, sleep_count,
+                                    awake, sleep_ids, step0, sleep_check)
+            n_wake[0] = 0
+            bad, nleft, idx, kicked, ve, we, mx, sm, moved, vpmax = close_and_first_pass(
+                idx, pos, vel, omega, force, torque, fp, tp, vp, wp, inv_m, inv_i, lmask, rmask, h, dt, predict,
+                extrapolate, geom, periodic, box, use_box, active, awake, left_ids, pos_build, True, True, mass, g,
+                c_gn, c_gw, damp)
+            opened = True
+            continue
         # gravity (dry scenes: here), global damping and the closing kick in one pass
         second_pass(kicked, active, not fluid_on, mass, g, ve, we, c_gn, c_gw, damp, force, torque, vel, omega, inv_m,
                     inv_i, h, lmask, rmask)
         if fluid_on:  # next step's apparent mass, at these positions
             _inverse_masses(idx, mass, radius, phi, xi, rho_w, rho_am, inv_m)
-        t += dt
-        done += 1
         reason, ok = step_event(done, mx, sm, nc, nleft, e_tol, crit, ok, consecutive, stats, sleeping, n_wake, idx,
                                 vel, omega, vel_prev, omega_prev, radius, v_sleep, n_sleep, sleep_count, awake,
                                 sleep_ids, step0, sleep_check)
