@@ -2,8 +2,8 @@
 list, its rebuild and the pair histories it carries; the wrap / retirement check after each drift.
 
 Pairs closer than ``skin`` are listed (hashed cell grid, :mod:`.contacts`; dense bins, :mod:`.neighbours`)
-and reused until some awake particle has moved more than ``skin/2`` or particles fell asleep / woke /
-were inserted. Each pair keeps its shear history across steps and across rebuilds; when both partners
+and reused until some awake particle has moved more than ``skin/2`` (less the window-averaged law's reach
+``dt/2 max|v|``: ``relist_after_drift``) or particles fell asleep / woke / were inserted. Each pair keeps its shear history across steps and across rebuilds; when both partners
 sleep the history is parked in a sorted "frozen" store and restored when one wakes (:mod:`.sleeping`).
 Each listed pair keeps a shear history (``_hist``, m) and a rolling-moment history (``_rhist``, N m, for
 ``rolling_friction`` > 0, :func:`.contact_law.rolling_law`); both are parked and restored together.
