@@ -31,6 +31,7 @@ import numpy as np
 
 from ..registry import Registry
 from . import memory
+from .walls import max_speed
 
 integrators: Registry = Registry("DEM integrator", "breachflow.integrators")
 
@@ -152,13 +153,17 @@ class VelocityVerlet:
         inv_m, inv_i = sim.inverse_mass()
         kick(idx, s.vel, s.omega, sim.force, sim.torque, inv_m, inv_i, 0.5 * dt, sim.lmask, sim.rmask)
         disp = drift(idx, s.pos, s.vel, dt)
-        sim.after_drift()
+        sim.after_drift(relist=False)
         if self.predict_velocity:
             predict_extrapolated(idx, s.vel, s.omega, sim.force, sim.torque, w["fp"], w["tp"], inv_m, inv_i, 0.5 * dt,
                                  self.extrapolate, sim.lmask, sim.rmask, w["v"], w["w"])
             vel, omega = w["v"], w["w"]
         else:
             vel, omega = s.vel, s.omega
+        # the rebuild check with the window's reach at the velocities the law uses (as steploop_fluid)
+        reach_t = sim.window_reach(self.force_window)
+        sim.relist_after_drift(0.0 if reach_t == 0.0 else reach_t * (
+            max_speed(sim.idx, vel) if self.predict_velocity else disp[0] / dt))
         sim.contact_forces(s.pos, vel, omega, sim.force, sim.torque, self.force_window, s.vel, s.omega)
         sim.body_forces(s.pos, vel, omega, sim.t + dt, sim.force, sim.torque)
         sim.global_damping(vel, omega, sim.force, sim.torque, 1.0)

@@ -2,8 +2,8 @@
 list, its rebuild and the pair histories it carries; the wrap / retirement check after each drift.
 
 Pairs closer than ``skin`` are listed (hashed cell grid, :mod:`.contacts`; dense bins, :mod:`.neighbours`)
-and reused until some awake particle has moved more than ``skin/2`` or particles fell asleep / woke /
-were inserted. Each pair keeps its shear history across steps and across rebuilds; when both partners
+and reused until some awake particle has moved more than ``skin/2`` (less the window-averaged law's reach
+``dt/2 max|v|``: ``relist_after_drift``) or particles fell asleep / woke / were inserted. Each pair keeps its shear history across steps and across rebuilds; when both partners
 sleep the history is parked in a sorted "frozen" store and restored when one wakes (:mod:`.sleeping`).
 Each listed pair keeps a shear history (``_hist``, m) and a rolling-moment history (``_rhist``, N m, for
 ``rolling_friction`` > 0, :func:`.contact_law.rolling_law`); both are parked and restored together.
@@ -18,6 +18,7 @@ import numpy as np
 
 from ..errors import PhysicsError
 from . import contacts, neighbours
+from .contact_law import WINDOW_AVERAGED
 
 _EMPTY_I = np.zeros(0, np.int64)
 _EMPTY_GRID = (np.zeros(2, np.int64), _EMPTY_I, _EMPTY_I, 0)
@@ -27,10 +28,11 @@ class PairListMixin:
     """The neighbour list of :class:`~breachflow.dem.simulation.DemSimulation` (its methods are
     documented there): the pair list with its shear / rolling histories, its rebuild, the cell grids."""
 
-    def after_drift(self):
+    def after_drift(self, relist: bool = True):
         """Wrap periodic coordinates, retire particles that left the domain, refuse NaN; then, before the
         forces at these positions, rebuild the pair list if some awake particle moved more than ``skin/2``
-        since the build (``_relist_after_drift``)."""
+        since the build (``relist_after_drift``; *relist* False: the caller does it, with the window's reach,
+        once it knows the velocities the contact law will use)."""
         s = self.state
         nleft, bad = neighbours.wrap_and_check(self.idx, s.pos, s.vel, s.omega, self.geom, self.periodic, self._box,
                                              self._use_box, s.active, s.awake, self._tmp_ids)
@@ -43,19 +45,34 @@ class PairListMixin:
             self.idx = self.idx[s.active[self.idx]]
             self._dirty = True
             self._sleep_grid_dirty = True
-        self._relist_after_drift()
+        if relist:
+            self.relist_after_drift()
 
-    def _relist_after_drift(self):
+    def window_reach(self, window) -> float:
+        """How far ahead in time (s) the contact law looks with the force *window* ``(lo, hi)`` in steps:
+        ``max(-lo, hi) dt`` for the window-averaged law (it gives a force to a pair apart by less than
+        ``max(-lo, hi) dt |v_rel . n|``, :func:`.contact_law.contact_law`), 0 for point values. Times the
+        largest speed the law uses, the reach of :meth:`relist_after_drift`."""
+        return max(-(window[0] * self._dt), window[1] * self._dt) if self._law == WINDOW_AVERAGED else 0.0
+
+    def relist_after_drift(self, reach: float = 0.0):
         """The rebuild check of a step, after its drift and before its force evaluation, as LAMMPS' Verlet
         (``neighbor->decide()`` after the drift): a check before the drift lets the forces see positions up to
         ``skin/2 + |v| dt`` from the build, so two spheres that each moved nearly ``skin/2`` toward each
-        other could touch while unlisted. The rebuild is the compiled loop's (``fluid_verlet_steps``):
+        other could touch while unlisted. *reach* (m, :meth:`window_reach` times the largest speed the law
+        uses: the step displacement over ``dt`` for velocity Verlet, the predicted speed for predicted Verlet,
+        as ``fluid_verlet_steps``): how far beyond its gap the window-averaged law looks for any particle.
+        The list is rebuilt when ``moved + reach > skin/2``: an unlisted pair was more than ``skin`` apart
+        at the build, so it is still more than ``2 reach >= max(-lo, hi) dt |v_rel . n|`` apart and gets no
+        force in the window either (with ``moved`` alone, a pair apart by less than the reach got its
+        partial-window force one step late).
+        The rebuild is the compiled loop's (``fluid_verlet_steps``):
         :func:`.neighbours.rebuild` on the current sleeping grid, so both paths keep the same list; when
         awake particles left the domain in this drift (the grid of the sleepers is still right) the flags
         stay set for the next step's full rebuild, as after the compiled loop's LEFT event."""
         s = self.state
         if neighbours.displacement_since(self.idx, s.pos, self._pos_build, self.geom,
-                                         self.periodic) > 0.5 * self.skin:
+                                         self.periodic) + reach > 0.5 * self.skin:
             if self._sleep_grid_dirty and hasattr(self, "_sgrid"):
                 self._rebuild_list()
             else:

@@ -11,8 +11,9 @@ The driver holds the set-up, the force assembly the integrators call and the ste
 other parts are mixins in their own modules:
 
 - :mod:`.pairlist` — the neighbour list: pairs closer than ``skin`` are listed and reused until some awake
-  particle has moved more than ``skin/2`` or particles fell asleep / woke / were inserted; each pair keeps
-  its shear and rolling histories across steps and rebuilds (parked while both partners sleep);
+  particle has moved more than ``skin/2`` (less the window law's reach) or particles fell asleep / woke /
+  were inserted; each pair keeps its shear and rolling histories across steps and rebuilds (parked while
+  both partners sleep);
 - :mod:`.sleeping` — sleeping and waking (SPEC §5): slow particles are put to sleep (not integrated,
   still contact partners) and woken by a moving contact, a moving boundary or a change of the force
   models' force; :meth:`DemSimulation.sleep` puts given particles to sleep at once;

@@ -73,8 +73,9 @@ def fluid_verlet_steps(nmax, t, idx, pos, vel, omega, vel_prev, omega_prev, forc
                        e_tol, crit, consecutive, ok, stats, law, ncell, single, sgrid, bufs):
     """Up to *nmax* Verlet steps (kick, drift, wrap, contacts, boundaries, gravity, fluid forces, damping, kick)
     of the awake particles *idx*, rebuilding the pair list *pa*, *pb*, *hist*, *rhist*, *touch* after the drift,
-    before the forces, when some awake particle moved more than *half_skin* since the build (so the forces
-    are always evaluated within *half_skin* of it; :func:`.neighbours.rebuild` with cells per period *ncell*,
+    before the forces, when some awake particle moved more than *half_skin* since the build less the window
+    law's reach ``max(-lo, hi) max|v|`` (so no unlisted pair is in contact within the window at the force
+    evaluation, ``DemSimulation.relist_after_drift``; :func:`.neighbours.rebuild` with cells per period *ncell*,
     one cell per particle or not *single*, the current sleeping grid *sgrid* and the pair buffers *bufs*);
     returns (steps done, reason, time, the list pa, pb, hist, rhist, touch, the pair buffers).
 
@@ -130,7 +131,9 @@ def fluid_verlet_steps(nmax, t, idx, pos, vel, omega, vel_prev, omega_prev, forc
         if bad >= 0:
             stats[3] = bad
             return done, BAD, t, pa, pb, hist, rhist, touch, bufs
-        if moved > half_skin:  # after the drift, before the forces (LAMMPS' Verlet: neighbor->decide())
+        # how far beyond the gap the window law looks (max(-lo, hi) |v|: each particle in its half of the skin)
+        reach = 0.0 if reach_t == 0.0 else reach_t * (vpmax if predict else mx / dt)
+        if moved + reach > half_skin:  # after the drift, before the forces (LAMMPS' Verlet: neighbor->decide())
             pa, pb, hist, rhist, touch, bufs = rebuild(idx, pos, radius, half_skin, geom, periodic, ncell, single,
                                                        sgrid, pa, pb, hist, rhist, pos_build, bufs)
             moved = 0.0  # the build positions are these
@@ -141,8 +144,7 @@ def fluid_verlet_steps(nmax, t, idx, pos, vel, omega, vel_prev, omega_prev, forc
         elif listed and nleft:  # leavers retired from idx: from the lists too
             list_planes(idx, pos_build, radius, pl_point, pl_normal, margin, pl_hist, pl_rhist, listable, cand, ncand)
         if listed:  # else the loops run over all and the lists are stale (histories set) until the next build
-            listed = candidates_hold(moved, 0.0 if reach_t == 0.0 else reach_t * (
-                vpmax if predict else mx / dt), margin)
+            listed = candidates_hold(moved, reach, margin)
         nc = pair_forces_window(pa, pb, hist, rhist, touch, pos, ve, we, vel, omega, predict, radius, mass, inertia,
                                 props, awake, active, geom, periodic, dt, wake_speed, force, torque, wake, wake_ids,
                                 n_wake, lo, hi, law)
