@@ -1,8 +1,8 @@
 """CPU cost of one neighbour-list rebuild of the poured pile (issue 16), for this tree or another one.
 
     .venv/bin/python benchmarks/bench_dem_rebuild.py [--n 1000,10000] [--reps 200]
-    PYTHONPATH=<other tree's src> .venv/bin/python benchmarks/bench_dem_rebuild.py   # e.g. main before the
-                                                                                    # compiled rebuild
+    PYTHONPATH=<other tree's src> .venv/bin/python benchmarks/bench_dem_rebuild.py   # e.g. an older tree,
+                                                                                    # before the compiled rebuild
 
 Builds ``bench_dem.poured_pile(n)`` (the scene of ``tasks.py bench dem``) and times ``DemSimulation._rebuild``
 (the driver's rebuild: on older trees hash grid + search + numpy sort / searchsorted of the keys; here
@@ -26,7 +26,7 @@ of 5 blocks): binning (``neighbours.bin_dense``: counting sort into the padded d
 copies across periodic seams), the half-stencil search (``search_bins``), the sort of the found pairs by key
 (``sort_pairs``), the carry-over of the histories (``carry``), and the whole ``neighbours.rebuild`` (what the
 compiled loop and ``DemSimulation._relist`` call; it also copies the build positions and checks buffer
-capacities). On a tree without these functions (main before issue 16's rebuild work) only the whole
+capacities). On a tree without these functions (before the compiled rebuild) only the whole
 rebuild is timed.
 """
 from __future__ import annotations

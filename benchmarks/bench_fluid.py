@@ -4,7 +4,7 @@ for the error-controlled ``adaptive_free_flight`` integrator over a range of tol
 
     python benchmarks/run.py fluid [--quick] [--problems stokes,tanh,steel,entry,shear] [--out DIR]
 
-Problems (one sphere, no contacts, SPEC §6, §8):
+Problems (one sphere, no contacts, docs/theory.md, *Fluid forces on a mass*; docs/validation.md, *Settling spheres*):
 
 * ``stokes``  glass d = 0.1 mm in still water, Stokes drag + added mass, 5 tau; analytic
   ``v = v_t (1 - exp(-t/tau))``, ``tau = (rho_S + xi rho_F) d^2 / (18 mu)``;

@@ -5,9 +5,9 @@
     python pipelines/closure_feasibility.py OUTPUT_DIR --lengths 8 16 --areas 20 200 --sizes 2.5 --replicates 8
 
 For which breach lengths, polder areas and mass sizes can the breach be closed inside its closure window?
-Every member runs the ``closure`` member runner: the closure simulation of its scenario (SPEC §7: masses of
+Every member runs the ``closure`` member runner: the closure simulation of its scenario (docs/theory.md, *The closure cycle*: masses of
 that diameter dropped cycle after cycle into the embedded shallow-water flow until the end criteria hold)
-and its closure window (SPEC §2), so ``feasible = closure achieved and closure duration at the placement
+and its closure window (docs/theory.md, *Closure window*), so ``feasible = closure achieved and closure duration at the placement
 rate <= closure window``. The polder area enters only the window; breach length enters both.
 
 The base scenario is the embedded demo breach (3 m levee, water at the crest) on a coarse grid (2 m,
@@ -38,7 +38,7 @@ FULL_GRID = {"lengths": [6, 8, 10, 12, 14, 16], "areas": [10, 20, 50, 100, 200],
 SPEC = """
 [ensemble]
 name = "closure feasibility"
-description = "breach length x polder area x mass size: closure simulation and closure window (SPEC 2, 7)"
+description = "breach length x polder area x mass size: closure simulation and closure window (docs/theory.md: Closure window, The closure cycle)"
 runner = "closure"
 seed = 2026
 replicates = {replicates}

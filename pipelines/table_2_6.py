@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Reproduce the report's Table 2.6 grid of closure windows in one vectorised call (SPEC §2).
+"""Reproduce the report's Table 2.6 grid of closure windows in one vectorised call (docs/theory.md, *Closure window*).
 
     python pipelines/table_2_6.py OUTPUT_DIR
 
@@ -7,7 +7,7 @@ Writes ``OUTPUT_DIR/table_2_6.nc`` (CF NetCDF: t_Q, t_I, t_B, depth, governing c
 fall rate × breach length × polder area × inundation depth) and ``OUTPUT_DIR/table_2_6.png`` (the grid as
 the report lays it out: t_B in each cell, coloured by the governing constraint), and prints the table.
 
-Grid (SPEC §2): h_W ∈ {1.0, 3.5} m; fall rate ∈ {0.30, 0.02} m/h; B ∈ {75, 25, 12} m; A_P ∈ {100, 500,
+Grid (docs/theory.md, *Closure window*): h_W ∈ {1.0, 3.5} m; fall rate ∈ {0.30, 0.02} m/h; B ∈ {75, 25, 12} m; A_P ∈ {100, 500,
 4000} ha; d_I ∈ {0.5, 1.5} m; Q_D = h_W B × 3 m/s.
 """
 from __future__ import annotations

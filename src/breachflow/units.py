@@ -1,4 +1,4 @@
-"""The package's single pint unit registry and the boundary conversion to SI (SPEC §1).
+"""The package's single pint unit registry and the boundary conversion to SI (docs/theory.md, *Units and notation*).
 
 Every user-facing quantity goes through :func:`to_si` exactly once, at the boundary (CLI, TOML, API
 arguments). Inside the package all numbers are SI magnitudes (m, s, kg, Pa) without units attached.

@@ -56,7 +56,7 @@ def test_closure_members_reduce_to_labelled_results(tmp_path):
     q0 = ds["initial_breach_discharge"].values.ravel()
     q1 = ds["final_breach_discharge"].values.ravel()
     assert np.all(q1 < q0)
-    # SPEC §2: Q_D = h_W B 3 m/s, r_P = Q_D / A_P, t_B = min(h_W / (r_fall + r_P), d_I / r_P)
+    # docs/theory.md, *Closure window*: Q_D = h_W B 3 m/s, r_P = Q_D / A_P, t_B = min(h_W / (r_fall + r_P), d_I / r_P)
     r_p = 3.0 * 12.0 * 3.0 / 1.0e6
     t_b = min(3.0 / (0.3 / 3600 + r_p), 1.5 / r_p)
     np.testing.assert_allclose(ds["closure_window"].values.ravel(), t_b, rtol=1e-9)

@@ -1,4 +1,4 @@
-"""End criteria (SPEC §7) on fields with hand-computable values."""
+"""End criteria (docs/theory.md, *The closure cycle*) on fields with hand-computable values."""
 import numpy as np
 import pytest
 

@@ -85,7 +85,7 @@ def test_loss_limit_and_area_come_from_the_scenario(tmp_path):
 
 def test_rolling_speed_balances_drag_and_rolling_resistance():
     """``rolling_speed``: the drag 1/2 rho C_D A u^2 equals mu_r times the submerged weight. For D = 4 m the
-    Reynolds number (~3e7) is past the report law's cap C_D = 0.40 (SPEC §6), so u^2 = mu_r Delta g (2 D / 3) / 0.20
+    Reynolds number (~3e7) is past the report law's cap C_D = 0.40 (docs/theory.md, *Fluid forces on a mass*), so u^2 = mu_r Delta g (2 D / 3) / 0.20
     by hand; for smaller masses the balance is checked with the law's own C_D(Re)."""
     from breachflow.cycle.losses import rolling_speed
     from breachflow.fluid.drag import get_drag_law

@@ -17,7 +17,7 @@ def surface(x, y):
 
 
 def _old_release_xy(plan, g, seed):
-    """Release points of line/zone/list as main computed them before the registry (commit 83dc584)."""
+    """Release points of line/zone/list computed independently, as the line/zone/list rules define them before any registry."""
     rng = np.random.default_rng([int(seed), int(g)])
     n = plan.batch
     d = rng.uniform(plan.diameter[0], plan.diameter[1], n) if plan.diameter[1] > plan.diameter[0] else np.full(n, plan.diameter[0])

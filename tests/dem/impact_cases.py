@@ -2,7 +2,7 @@
 
 Every case starts in free flight (no gravity) with the gap closed at a constant speed, so the contact
 begins at ``(3 + phase) dt`` exactly, and ends in free flight, so onset and release times follow from
-the free-flight positions exactly. Expectations are analytic (SPEC §5; Chung & Ooi 2011 test 4).
+the free-flight positions exactly. Expectations are analytic (docs/theory.md, *DEM contact*; Chung & Ooi 2011 test 4).
 
 ``python tests/dem/impact_cases.py [integrator]`` prints the tables quoted in the README.
 """
@@ -21,7 +21,7 @@ SLOPE = 0.3  # terrain: plane z = SLOPE x sampled on a grid (bilinear = planar, 
 
 
 def linear_restitution(zeta: float) -> tuple[float, float]:
-    """(e, contact duration * omega_0) of the linear spring–dashpot (SPEC §5)."""
+    """(e, contact duration * omega_0) of the linear spring–dashpot (docs/theory.md, *DEM contact*)."""
     return math.exp(-zeta * math.pi / math.sqrt(1 - zeta**2)), math.pi / math.sqrt(1 - zeta**2)
 
 

@@ -1,4 +1,4 @@
-"""The force-assembly interface (INTERFACES §3): plug-in ForceModels, added mass, integrator registry."""
+"""The force-assembly interface (the ForceModel protocol of breachflow.dem.forces): plug-in ForceModels, added mass, integrator registry."""
 import numpy as np
 import pytest
 

@@ -1,7 +1,7 @@
 """Impacts at the default time step must not depend on where in a step the contact begins (issue 12).
 
 Sphere–plane, sphere–sphere and sphere–terrain (height field) impacts at 8 onset phases, damping ratios
-0.1 and 0.3, against the analytic linear spring–dashpot restitution and duration (SPEC §5); oblique
+0.1 and 0.3, against the analytic linear spring–dashpot restitution and duration (docs/theory.md, *DEM contact*); oblique
 impacts of Chung & Ooi (2011) test 4 in the sticking and gross-sliding limits against their closed forms;
 convergence orders measured on errors averaged over onset and release phases. Cases: impact_cases.py.
 """

@@ -1,4 +1,4 @@
-"""Impact-level verification of the contact law (SPEC §5), in the spirit of Chung & Ooi (2011).
+"""Impact-level verification of the contact law (docs/theory.md, *DEM contact*), in the spirit of Chung & Ooi (2011).
 
 All expectations are analytic: the linear spring–dashpot restitution ``e = exp(-zeta pi/sqrt(1-zeta^2))``
 and contact duration ``pi / (omega sqrt(1 - zeta^2))``; rigid-body Coulomb impulses for gross sliding;

@@ -90,7 +90,7 @@ def test_pair_search_work_follows_awake_particles():
 
 def test_shear_history_follows_rigid_rotation_of_the_pair():
     """Rotate a stuck pair rigidly (no relative motion): the shear spring keeps its length and stays
-    perpendicular to the normal, turning with the pair. (Lever arm D/2 as in SPEC §5, so the pair
+    perpendicular to the normal, turning with the pair. (Lever arm D/2 as in docs/theory.md, *DEM contact*, so the pair
     just touches: a deep overlap would add a relative velocity omega * u_N at the contact.)"""
     r = 0.5 + 5e-10
     n_steps = 900

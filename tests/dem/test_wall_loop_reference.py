@@ -2,7 +2,7 @@
 plain-Python reference, bit for bit.
 
 The reference is the boundary contact written out in Python with whole-row numpy arithmetic where it is
-exact and the scalar order of SPEC §5's formulas elsewhere, calling the Python versions (``py_func``) of the
+exact and the scalar order of docs/theory.md, *DEM contact* formulas elsewhere, calling the Python versions (``py_func``) of the
 contact laws and of the rolling law; properties are ``min(particle's value, boundary's value)`` (Python's
 ``min``, the same selection as numba's). The compiled loops are built without fast-math, so forces,
 torques, histories, the plane's reaction and #contacts must agree in every bit. Cases: both laws, split and

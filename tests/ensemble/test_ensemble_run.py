@@ -99,7 +99,7 @@ def test_window_ensemble_dims_coords_units_and_netcdf(client, tmp_path):
     assert ds["polder_area"].attrs["scenario_parameter"] == "polder.area"
     assert ds["closure_window"].attrs["units"] == "s" and ds["breach_discharge"].attrs["units"] == "m^3/s"
     assert (ds["member_status"] == 0).all()
-    # independent reference (SPEC §2, breach at the crest)
+    # independent reference (docs/theory.md, *Closure window*, breach at the crest)
     h, rf, v, d = 2.8, 0.4 / 3600, 3.0, 0.9
     rp = h * ds["breach_length"] * v / ds["polder_area"]
     expected = np.minimum(h / (rf + rp), d / rp)
@@ -253,7 +253,7 @@ def test_closure_feasibility_pipeline_runs_closure_members(client, tmp_path, cap
     assert ds.sizes == {"breach_length": 1, "polder_area": 2, "mass_size": 1, "replicate": 2}
     assert (ds["member_status"] == 0).all()
     assert ds["mass_size"].attrs["units"] == "m" and ds["mass_size"].values.tolist() == [2.5]
-    # SPEC §2 with the pipeline's base scenario: Q_D = h_W B 3 m/s, r_P = Q_D / A_P,
+    # docs/theory.md, *Closure window* with the pipeline's base scenario: Q_D = h_W B 3 m/s, r_P = Q_D / A_P,
     # t_B = min(h_W / (r_fall + r_P), d_I / r_P)
     r_p = 3.0 * 8.0 * 3.0 / np.array([20e4, 200e4])
     t_b = np.minimum(3.0 / (0.3 / 3600 + r_p), 1.5 / r_p)

@@ -120,7 +120,7 @@ def test_result_normalisation_converts_to_si_and_keeps_kinds():
 
 
 def test_window_members_in_process_match_the_linear_closure_window(tmp_path):
-    """SPEC §2 with the breach at the crest: Q_D = h_W B v, r_P = Q_D / A_P, t_Q = h_W / (r_f + r_P),
+    """docs/theory.md, *Closure window* with the breach at the crest: Q_D = h_W B v, r_P = Q_D / A_P, t_Q = h_W / (r_f + r_P),
     t_I = d_I / r_P, t_B = min(t_Q, t_I)."""
     spec, out_dir, members, tasks = plan(
         parse_spec(spec_text('"breach.length" = ["20 m", "60 m"]\npolder.area = ["300 ha", "2000 ha"]')), out=tmp_path)

@@ -1,5 +1,5 @@
 """The DEM integrator ``adaptive_free_flight``: error-controlled steps in free flight, the contact
-integrator's fixed step near contact (SPEC §5, §6). References are closed forms written out here."""
+integrator's fixed step near contact (docs/theory.md, *DEM contact*, *Fluid forces on a mass*). References are closed forms written out here."""
 import math
 
 import numpy as np

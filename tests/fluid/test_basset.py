@@ -1,4 +1,4 @@
-"""Basset history force (SPEC §6, report eq 3.13): the history quadrature and the Stokes settling with
+"""Basset history force (docs/theory.md, *Fluid forces on a mass*, report eq 3.13): the history quadrature and the Stokes settling with
 added mass and Basset force, against closed forms derived here."""
 import math
 

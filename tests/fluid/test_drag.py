@@ -1,4 +1,4 @@
-"""Drag laws: values at the table points, continuity, the report's corrections (SPEC §6, Table 3.2)."""
+"""Drag laws: values at the table points, continuity, the report's corrections (docs/theory.md, *Fluid forces on a mass*, Table 3.2)."""
 import math
 
 import numpy as np
@@ -7,7 +7,7 @@ import pytest
 from breachflow.errors import InputError
 from breachflow.fluid.drag import DRAG_LAWS, REPORT_CAP_RE, get_drag_law
 
-# Table 3.2 as printed in SPEC §6, transcribed independently of the package (branch upper bounds inclusive)
+# Table 3.2 as printed in docs/theory.md, *Fluid forces on a mass*, transcribed independently of the package (branch upper bounds inclusive)
 TABLE = [
     (1.0, lambda r: 24 / r),
     (700.0, lambda r: 24 / r * (1 + 0.15 * r**0.687)),
@@ -36,7 +36,7 @@ def test_report_law_matches_table_at_and_between_table_points():
 
 
 def test_report_law_multiplies_in_the_intermediate_branch():
-    # the report's program divided by (1 + 0.15 R^0.687) (SPEC §9); the table multiplies
+    # the report's program divided by (1 + 0.15 R^0.687) (docs/theory.md, *Fluid forces on a mass*); the table multiplies
     cd = get_drag_law("report").cd(100.0)
     assert cd == pytest.approx(0.24 * (1 + 0.15 * 100**0.687), rel=1e-12)
     assert cd > 1.0  # the divided form would give 0.13

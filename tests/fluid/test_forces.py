@@ -1,4 +1,4 @@
-"""Buoyancy with the spherical cap, drag, apparent mass, convective term and fluid torque (SPEC §6)."""
+"""Buoyancy with the spherical cap, drag, apparent mass, convective term and fluid torque (docs/theory.md, *Fluid forces on a mass*)."""
 import math
 
 import numpy as np

@@ -1,4 +1,4 @@
-"""Analytic validations of the fluid forces with the DEM and the free-flight integrators (SPEC §6, §8).
+"""Analytic validations of the fluid forces with the DEM and the free-flight integrators (docs/theory.md, *Fluid forces on a mass*; docs/validation.md, *Settling spheres*).
 
 References are computed here, independently of the package: closed forms, or the force balance / the
 equation of motion written out in this file and solved with scipy.

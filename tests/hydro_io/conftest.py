@@ -2,7 +2,7 @@ from pathlib import Path
 
 import pytest
 
-#: copies of the samples in shared/formats (the grammar notes there list every pitfall they exercise)
+#: sample exports of ADH, SMS and HEC-RAS models (each exercises a pitfall of its format)
 FORMATS = Path(__file__).resolve().parent / "data"
 
 

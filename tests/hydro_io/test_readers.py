@@ -1,4 +1,4 @@
-"""Every sample in shared/formats reads to a schema-valid snapshot whose values match the file text.
+"""Every sample export in tests/hydro_io/data reads to a schema-valid snapshot whose values match the file text.
 
 Expected values are taken from the sample files with deliberately naive parsing inside the tests
 (split lines, pick the numbers), independent of the readers' fast paths.

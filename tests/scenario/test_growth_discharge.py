@@ -1,4 +1,4 @@
-"""Breach growth (eqs 2.2–2.8), maximum length (2.9–2.11), breach discharge (SPEC §3)."""
+"""Breach growth (eqs 2.2–2.8), maximum length (2.9–2.11), breach discharge (docs/theory.md, *Breach growth*, *Breach discharge*)."""
 import math
 
 import numpy as np

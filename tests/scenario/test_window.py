@@ -1,4 +1,4 @@
-"""Closure window (SPEC §2): Table 2.5, the Table 2.6 grid, invariants, units, bad input."""
+"""Closure window (docs/theory.md, *Closure window*): Table 2.5, the Table 2.6 grid, invariants, units, bad input."""
 import numpy as np
 import pytest
 import xarray as xr
@@ -11,7 +11,7 @@ H = 3600.0
 MODEL = dict(polder_area="800 ha", inundation_depth="90 cm", surge_height="2.8 m", breach_discharge="200 m^3/s")
 
 
-# --- Table 2.5 (report values; t_I corrected to 10.0 h as in SPEC §2) -----------------------------------
+# --- Table 2.5 (report values; t_I corrected to 10.0 h as in docs/theory.md, *Closure window*) -----------------------------------
 @pytest.mark.parametrize("rate, t_q, t_i, t_b, depth_cm, governing", [
     ("0.4 m/hr", 5.7, 10.0, 5.7, 51, 0),    # hurricane
     ("0.06 m/hr", 18.7, 10.0, 10.0, 90, 1),  # riverine
@@ -49,7 +49,7 @@ def test_table_2_6_grid_matches_spec_definition():
                         inundation_depth=_axis("inundation_depth", depth, "m"))
     assert ds.closure_window.size == 2 * 2 * 3 * 3 * 2
     np.testing.assert_allclose(ds.polder_area.values, np.array(area) * 1e4)  # coordinates converted too
-    # independent evaluation of SPEC §2 in hours, loop by loop
+    # independent evaluation of docs/theory.md, *Closure window* in hours, loop by loop
     for h in surge:
         for f in fall:
             for b in length:

@@ -368,11 +368,11 @@ def _check_discharge_history(run, res, q0):
     water entering the flood side through the domain edges, away from the pile (20 %: the flood side's
     storage still changes at the steady-state tolerance), and a pile cell blocked in one cycle stays
     blocked unless its top dropped below the flood-side level (the lowest top still blocked; a settling
-    mass can take a cell 1 cm down across it: ADH scene, session 8, 3.0062 → 2.9965 m against 3.0026 m,
-    which the former 1 cm margin flagged). Before, cycle 2 read 48.2 after 33.2 m³/s with 32.3 entering:
-    the levee line through the pile was measured (cell-centre momentum beside the raised bed is not the
-    flux), and pile cells blocked in cycle 1 opened in cycle 2 with the same top (emergence was judged
-    against the previous water surface, in a blocked cell its own old top)."""
+    mass can take a cell 1 cm down across it: ADH scene, 3.0062 → 2.9965 m against 3.0026 m,
+    which a 1 cm margin would flag). Two mistakes this guards against: measuring the discharge on the levee
+    line through the pile (cell-centre momentum beside the raised bed is not the flux), and judging a pile
+    cell's emergence against the previous water surface (in a blocked cell its own old top), which opens
+    cells blocked in one cycle in the next with the same top."""
     q = [r.breach_discharge for r in res.reports]
     blocked_before = None
     for g in range(1, res.cycles + 1):

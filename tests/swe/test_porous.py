@@ -215,7 +215,7 @@ def test_seepage_through_a_pile_of_spheres_larger_than_the_cells(offset):
 
 @pytest.mark.parametrize("seed", [0, 1])
 def test_mass_is_conserved_with_a_dem_pile_partly_above_the_water(seed):
-    """Pile storage (SPEC §7, issue 14): the solver stores the pore water as free water — it conserves
+    """Pile storage (docs/theory.md, *The closure cycle*, issue 14): the solver stores the pore water as free water — it conserves
     sum h dx dy, the column's water without the solids (porous.py docstring) — so a pile built by
     ``porous_pile`` from spheres (porosity and height varying from cell to cell, some tops above the water,
     some cells dry on a bump) neither creates nor loses water while a wave runs through it, wet/dry included."""

@@ -1,4 +1,4 @@
-"""The report's typical breach (SPEC §3) run to steady state near the breach (slow).
+"""The report's typical breach (docs/theory.md, *Breach growth*) run to steady state near the breach (slow).
 
 Independent references: critical flow over a broad crest with the upstream energy head E = h_L
 (water at the crest, approach velocity neglected) gives the speed u_c = sqrt(2/3 g E) and the weir

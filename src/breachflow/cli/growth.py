@@ -1,4 +1,4 @@
-"""``breachflow growth``: breach length vs development time by the report's empirical equations (SPEC §3)."""
+"""``breachflow growth``: breach length vs development time by the report's empirical equations (docs/theory.md, *Breach growth*)."""
 from __future__ import annotations
 
 from pathlib import Path

@@ -1,4 +1,4 @@
-"""``breachflow settle``: the report's settling-sphere validation (SPEC §8, Fig 5.2)."""
+"""``breachflow settle``: the report's settling-sphere validation (docs/validation.md, *Settling spheres*, Fig 5.2)."""
 from __future__ import annotations
 
 from pathlib import Path

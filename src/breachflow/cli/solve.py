@@ -1,8 +1,8 @@
 """``breachflow solve``: run the embedded shallow-water solver on a breach scene to steady state.
 
-Writes the hydrodynamic snapshot (CF NetCDF, INTERFACES §1) and a plan-view speed map (PNG), both
+Writes the hydrodynamic snapshot (CF NetCDF, schema data_schemas/snapshot_grid.json) and a plan-view speed map (PNG), both
 atomically, and prints the peak depth-averaged velocity near the breach next to the report's ADH value
-and Ritter's dam-break estimate ``u = 2/3 sqrt(g h_L)`` (SPEC §3).
+and Ritter's dam-break estimate ``u = 2/3 sqrt(g h_L)`` (docs/theory.md, *Breach discharge*).
 """
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The closure cycle <g> (SPEC §7): placement, DEM settling, remap, re-solve, end criteria."""
+"""The closure cycle <g> (docs/theory.md, *The closure cycle*): placement, DEM settling, remap, re-solve, end criteria."""
 from .criteria import CriterionResult, CycleContext, EndCriteria, criteria
 
 __all__ = ["CriterionResult", "CycleContext", "EndCriteria", "criteria"]

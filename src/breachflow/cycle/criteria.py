@@ -1,11 +1,11 @@
-"""End criteria of the closure cycle (SPEC §7, report §4.4), each a named class with a threshold.
+"""End criteria of the closure cycle (docs/theory.md, *The closure cycle*, report §4.4), each a named class with a threshold.
 
 A criterion's ``evaluate(context)`` returns a :class:`CriterionResult` (value, threshold, units,
 satisfied). The registry ``breachflow.criteria`` holds them by name; :class:`EndCriteria` combines a
 list with ``"any"`` or ``"all"`` and a maximum number of cycles.
 
 =====  ======================  ===============================================================
-SPEC   name                    satisfied when
+No.    name                    satisfied when
 =====  ======================  ===============================================================
 1      ``blocked_fraction``    resting masses block ≥ threshold of the breach cross-section
 1      ``placed_volume``       solid volume of resting masses ≥ threshold (m³)
@@ -161,7 +161,7 @@ def gap_section_speeds(ds, x_range, y: float) -> tuple[float, float]:
 
 @criteria.register("blocked_fraction")
 class BlockedFraction(Criterion):
-    """SPEC §7 criterion 1: fraction of the breach cross-section (the trapezoid between the breach
+    """docs/theory.md, *The closure cycle* criterion 1: fraction of the breach cross-section (the trapezoid between the breach
     bottom and the flood level at the levee centreline) covered by the sections of resting spheres
     with the plane y = levee_y (circles of radius sqrt(r² − dy²)), by rasterising the section."""
 
@@ -187,7 +187,7 @@ class BlockedFraction(Criterion):
 
 @criteria.register("placed_volume")
 class PlacedVolume(Criterion):
-    """SPEC §7 criterion 1 (volume form): solid volume of resting masses, sum of 4/3 π r³ (m³)."""
+    """docs/theory.md, *The closure cycle* criterion 1 (volume form): solid volume of resting masses, sum of 4/3 π r³ (m³)."""
 
     name, kind, units, compare = "placed_volume", "volume", "m3", "above"
     description = "solid volume of the resting masses"
@@ -198,7 +198,7 @@ class PlacedVolume(Criterion):
 
 @criteria.register("max_speed")
 class MaxSpeed(Criterion):
-    """SPEC §7 criterion 2: max over wet open cells of ``|u|`` (m/s); e.g. 0.2 m/s for fine sands/silts.
+    """docs/theory.md, *The closure cycle* criterion 2: max over wet open cells of ``|u|`` (m/s); e.g. 0.2 m/s for fine sands/silts.
 
     ``region = "breach"`` (default) judges the cells in the breach area (``CycleContext.area``: the levee
     footprint over the breach plus one mass diameter, :mod:`~breachflow.cycle.losses`), where the closure
@@ -231,7 +231,7 @@ class MaxSpeed(Criterion):
 
 @criteria.register("discharge_proxy")
 class DischargeProxy(Criterion):
-    """SPEC §7 criterion 3: max over subdomains of (max speed × open flow area) (m³/s).
+    """docs/theory.md, *The closure cycle* criterion 3: max over subdomains of (max speed × open flow area) (m³/s).
 
     Subdomains are boxes ``(x0, x1, y0, y1)`` (default: one box spanning the breach, ±2 breach lengths
     across the levee); the open flow area of a box is the largest over its grid rows of
@@ -275,7 +275,7 @@ class DischargeProxy(Criterion):
 
 @criteria.register("breach_discharge")
 class BreachDischarge(Criterion):
-    """SPEC §7 criterion 3, direct form: ``|Q|`` through the breach section at the levee centreline,
+    """docs/theory.md, *The closure cycle* criterion 3, direct form: ``|Q|`` through the breach section at the levee centreline,
     Σ h v Δx over the open wet cells of the row at ``levee_y`` between ``breach_x`` (m³/s). Unlike the
     maximum speed or the proxy it is not fooled by water still draining off the polder or moving in
     the deep flood-side basin once the pile has shut the breach."""
@@ -289,7 +289,7 @@ class BreachDischarge(Criterion):
 
 @criteria.register("head_gradient")
 class HeadGradient(Criterion):
-    """SPEC §7 criterion 4: ``max |ΔH| / Δs`` between neighbouring wet open cells, ``H = η + |u|²/(2g)``."""
+    """docs/theory.md, *The closure cycle* criterion 4: ``max |ΔH| / Δs`` between neighbouring wet open cells, ``H = η + |u|²/(2g)``."""
 
     name, kind, units = "head_gradient", "dimensionless", "1"
     description = "maximum total-head gradient between neighbouring gridpoints"
@@ -316,7 +316,7 @@ class HeadGradient(Criterion):
 
 @criteria.register("stability")
 class Stability(Criterion):
-    """SPEC §7 criterion 5: after remapping, re-running the DEM of the existing assembly in the new flow
+    """docs/theory.md, *The closure cycle* criterion 5: after remapping, re-running the DEM of the existing assembly in the new flow
     moves no mass more than the threshold (m). Not satisfied while the re-run has not been made."""
 
     name, kind, units = "stability", "length", "m"
@@ -328,7 +328,7 @@ class Stability(Criterion):
 
 @criteria.register("speed_change")
 class SpeedChange(Criterion):
-    """SPEC §7 criterion 6: ``|max speed(g) − max speed(g−1)|`` (m/s): one more mass no longer helps."""
+    """docs/theory.md, *The closure cycle* criterion 6: ``|max speed(g) − max speed(g−1)|`` (m/s): one more mass no longer helps."""
 
     name, kind, units = "speed_change", "speed", "m s-1"
     description = "change of the maximum fluid speed since the previous cycle"

@@ -1,4 +1,4 @@
-"""The DEM side of a closure cycle (SPEC §7 steps 3–9): the DEM of a cycle (terrain, the frozen fluid field
+"""The DEM side of a closure cycle (docs/theory.md, *The closure cycle*): the DEM of a cycle (terrain, the frozen fluid field
 of the current snapshot, the masses' material), continued from the previous cycle or restored from its
 restart record, and the settle loop that steps it until the assembly is at rest or the safety cap.
 
@@ -102,13 +102,13 @@ class CycleDem:
 
     def _material(self, density, mass_ref):
         """The configured material at *density*, its normal dashpot giving the configured restitution
-        for a wall impact of *mass_ref* (SPEC §5: e = exp(-zeta pi / sqrt(1 - zeta^2)))."""
+        for a wall impact of *mass_ref* (docs/theory.md, *DEM contact*: e = exp(-zeta pi / sqrt(1 - zeta^2)))."""
         d = self.setup.dem
         m = replace(d.material, density=float(density), c_gn=d.global_damping)
         return m.with_restitution(d.restitution, mass_ref)
 
     def _terrain_material(self):
-        """Terrain contact properties: pair values are the minimum of the partners' (SPEC §5), so the
+        """Terrain contact properties: pair values are the minimum of the partners' (docs/theory.md, *DEM contact*), so the
         terrain's dashpot is sized for the heaviest possible mass and the particle's own value governs."""
         p = self.setup.placement
         heaviest = p.density[1] * 4.0 / 3.0 * np.pi * (0.5 * p.diameter[1]) ** 3

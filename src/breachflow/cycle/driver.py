@@ -1,4 +1,4 @@
-"""The closure cycle ``<g>`` (SPEC §7, report Figs 4.2, 4.5, §4.4).
+"""The closure cycle ``<g>`` (docs/theory.md, *The closure cycle*, report Figs 4.2, 4.5, §4.4).
 
 Each cycle: release the cycle's masses above the water (placement plan) → run the DEM in the frozen
 field of the current snapshot until the assembly is in equilibrium (``E_TOL``: every mass at rest or

@@ -40,7 +40,7 @@ there is strong enough to move the masses. Both must hold (:func:`cannot_close`)
    verdict on the mass size; such losses are counted and, beyond ``loss_limit`` of all placed tonnage,
    flagged (``losses_flagged``), and a run that never closes ends at ``max_cycles`` saying so.
 
-Why not the tonnage lost in a cycle over that cycle's placement (the rule before session 10): masses
+Why not the tonnage lost in a cycle over that cycle's placement (a simpler rule): masses
 still rolling from earlier cycles, or pile masses knocked loose, leave in a later cycle; counted against
 that cycle's five masses they ended the default scene (seed 2, tolerance 2e-3) "not closable" at 26 m³/s
 (of the open breach's 85.6): 34.1 t lost of 51.4 t placed, but two of the three masses were cycle 7's,

@@ -1,4 +1,4 @@
-"""Placement plan: which masses are released where and when in each cycle (SPEC §7 step 3).
+"""Placement plan: which masses are released where and when in each cycle (docs/theory.md, *The closure cycle*).
 
 One mass per cycle (the report) or batches (a truck or skip dumps several at once). Release positions
 from a placement strategy chosen by name (:mod:`~breachflow.cycle.strategies`): along a line across the

@@ -1,4 +1,4 @@
-"""Remap resting masses into the hydrodynamic model (SPEC §7 step 10, report Fig 4.5).
+"""Remap resting masses into the hydrodynamic model (docs/theory.md, *The closure cycle*, report Fig 4.5).
 
 How the pile enters ``no_flow`` and ``raised_bed`` (``[closure] pile_sampling``):
 

@@ -1,4 +1,4 @@
-"""Which masses a closure cycle counts as the pile (SPEC §7 step 10: "resting particles become ... boundaries").
+"""Which masses a closure cycle counts as the pile (docs/theory.md, *The closure cycle*: "resting particles become ... boundaries").
 
 A cycle's DEM ends when every mass is at rest (``e_tol``, or every awake mass slower than ``rest_speed`` for
 ``rest_time``) or at the safety cap ``max_time``. At the cap some masses still move, and the remap must

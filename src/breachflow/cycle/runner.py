@@ -1,4 +1,4 @@
-"""The ``closure`` ensemble member runner (issue: scenario ensembles; SPEC §2 + §7).
+"""The ``closure`` ensemble member runner (issue: scenario ensembles; docs/theory.md, *Closure window*, *The closure cycle*).
 
 Runs the member's closure simulation in its run directory (resuming a previous attempt) and its
 closure window, and reduces both to scalars: cycles, masses, tonnage, simulated closure duration at

@@ -1,4 +1,4 @@
-"""Placement strategies: where a cycle's masses are dropped (SPEC §7 step 3), chosen by name.
+"""Placement strategies: where a cycle's masses are dropped (docs/theory.md, *The closure cycle*), chosen by name.
 
 ``[placement] positions`` names an entry of :data:`placement_strategies`; each is a class with one
 method, ``positions(plan, k, d, rng, pile) -> (n, 2)`` release points (x, y) in m of the masses with

@@ -1,4 +1,4 @@
-"""Discrete element method for the dropped masses (SPEC §5): spheres with linear spring–dashpot
+"""Discrete element method for the dropped masses (docs/theory.md, *DEM contact*): spheres with linear spring–dashpot
 contacts, Coulomb friction with adhesion and shear history, boundaries (planes, moving walls, terrain
 height field), named integrators, sleeping, and equilibrium detection."""
 from __future__ import annotations

@@ -1,8 +1,8 @@
 """Boundaries of the DEM: planes / walls (fixed, velocity- or force-controlled) and the terrain as a
-height field on the hydrodynamic grid (SPEC §5, report Table 3.1 "for each boundary [k]").
+height field on the hydrodynamic grid (docs/theory.md, *DEM contact*, report Table 3.1 "for each boundary [k]").
 
 Each boundary carries its own Table 3.1 contact properties (a :class:`~.state.Material`); the contact
-with a particle uses the minimum of the two (SPEC §5). Shear histories are kept per particle.
+with a particle uses the minimum of the two (docs/theory.md, *DEM contact*). Shear histories are kept per particle.
 """
 from __future__ import annotations
 
@@ -96,7 +96,7 @@ class HeightField(Boundary):
     """Terrain ``z = bed(x, y)``: bilinear through a regular grid of cell-centre values.
 
     *x* (nx,), *y* (ny,) increasing and evenly spaced (m), *bed* (ny, nx) m — the hydrodynamic
-    snapshot's grid (INTERFACES §1); :meth:`from_snapshot` takes it from a snapshot Dataset.
+    snapshot's grid (schema data_schemas/snapshot_grid.json); :meth:`from_snapshot` takes it from a snapshot Dataset.
     """
 
     def __init__(self, x, y, bed, material: Material | None = None):

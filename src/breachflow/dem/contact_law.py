@@ -1,6 +1,6 @@
-"""The linear spring–dashpot contact law with friction history and rolling resistance (SPEC §5).
+"""The linear spring–dashpot contact law with friction history and rolling resistance (docs/theory.md, *DEM contact*).
 
-Contact law (SPEC §5), ``n`` from particle i to its partner, overlap ``u_N > 0``:
+Contact law (docs/theory.md, *DEM contact*), ``n`` from particle i to its partner, overlap ``u_N > 0``:
 
 * normal ``f_N = -k_N u_N n + c_CN (v_rel . n) n`` on i;
 * tangential spring on the accumulated displacement ``u_S`` (kept per pair across steps and
@@ -97,7 +97,7 @@ def history_in_plane(hist, p, nx, ny, nz):
 @numba.njit(cache=True, inline="always", error_model="numpy")
 def contact_law(nx, ny, nz, overlap, vx, vy, vz, gx, gy, gz, hist, p, kn, ks, c_cn, c_cs, c_cf, alpha, beta, dt, lo,
                 hi):
-    """Force on particle i from one contact (SPEC §5), averaged over the integrator's force window;
+    """Force on particle i from one contact (docs/theory.md, *DEM contact*), averaged over the integrator's force window;
     updates the shear history *hist* in place. Returns the window fraction in contact (0: none).
 
     (nx, ny, nz): unit normal from i to the partner; (vx, vy, vz): velocity of the partner's contact

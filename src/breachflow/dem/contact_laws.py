@@ -1,6 +1,6 @@
 """The particle contact laws of the DEM, chosen by name from the registry ``breachflow.contact_laws``
 (``DemSimulation(contact_law=...)``); both are the linear spring–dashpot with Coulomb friction and shear
-history of SPEC §5, computed differently:
+history of docs/theory.md, *DEM contact*, computed differently:
 
 * ``"window_averaged"`` (default) — :func:`.contact_law.contact_law`: the law averaged over the
   integrator's force window, so contact onset and release inside a step are resolved (issue 12), the

@@ -1,8 +1,8 @@
-"""Contact forces of the DEM (SPEC §5): particle pairs from the neighbour list; planes and terrain in
+"""Contact forces of the DEM (docs/theory.md, *DEM contact*): particle pairs from the neighbour list; planes and terrain in
 :mod:`.walls` (re-exported here).
 
 Neighbour search: :mod:`.neighbours` (cell grid, half stencil, skin check; re-exported here). Contact
-laws (SPEC §5): :mod:`.contact_law` (the window-averaged spring–dashpot with rolling resistance, and
+laws (docs/theory.md, *DEM contact*): :mod:`.contact_law` (the window-averaged spring–dashpot with rolling resistance, and
 LAMMPS' ``gran/hooke/history``), chosen by name in :mod:`.contact_laws`.
 """
 from __future__ import annotations
@@ -55,12 +55,11 @@ def pair_forces_window(pa, pb, hist, rhist, touching, pos, vel, omega, vel_h, om
     properties are loop constants instead of ``min`` of 8 columns of both partners, and there are no sleep,
     activity or wake tests per pair; it gives the general loop's results bit for bit
     (tests/dem/test_pair_fast_path.py). ``fastmath={"contract"}`` only: ``a * b + c`` may be fused into one
-    rounding (FMA); no NaN / inf / reassociation assumptions. With both, the pair loop on the 1000-sphere
-    settled bed is 1.29 / 1.41 x faster (window-averaged / ``hooke_history``) than main 187b132
-    (``python3 tasks.py bench dem_kernel --old <src>``); the one-material copy alone 11 % against a run-time
-    flag, at 7 CPU s more compile time on an empty cache (``bench dem_kernel --compile``). The one-material
-    and the general copies are compiled once per contact law (*law* a constant in each): with both laws in one
-    loop, a change to the window law's code moved the ``hooke_history`` loop's speed by up to 27 %.
+    rounding (FMA); no NaN / inf / reassociation assumptions. Both make the pair loop faster
+    (``python3 tasks.py bench dem_kernel`` times it); the one-material copy costs compile time on an empty
+    cache (``bench dem_kernel --compile``). The one-material
+    and the general copies are compiled once per contact law (*law* a constant in each), so that the code of
+    one law does not change the speed of the other's loop.
     """
     if uniform_awake(props, awake, active):
         if law == HOOKE_HISTORY:

@@ -1,9 +1,9 @@
-"""Force models of the DEM and the force assembly the integrators call (SPEC §5, §6; INTERFACES §3).
+"""Force models of the DEM and the force assembly the integrators call (docs/theory.md, *DEM contact*, *Fluid forces on a mass*; the ForceModel protocol below).
 
 A :class:`ForceModel` adds its force (N) and torque (N m) per particle into whole arrays, evaluated at
 the kinematic state the integrator passes (e.g. the report scheme's predicted positions, Step 7H).
 Integrators compute ``a = (F_contacts + F_gravity + sum(models) + F_damping) / (m + sum(added_mass))``
-and never know which models exist. Fluid forces (SPEC §6) plug in as a further ForceModel. A model with a
+and never know which models exist. Fluid forces (docs/theory.md, *Fluid forces on a mass*) plug in as a further ForceModel. A model with a
 memory (the Basset history) is told each accepted state by an optional ``commit(state, pos, vel, t)`` and
 saved with the DEM state through optional ``state_arrays`` / ``restore_state`` (:mod:`.memory`).
 """
@@ -42,7 +42,7 @@ def _add_gravity(idx, mass, g, force):
 
 
 class Gravity:
-    """Gravity ``f_G = rho_S V g = m g`` (SPEC §6); buoyancy belongs to the fluid model."""
+    """Gravity ``f_G = rho_S V g = m g`` (docs/theory.md, *Fluid forces on a mass*); buoyancy belongs to the fluid model."""
 
     def __init__(self, g=(0.0, 0.0, -G)):
         self.g = np.asarray(g, dtype=float)
@@ -58,7 +58,7 @@ class Gravity:
 
 @numba.njit(cache=True, error_model="numpy")
 def add_global_damping(idx, vel, omega, c_gn, c_gw, scale, force, torque):
-    """Global damping ``d_GN = -c_GN v``, ``d_GW = -c_GW w`` times *scale* (report: 1/2), SPEC §5."""
+    """Global damping ``d_GN = -c_GN v``, ``d_GW = -c_GW w`` times *scale* (report: 1/2), docs/theory.md, *DEM contact*."""
     for k in range(idx.shape[0]):
         i = idx[k]
         for d in range(3):

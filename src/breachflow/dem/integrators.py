@@ -8,7 +8,7 @@ force models (fluid, ...) exist: ``a = (F_contacts + F_gravity + sum(models) + F
 An integrator with a memory between steps saves it through ``state_arrays`` / ``restore_state``
 (:mod:`.memory`).
 
-* ``"report"`` — the report's predictor–refinement scheme (Fig 4.3 Steps 7F–7J, SPEC §5);
+* ``"report"`` — the report's predictor–refinement scheme (Fig 4.3 Steps 7F–7J, docs/theory.md, *DEM contact*);
 * ``"velocity_verlet"`` — kick–drift–kick velocity Verlet as in LAMMPS ``fix nve/sphere``: the
   velocity-dependent forces (dashpots, history increments) use the half-step velocity;
 * ``"predicted_verlet"`` — velocity Verlet whose velocity-dependent forces use the predicted
@@ -187,7 +187,7 @@ class PredictedVelocityVerlet(VelocityVerlet):
 
 @integrators.register("report")
 class ReportScheme:
-    """The report's predictor–refinement scheme (Fig 4.3 Steps 7F–7J, SPEC §5).
+    """The report's predictor–refinement scheme (Fig 4.3 Steps 7F–7J, docs/theory.md, *DEM contact*).
 
     7F: contacts + body forces at ``x(t), v(t)``, acceleration without damping or added mass;
     7G: ``v(t+1/2) = (v(t-1) + v(t))/2 + a dt``;
@@ -231,7 +231,7 @@ class AdaptiveFreeFlight:
     While every awake particle is clear of all other particles and boundaries, the awake set moves by
     one step of an embedded Runge–Kutta pair (``method``: ``dopri5`` or ``bs32``, see
     :mod:`breachflow.fluid.freeflight`) of ``dx/dt = v``, ``(m + m_A(x)) dv/dt = F_G + sum(models) + d_GN``,
-    ``I dw/dt = sum(torques) + d_GW`` (SPEC §5, §6), with the step size set by ``rtol``/``atol`` and
+    ``I dw/dt = sum(torques) + d_GW`` (docs/theory.md, *DEM contact*, *Fluid forces on a mass*), with the step size set by ``rtol``/``atol`` and
     bounded so no particle can close its clearance within the step (checked again after the step;
     a step that would end in contact is retried shorter).  When a particle comes within ``margin``
     (default half the neighbour-list skin) of a partner, the simulation steps the fixed ``dt`` of the

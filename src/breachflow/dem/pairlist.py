@@ -1,4 +1,4 @@
-"""The DEM driver's neighbour list (:class:`~breachflow.dem.simulation.DemSimulation`, SPEC §5): the pair
+"""The DEM driver's neighbour list (:class:`~breachflow.dem.simulation.DemSimulation`, docs/theory.md, *DEM contact*): the pair
 list, its rebuild and the pair histories it carries; the wrap / retirement check after each drift.
 
 Pairs closer than ``skin`` are listed (hashed cell grid, :mod:`.contacts`; dense bins, :mod:`.neighbours`)

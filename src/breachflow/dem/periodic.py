@@ -1,4 +1,4 @@
-"""Periodic axes of the DEM domain (SPEC §5): minimum-image differences, wrapping into the period, and the
+"""Periodic axes of the DEM domain (docs/theory.md, *DEM contact*): minimum-image differences, wrapping into the period, and the
 test for leaving the domain on the non-periodic axes. Shared by the neighbour search (:mod:`.neighbours`,
 :mod:`.bins`) and the compiled step loop (:mod:`.steploop`)."""
 from __future__ import annotations

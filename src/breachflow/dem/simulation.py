@@ -1,4 +1,4 @@
-"""The DEM driver: particles, boundaries, force models, neighbour lists, sleeping (SPEC §5, §7 steps 4–9).
+"""The DEM driver: particles, boundaries, force models, neighbour lists, sleeping (docs/theory.md, *DEM contact*, *The closure cycle*).
 
 >>> rock = Material(density=2650, kn=1e7, friction=0.5, c_cn=4e4)
 >>> sim = DemSimulation(boundaries=[Plane((0, 0, 0), (0, 0, 1), rock)])
@@ -14,7 +14,7 @@ other parts are mixins in their own modules:
   particle has moved more than ``skin/2`` (less the window law's reach) or particles fell asleep / woke /
   were inserted; each pair keeps its shear and rolling histories across steps and rebuilds (parked while
   both partners sleep);
-- :mod:`.sleeping` — sleeping and waking (SPEC §5): slow particles are put to sleep (not integrated,
+- :mod:`.sleeping` — sleeping and waking (docs/theory.md, *DEM contact*): slow particles are put to sleep (not integrated,
   still contact partners) and woken by a moving contact, a moving boundary or a change of the force
   models' force; :meth:`DemSimulation.sleep` puts given particles to sleep at once;
 - :mod:`.checkpoint` — :meth:`DemSimulation.save_state` / :meth:`DemSimulation.from_state` round-trip
@@ -98,7 +98,7 @@ class DemSimulation(PairListMixin, SleepingMixin, CheckpointMixin):
         self.sleep_steps = int(sleep_steps)
         self.sleep_check = max(1, int(sleep_check))
         self.wake_force_fraction = float(wake_force_fraction)
-        # static_models: the force models do not change in time (a frozen flow field, SPEC §7 step 3), so a
+        # static_models: the force models do not change in time (a frozen flow field, docs/theory.md, *The closure cycle*), so a
         # sleeper's model force is checked once, on the first step, and then only awake particles are
         # evaluated (their accumulate must accept idx=); per-step cost then follows the moving particles
         self.static_models = bool(static_models)

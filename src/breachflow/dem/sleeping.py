@@ -1,4 +1,4 @@
-"""Sleeping and waking in the DEM driver (:class:`~breachflow.dem.simulation.DemSimulation`, SPEC §5).
+"""Sleeping and waking in the DEM driver (:class:`~breachflow.dem.simulation.DemSimulation`, docs/theory.md, *DEM contact*).
 
 An awake particle whose speed and ``r |w|`` stay below ``sleep_velocity`` for
 ``sleep_steps`` consecutive steps is put to sleep (transitions are applied every ``sleep_check``
@@ -28,7 +28,7 @@ class SleepingMixin:
         """Put particles *ids* to sleep now (e.g. masses that were at rest at the end of the previous
         cycle); returns the ids actually put to sleep (active, not fixed).
 
-        Like the automatic transition (SPEC §5 sleeping): velocities and spins are zeroed (also the
+        Like the automatic transition (docs/theory.md, *DEM contact* sleeping): velocities and spins are zeroed (also the
         previous-step ones the report scheme uses); they are no longer integrated but remain contact
         partners. The force models' force on each is evaluated now, at rest, and kept as the reference of
         the wake-by-force check, so they wake only on a real change of that force (more than

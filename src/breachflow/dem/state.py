@@ -1,7 +1,7 @@
-"""Particle state of the DEM as a structure of arrays (SPEC §5, report Table 3.1).
+"""Particle state of the DEM as a structure of arrays (docs/theory.md, *DEM contact*, report Table 3.1).
 
 Every array is float64 / bool numpy, SI, indexed by particle. Contact properties of a pair (or of a
-particle and a boundary) are the minimum of the two partners' values (SPEC §5).
+particle and a boundary) are the minimum of the two partners' values (docs/theory.md, *DEM contact*).
 
 Table 3.1 per-particle parameters and their fields here:
 
@@ -74,7 +74,7 @@ class Material:
     def with_restitution(self, e: float, mass: float) -> "Material":
         """Return a copy whose normal dashpot gives restitution *e* for a wall impact of *mass*.
 
-        Inverts ``e = exp(-zeta pi / sqrt(1 - zeta^2))``, ``c = 2 zeta sqrt(k m)`` (SPEC §5).
+        Inverts ``e = exp(-zeta pi / sqrt(1 - zeta^2))``, ``c = 2 zeta sqrt(k m)`` (docs/theory.md, *DEM contact*).
         """
         if not 0 < e <= 1:
             raise InputError(f"restitution e={e} must be in (0, 1]")
@@ -104,7 +104,7 @@ def _grow(a: np.ndarray, n: int) -> np.ndarray:
 
 @dataclass
 class ParticleState:
-    """Structure of arrays of N spheres (SPEC §5). All float64 SI unless noted.
+    """Structure of arrays of N spheres (docs/theory.md, *DEM contact*). All float64 SI unless noted.
 
     ``pos``, ``vel``, ``omega`` (N, 3); ``radius``, ``mass``, ``inertia``, ``density`` (N,);
     Table 3.1 material fields (N,) (see :data:`~breachflow.dem.state.MATERIAL_FIELDS`); ``awake`` (N,) bool — sleeping

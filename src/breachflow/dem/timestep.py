@@ -1,4 +1,4 @@
-"""Stable time step of the explicit DEM (SPEC §5).
+"""Stable time step of the explicit DEM (docs/theory.md, *DEM contact*).
 
 A linear contact of stiffness k between effective mass m_eff oscillates at ``omega = sqrt(k/m_eff)``;
 explicit central-difference schemes are stable for ``dt < 2/omega``, reduced by a dashpot of ratio
@@ -68,5 +68,5 @@ def check_dt(dt: float, limit: float) -> float:
     if dt > limit:
         raise InputError(
             f"time step dt={dt:.6g} s exceeds the stable limit {limit:.6g} s of the stiffest contact "
-            f"(2/omega, SPEC §5); use dt <= {limit:.6g} s (recommended {SAFETY * limit:.6g} s)")
+            f"(2/omega, docs/theory.md, *DEM contact*); use dt <= {limit:.6g} s (recommended {SAFETY * limit:.6g} s)")
     return dt

@@ -1,4 +1,4 @@
-"""Contacts of particles with boundaries (SPEC §5): fixed or moving planes and the terrain as a height
+"""Contacts of particles with boundaries (docs/theory.md, *DEM contact*): fixed or moving planes and the terrain as a height
 field (split out of :mod:`.contacts`, which re-exports these names).
 
 :func:`plane_candidates` lists, per fixed plane, the particles that can touch it before the next
@@ -61,7 +61,7 @@ def _wall_loop(idx, geom, bed, wprops, hist, rhist, pos, vel, omega, radius, mas
     the domain, velocity; *bed* unused; the reaction added to *reaction*) or the height field *bed* (*kind*
     HEIGHT_FIELD, *geom* = x0, y0, hx, hy, ...; at rest). Returns #contacts (overlapping now).
 
-    Contact (SPEC §5) with the normal n from the centre towards the boundary, averaged over the force window
+    Contact (docs/theory.md, *DEM contact*) with the normal n from the centre towards the boundary, averaged over the force window
     ``[lo, hi]`` (:func:`~breachflow.dem.contact_law.contact_law`); *vel*, *omega* at the evaluation time,
     *vel_h*, *omega_h* over the last step; hist / rhist: the boundary's (N, 3) per-particle shear /
     rolling-moment histories; the contact's properties are the minimum of the particle's row of *props* and

@@ -160,7 +160,7 @@ def build_dataset(spec: EnsembleSpec, records: list[dict], runner_cls, *, out_di
         "title": f"breachflow ensemble: {spec.name}",
         "source": f"breachflow {__version__}, member runner {spec.runner!r}",
         "history": f"{_dt.datetime.now(_dt.timezone.utc).isoformat(timespec='seconds')} breachflow.ensemble.run",
-        "references": "breachflow SPEC; SERRI Report 70015-001 (2009)",
+        "references": "SERRI Report 70015-001 (2009); breachflow docs/theory.md",
         "ensemble_name": spec.name,
         "ensemble_runner": spec.runner,
         "ensemble_design": spec.design,

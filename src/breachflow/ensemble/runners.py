@@ -242,7 +242,7 @@ _WINDOW_FLAGS = ("balance_reached", "inundation_reached", "wind_calm_reached")
 
 @member_runners.register("window")
 class WindowRunner:
-    """Closure window of the member's scenario (SPEC §2): ``breachflow.scenario.closure_window`` on the
+    """Closure window of the member's scenario (docs/theory.md, *Closure window*): ``breachflow.scenario.closure_window`` on the
     member's ``[flood]``, ``[polder]``, ``[breach]`` (and ``[wind]``), reduced to scalars: t_B, t_Q, t_I,
     depth at the window's end, r_P, Q_D, the governing constraint (flag) and the reached-flags.
     A member scenario must be scalar (vary parameters in the ensemble, not with lists in the scenario)."""

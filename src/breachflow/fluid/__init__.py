@@ -1,5 +1,5 @@
-"""Fluid–particle forces for the DEM (SPEC §6): drag laws, buoyancy with the spherical cap, apparent mass,
-fluid torque, free-flight integration and the settling-sphere validation (SPEC §8)."""
+"""Fluid–particle forces for the DEM (docs/theory.md, *Fluid forces on a mass*): drag laws, buoyancy with the spherical cap, apparent mass,
+fluid torque, free-flight integration and the settling-sphere validation (docs/validation.md, *Settling spheres*)."""
 from __future__ import annotations
 
 from .drag import DRAG_LAWS, DragLaw, get_drag_law

@@ -1,4 +1,4 @@
-"""Basset history force (SPEC §6, report eq 3.13) with an O(1)-memory-per-particle history quadrature.
+"""Basset history force (docs/theory.md, *Fluid forces on a mass*, report eq 3.13) with an O(1)-memory-per-particle history quadrature.
 
     f_H(t) = -phi 6 a^2 sqrt(pi rho_W mu_W) H(t),   H(t) = int_0^t r'(tau) / sqrt(t - tau) dtau
 
@@ -150,5 +150,5 @@ class BassetHistory:
 
 
 def basset_coefficient(radius, rho, mu):
-    """``6 a^2 sqrt(pi rho mu)`` (kg s^-1/2) per particle: ``f_H = -coef phi H`` (SPEC §6, eq 3.13)."""
+    """``6 a^2 sqrt(pi rho mu)`` (kg s^-1/2) per particle: ``f_H = -coef phi H`` (docs/theory.md, *Fluid forces on a mass*, eq 3.13)."""
     return 6.0 * np.asarray(radius) ** 2 * math.sqrt(math.pi * rho * mu)

@@ -1,4 +1,4 @@
-"""Drag-coefficient laws for spheres, chosen by name (SPEC §6, report Table 3.2 and Fig 3.10).
+"""Drag-coefficient laws for spheres, chosen by name (docs/theory.md, *Fluid forces on a mass*, report Table 3.2 and Fig 3.10).
 
 Every law is ONE numba-callable definition, :func:`cd_re`, dispatched on an integer law id and a
 parameter array, so every kernel and every integrator evaluates exactly the same curve.  The laws
@@ -9,7 +9,7 @@ particle at rest relative to the fluid.
 Built-in laws (registry ``breachflow.drag_laws``):
 
 ``report`` (default)
-    Table 3.2 of the report with SPEC §6's corrections: the ``1 < R <= 700`` branch *multiplies* by
+    Table 3.2 of the report with the corrections of docs/theory.md, *Fluid forces on a mass*: the ``1 < R <= 700`` branch *multiplies* by
     ``(1 + 0.15 R^0.687)`` (the report's program divided) and the last branch is capped at 0.40, where it
     meets the cap continuously (``R = 5.7737e6``).  Contains the drag crisis (``C_D = 0.0925`` at
     ``R = 3.79e5``).  The table's own curve fits do not meet exactly at six of their junctions:
@@ -168,7 +168,7 @@ def _builtin(name: str, law_id: int, doc: str):
     return cls
 
 
-ReportDrag = _builtin("report", REPORT, "Report Table 3.2 with SPEC §6 corrections (default; has the drag crisis).")
+ReportDrag = _builtin("report", REPORT, "Report Table 3.2 with docs/theory.md, *Fluid forces on a mass* corrections (default; has the drag crisis).")
 SchillerNaumannDrag = _builtin("schiller_naumann", SCHILLER_NAUMANN, "Schiller–Naumann, 0.44 above R = 1000.")
 CliftGauvinDrag = _builtin("clift_gauvin", CLIFT_GAUVIN, "Clift–Gauvin (1970) smooth sphere, no drag crisis.")
 MorrisonDrag = _builtin("morrison", MORRISON, "Morrison (2013) smooth fit with the drag crisis.")

@@ -1,9 +1,9 @@
 """Where the fluid forces read the water: a snapshot sampler or an analytic uniform field.
 
 ``FluidField`` wraps either a :class:`~breachflow.hydro.sampling.FieldSampler` (a hydrodynamic
-snapshot, bilinear or the report's neighbourhood averaging, SPEC §6 / Fig 4.4) or
+snapshot, bilinear or the report's neighbourhood averaging, docs/theory.md, *Fluid forces on a mass* / Fig 4.4) or
 :class:`UniformWater` (still or uniformly flowing water of unbounded extent, for validations such as the
-report's settling tube, SPEC §8).  Both answer ``sample(px, py, radius) -> FieldSample``.
+report's settling tube, docs/validation.md, *Settling spheres*).  Both answer ``sample(px, py, radius) -> FieldSample``.
 """
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Fluid forces on the DEM particles: :class:`FluidForces`, a DEM ``ForceModel`` (SPEC §6, INTERFACES §3).
+"""Fluid forces on the DEM particles: :class:`FluidForces`, a DEM ``ForceModel`` (docs/theory.md, *Fluid forces on a mass*, a ForceModel of breachflow.dem.forces).
 
 Per particle, with ``V_sub`` the submerged volume (spherical cap while straddling the free surface
 ``z_bed + h``) and ``phi = V_sub / V`` (see :mod:`breachflow.fluid.kernels` for the crossing rule):
@@ -73,9 +73,9 @@ class Fluid:
         return self.rho * self.nu
 
 
-#: Water at about 20 °C (SPEC §8 settling experiments).
+#: Water at about 20 °C (docs/validation.md, *Settling spheres* settling experiments).
 WATER = Fluid(rho=1000.0, nu=1.0e-6)
-#: Air as used by the report's program (SPEC §6).
+#: Air as used by the report's program (docs/theory.md, *Fluid forces on a mass*).
 AIR = Fluid(rho=1.23, nu=1.46e-5)
 
 
@@ -96,7 +96,7 @@ class FluidForces:
     xi
         Apparent-mass coefficient (0.5 for spheres); 0 switches apparent mass off.
     torque
-        Fluid torque from the neighbourhood gridpoints (SPEC §6); ``False`` to skip.
+        Fluid torque from the neighbourhood gridpoints (docs/theory.md, *Fluid forces on a mass*); ``False`` to skip.
     time_step
         Horizon ``dt`` of the predicted position for the convective apparent-mass term; ``None`` uses a
         displacement of one eighth of the largest grid spacing (exact for a bilinear field).
@@ -113,7 +113,7 @@ class FluidForces:
         Roughness height ``k_s`` (m) of the log law; ``None`` derives it from Manning's *manning*
         (Manning–Strickler, :func:`~breachflow.fluid.profile.roughness_from_manning`).
     basset
-        Add the Basset history force (off by default; SPEC §6); ``basset_range`` ``(s_min, s_max)`` (s)
+        Add the Basset history force (off by default; docs/theory.md, *Fluid forces on a mass*); ``basset_range`` ``(s_min, s_max)`` (s)
         is where its kernel quadrature is accurate (relative ~3e-7).
     compiled
         Use the fused kernels of :mod:`breachflow.fluid.compiled` where they apply (default); ``False``
@@ -342,7 +342,7 @@ class FluidForces:
         return r
 
     def _basset(self, idx, w, rad, phi, u, v, t, f):
-        """Basset history force ``-phi 6 a^2 sqrt(pi rho mu) H`` (SPEC §6, eq 3.13)."""
+        """Basset history force ``-phi 6 a^2 sqrt(pi rho mu) H`` (docs/theory.md, *Fluid forces on a mass*, eq 3.13)."""
         hist = self.basset.integral(idx, self._relative(w, u, v), t)
         f -= (basset_coefficient(rad, self.water.rho, self.water.mu) * phi)[:, None] * hist
 

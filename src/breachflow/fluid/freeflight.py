@@ -1,10 +1,10 @@
 """Time integration of particles without contacts (free flight through air and water), fixed or adaptive.
 
-The DEM's integrators step every particle with one small step set by contact stiffness (SPEC §5: a
+The DEM's integrators step every particle with one small step set by contact stiffness (docs/theory.md, *DEM contact*: a
 fraction of ``pi sqrt(m / k_N)``; the report used 1e-5 s).  A particle that touches nothing only feels
 gravity and the fluid, whose time scales (``tau ~ v_t / g``, the crossing time ``D / v`` of the free
 surface) are many orders longer, so there an error-controlled explicit Runge–Kutta pair takes steps as
-large as the accuracy allows.  Equations (SPEC §6):
+large as the accuracy allows.  Equations (docs/theory.md, *Fluid forces on a mass*):
 
     dx/dt = v,   (m + m_A(x)) dv/dt = F_G + sum(models.accumulate),   I dw/dt = sum(torques)
 

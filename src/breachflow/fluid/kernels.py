@@ -1,4 +1,4 @@
-"""Numba kernels of the fluid–particle forces (SPEC §6, report §3.2.3 and Fig 4.3 Steps 7E–7H).
+"""Numba kernels of the fluid–particle forces (docs/theory.md, *Fluid forces on a mass*, report §3.2.3 and Fig 4.3 Steps 7E–7H).
 
 Each physical concept has one function here; :class:`breachflow.fluid.forces.FluidForces` calls the
 whole-array kernels once per step.  All quantities SI, ``z`` up, gravity ``-g e_z``.
@@ -65,7 +65,7 @@ def submerged_fraction(z, radius, surface, bed=-math.inf):
 
 @numba.njit(cache=True, inline="always")
 def drag_factor(law, params, rho, nu, diameter, speed):
-    """``k`` in ``f_D = -k r``: ``k = 1/2 C_D rho A |r| = rho nu A (C_D R) / (2 D)``, ``R = |r| D / nu`` (SPEC §6)."""
+    """``k`` in ``f_D = -k r``: ``k = 1/2 C_D rho A |r| = rho nu A (C_D R) / (2 D)``, ``R = |r| D / nu`` (docs/theory.md, *Fluid forces on a mass*)."""
     area = 0.25 * math.pi * diameter * diameter
     return 0.5 * rho * nu * area * cd_re(law, params, speed * diameter / nu) / diameter
 
@@ -82,7 +82,7 @@ def submerged_fractions(pos, radius, surface, bed, inside, phi):
 
 @numba.njit(cache=True)
 def added_masses(radius, phi, rho_w, rho_a, xi, out):
-    """Added (apparent) mass ``xi (rho_W V_sub + rho_A (V - V_sub))`` per particle (SPEC §6)."""
+    """Added (apparent) mass ``xi (rho_W V_sub + rho_A (V - V_sub))`` per particle (docs/theory.md, *Fluid forces on a mass*)."""
     for i in range(radius.shape[0]):
         vol = 4.0 / 3.0 * math.pi * radius[i] ** 3
         out[i] = xi * vol * (phi[i] * rho_w + (1.0 - phi[i]) * rho_a)
@@ -155,7 +155,7 @@ def _point_torque(vel, omega, i, ox, oy, ax, ay, uy, vy, pre, law, params, d, nu
 @numba.njit(cache=True)
 def neighbourhood_torque(pos, vel, omega, radius, phi, x0, y0, dx, dy, ugrid, vgrid, depth,
                          min_radius, rho_w, nu_w, law, params, torque):
-    """Fluid torque from the gridpoints ``y`` inside each particle's neighbourhood (SPEC §6, Fig 4.4, Step 7E).
+    """Fluid torque from the gridpoints ``y`` inside each particle's neighbourhood (docs/theory.md, *Fluid forces on a mass*, Fig 4.4, Step 7E).
 
     Neighbourhood radius ``max(D/2, min_radius)`` (the report's small-particle rule: ``min_radius`` is the
     largest grid spacing ``s_max``).  At each wet gridpoint ``y`` with arm ``o_y`` from the centre (in the

@@ -1,6 +1,6 @@
 """The velocity a mass feels at its centre height: vertical profiles of the depth-averaged flow.
 
-The hydrodynamic field is depth averaged (SPEC §4): one velocity ``U`` per gridpoint. A mass resting
+The hydrodynamic field is depth averaged (docs/theory.md, *Shallow-water equations*): one velocity ``U`` per gridpoint. A mass resting
 near the bed sees much less than ``U``; one near the surface a little more. This module holds the ONE
 definition of that vertical profile, ``u(z) = U * profile_factor(code, z, h, k_s)``, used by
 :class:`~breachflow.fluid.forces.FluidForces` (and by any fused force kernel: call

@@ -1,4 +1,4 @@
-"""The report's settling-sphere validation (SPEC §8, report §5 Fig 5.2), reproducible from one call.
+"""The report's settling-sphere validation (docs/validation.md, *Settling spheres*, report §5 Fig 5.2), reproducible from one call.
 
 Steel spheres (7800 kg/m^3) of 3, 10 and 80 mm released from rest just under the surface of still water
 (Lyotard et al. 2007), velocity against time over 0–1 s, DEM with the report's integrator, dt = 1e-5 s,
@@ -52,7 +52,7 @@ def terminal_velocity(diameter: float, density: float, drag_law="report", fluid=
 def settling_curves(diameters=FIG52_DIAMETERS, density: float = STEEL, drag_laws=("report",), *, dt: float = 1e-5,
                     duration: float = 1.0, integrator: str = "report", xi: float = 0.5, record_every: float = 1e-3,
                     fluid=WATER, progress=None) -> xr.Dataset:
-    """Velocity–time curves of spheres settling from rest in still water (SPEC §8).
+    """Velocity–time curves of spheres settling from rest in still water (docs/validation.md, *Settling spheres*).
 
     All diameters of one drag law run together in one DEM simulation (spheres far apart, no contacts);
     ``integrator`` is a DEM integrator name (``report``, ``velocity_verlet``, ...) stepping ``dt``, or a
@@ -110,7 +110,7 @@ def settling_curves(diameters=FIG52_DIAMETERS, density: float = STEEL, drag_laws
             "time": ("time", times, {"units": "s"}),
         },
         attrs={
-            "title": "Spheres settling from rest in still water (report Fig 5.2, SPEC §8)",
+            "title": "Spheres settling from rest in still water (report Fig 5.2, docs/validation.md, *Settling spheres*)",
             "particle_density_kg_m3": float(density), "fluid_density_kg_m3": fluid.rho,
             "fluid_kinematic_viscosity_m2_s": fluid.nu, "apparent_mass_coefficient": float(xi),
             "integrator": integrator, "time_step_s": float(dt), "global_damping": 0.0,

@@ -1,5 +1,5 @@
 """Hydrodynamics: snapshot Datasets, readers of ADH / HEC-RAS exports, the embedded shallow-water
-solver and the sampling layer the DEM reads the field through (SPEC §4, §6)."""
+solver and the sampling layer the DEM reads the field through (docs/theory.md, *Shallow-water equations*, *Fluid forces on a mass*)."""
 from .snapshot import (
     grid_snapshot, mesh_snapshot, VARIABLE_ATTRS, DRY_DEPTH, is_mesh, check_plausibility,
     write_snapshot, read_snapshot, validate_snapshot, mesh_triangles,

@@ -9,7 +9,7 @@ where the feet were.
 
 :data:`LOCAL_CRS` is the default of closure runs, whose site coordinates are local (the breach centre
 at x = y = 0, x along the levee): a transverse Mercator on WGS 84 centred on the 17th Street Canal
-breach in New Orleans (30.0168 N, 90.1213 W; SPEC §2's Katrina case), scale 1, false origin 0, 0, so
+breach in New Orleans (30.0168 N, 90.1213 W; docs/theory.md, *Closure window* Katrina case), scale 1, false origin 0, 0, so
 x/y are metres east/north of that point and a GIS shows the run there, at its true size.
 """
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Fields derived from a depth-averaged flow (SPEC §3, report §3.2.1, Fig 3.3).
+"""Fields derived from a depth-averaged flow (docs/theory.md, *Incipient motion and stone stability*, report §3.2.1, Fig 3.3).
 
 All functions take SI arrays (depth h, velocity u, v, bed z, Manning n) and return zeros on dry
 cells (``h <= DRY_DEPTH``).
@@ -52,7 +52,7 @@ MANNING_ATTRS = {"long_name": "Manning roughness coefficient", "units": "1",
 
 
 def bed_shear_stress(h, u, v, manning_n, g=9.81, rho=RHO_WATER):
-    """``tau = rho g n² |u|² / h^(1/3)`` (Pa), SPEC §3."""
+    """``tau = rho g n² |u|² / h^(1/3)`` (Pa), docs/theory.md, *Incipient motion and stone stability*."""
     h = np.asarray(h, float)
     wet = _wet(h)
     n = np.asarray(manning_n, float)

@@ -1,4 +1,4 @@
-"""A local shallow-water model nested in an ingested regional field (issue 13; SPEC §4, §7 cycle <g>).
+"""A local shallow-water model nested in an ingested regional field (issue 13; docs/theory.md, *Shallow-water equations*, *The closure cycle* cycle <g>).
 
 The regional field is an ingested snapshot (ADH/SMS mesh, HEC-RAS sdf or HDF mesh, ESRI grid, or a
 grid snapshot of our own solver). Around the breach a local structured-grid model is built from it:

@@ -1,5 +1,5 @@
 """Regional grids without a no-flow mask (ESRI ASCII grids, GDAL rasters): their dry cells read as
-no-flow where the regional model must have blocked the flow (issue 13, nested solver; SPEC §4).
+no-flow where the regional model must have blocked the flow (issue 13, nested solver; docs/theory.md, *Shallow-water equations*).
 
 A mesh leaves an intact levee modelled as no-flow out as a hole; our own grids carry an ``obstacle``
 mask. A raster export (RAS Mapper / GDAL ``.asc``, LISFLOOD-FP ``.wd``) has neither: the levee is

@@ -1,7 +1,7 @@
-"""Pluggable hydrodynamic solvers (SPEC §4, §7 step 2).
+"""Pluggable hydrodynamic solvers (docs/theory.md, *Shallow-water equations*, *The closure cycle*).
 
 A solver is a class with one method, ``solve(domain, obstacles=None, initial=None) -> xr.Dataset``,
-returning a grid snapshot (INTERFACES §1). Built-ins: ``"swe"`` (the embedded shallow-water solver,
+returning a grid snapshot (schema data_schemas/snapshot_grid.json). Built-ins: ``"swe"`` (the embedded shallow-water solver,
 solved to incremental steady state) and ``"snapshot_frozen"`` (serves ingested ADH / HEC-RAS snapshots,
 unchanged or one per cycle from a sequence: the flow does not respond to the pile; ``"snapshot"`` is
 its deprecated old name). Third-party solvers register through the entry point
@@ -53,7 +53,7 @@ def _swe(**options):
 
 #: what a frozen-flow run says in its log and output attributes
 FROZEN_NOTE = ("the flow is the ingested snapshot served unchanged: it does not respond to the pile "
-               "(no re-solve in cycle <g>, SPEC §7)")
+               "(no re-solve in cycle <g>, docs/theory.md, *The closure cycle*)")
 
 
 @solvers.register("snapshot_frozen")

@@ -1,4 +1,4 @@
-"""Running mean of an unsteady "steady state" with its standard error (issue 16; SPEC §4 steady state).
+"""Running mean of an unsteady "steady state" with its standard error (issue 16; docs/theory.md, *Shallow-water equations* steady state).
 
 A flow that sheds eddies (a jet through a breach, the wakes of the levee heads) never stops changing:
 its rates of change stay above any tight tolerance and a re-solve stopped at the tolerance or at

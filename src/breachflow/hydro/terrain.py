@@ -1,4 +1,4 @@
-"""The domain a hydrodynamic solver takes, and the terrain builder of a levee breach (SPEC §3, §4).
+"""The domain a hydrodynamic solver takes, and the terrain builder of a levee breach (docs/theory.md, *Breach growth*, *Shallow-water equations*).
 
 A :class:`Domain` is a structured grid of square-or-rectangular cells (cell-centre coordinates in m),
 bed elevation, Manning's n and obstacle (no-flow) mask per cell, boundary conditions per side and an

@@ -1,4 +1,4 @@
-"""Warm re-solve of the closure cycle in a local window (issue 16; SPEC §7 cycle <g>, step re-solve).
+"""Warm re-solve of the closure cycle in a local window (issue 16; docs/theory.md, *The closure cycle* cycle <g>, step re-solve).
 
 A cycle's remap changes a few cells at the breach; the flow far from them hardly moves. ``resolve =
 "window"`` re-solves only a window around the changed cells and keeps the rest of the domain frozen at

@@ -12,7 +12,7 @@ Far-field models (registry :data:`far_fields`, ``[hydro] resolve_far``), one met
 domain with the pile, *previous* the previous steady state (its bed and no-flow mask, *previous_pile*
 its porous pile), *box* the window ``(j0, j1, i0, i1)``:
 
-* ``frozen``: no change, the previous state as it was (the window re-solve of session 5);
+* ``frozen``: no change, the previous state as it was (the plain window re-solve);
 * ``coarse``: the same domain on cells ``factor`` times larger (bed averaged over the open fine cells,
   no-flow where at least half the fine cells are, porous pile averaged: :func:`coarse_domain`), solved to steady state with the
   pile and without it; Δη is the difference of the two coarse levels, interpolated bilinearly to the fine

@@ -4,8 +4,8 @@
 archives, snapshots, ensemble results, the run manifest) calls it, usually through :func:`stamp`, which
 also prepends a line to the CF ``history`` attribute (CF §2.6.2: an audit trail, newest first)::
 
-    breachflow_version     "0.1.0"
-    breachflow_git_commit  "45d1b4e3…" (only when the package is imported from a git checkout)
+    breachflow_version     "0.2.0"
+    breachflow_git_commit  the commit id, "+dirty" with local changes (only when the package is imported from a git checkout)
     breachflow_command     "breachflow run my.toml --out runs/mine" (the Python command line otherwise)
     history                "2026-11-23T16:20:00+00:00: breachflow run my.toml --out runs/mine\\n<older lines>"
 """

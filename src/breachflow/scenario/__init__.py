@@ -1,4 +1,4 @@
-"""Scenario arithmetic: closure window, breach growth, discharge, levee/breach geometry (SPEC §2–3).
+"""Scenario arithmetic: closure window, breach growth, discharge, levee/breach geometry (docs/theory.md, *Closure window*, *Breach growth*).
 
 Public API (every quantity accepts numbers with units; results are SI with ``units``/``long_name`` attrs)::
 

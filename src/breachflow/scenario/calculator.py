@@ -69,7 +69,7 @@ def model_problem_paths() -> list[Path]:
 
 
 def typical_breach_growth(scene: BreachScene | None = None, hours=(0.5, 1.0, 2.0, 4.0, 8.0)):
-    """Breach growth of every equation for the report's typical breach (SPEC §3), the maximum lengths
+    """Breach growth of every equation for the report's typical breach (docs/theory.md, *Breach growth*), the maximum lengths
     (2.9–2.11), and the development time each equation needs to reach the scene's breach length.
 
     Returns ``(growth, max_length, time_to_length)``: DataArrays over ``equation`` (and ``development_time``).

@@ -1,4 +1,4 @@
-"""Breach discharge estimates (SPEC §2–3; report §2.4 Table 2.6, §2.7 weir representation).
+"""Breach discharge estimates (docs/theory.md, *Breach discharge*; report §2.4 Table 2.6, §2.7 weir representation).
 
 * :func:`breach_discharge` — area × mean velocity, ``Q_D = h_W B v`` (Table 2.6 uses v = 3 m/s).
 * :func:`weir_discharge` — broad-crested weir over a trapezoidal breach (Fread's BREACH / DAMBRK form)::

@@ -1,4 +1,4 @@
-"""Levee and breach geometry (SPEC §1, §3; report §2.5–2.8, Figs 2.10–2.11, 3.2).
+"""Levee and breach geometry (docs/theory.md, *Units and notation*, *Breach growth*; report §2.5–2.8, Figs 2.10–2.11, 3.2).
 
 Plain dataclasses of SI floats. Construct them from user input with :meth:`LeveeGeometry.from_input`
 / :meth:`BreachGeometry.from_input`, which accept numbers with units. The hydrodynamic terrain builder
@@ -139,7 +139,7 @@ class BreachScene:
 
 
 def typical_breach() -> BreachScene:
-    """The report's "typical breach" (SPEC §3; report §2.8, Fig 3.2), in the model's dimensions.
+    """The report's "typical breach" (docs/theory.md, *Breach growth*; report §2.8, Fig 3.2), in the model's dimensions.
 
     Clay levee 7.6 m (25 ft) high, water at the crest (ground EL 30.5 m, water EL 38.1 m), crown 3.0 m,
     slopes 1V:4H, breach 61.0 m (200 ft) reaching the ground with vertical walls as in the ADH mesh,

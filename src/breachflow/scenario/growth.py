@@ -1,4 +1,4 @@
-"""Empirical breach growth and maximum breach length (SPEC §3; report §2.6, Tables 2.8–2.9, Fig 2.15).
+"""Empirical breach growth and maximum breach length (docs/theory.md, *Breach growth*; report §2.6, Tables 2.8–2.9, Fig 2.15).
 
 Each equation is a plug-in class in a named registry with one method, ``length``, taking SI inputs
 (development time ``t_D`` in s, heights in m, levee area in m²) and returning the breach length B in m.

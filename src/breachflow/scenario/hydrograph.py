@@ -1,4 +1,4 @@
-"""Flood-side stage hydrographs: the report's linearised FSSH and measured series (SPEC §2; report §2.3–2.4).
+"""Flood-side stage hydrographs: the report's linearised FSSH and measured series (docs/theory.md, *Closure window*; report §2.3–2.4).
 
 Times are seconds relative to the flood crest (negative before it); stages are metres of water above the
 local ground at the breach (``h_W`` at the crest).

@@ -1,4 +1,4 @@
-"""Flood presets: rise and fall rates of real floods (report Tables 2.3 and 2.4; SPEC §2).
+"""Flood presets: rise and fall rates of real floods (report Tables 2.3 and 2.4; docs/theory.md, *Closure window*).
 
 The data ship as ``breachflow/data/flood_presets.csv`` (heights in m, times in h, as tabulated). Rates are
 height / time. Hurricane presets also give the peak surge at the tidal gage as a default ``h_W``; river
@@ -43,7 +43,7 @@ _GENERIC = [
     FloodPreset("model_hurricane", "generic", "Model problem, hurricane-borne flood", 0.4 / HOUR, 0.4 / HOUR, 2.8,
                 source="report §2.4, Table 2.5"),
     FloodPreset("model_riverine", "generic", "Model problem, riverine flood", 0.06 / HOUR, 0.06 / HOUR, 2.8,
-                source="report Table 2.5 (the text's 1.5/0.6 cm/h contradicts the table; SPEC §2 uses the table)"),
+                source="report Table 2.5 (the text's 1.5/0.6 cm/h contradicts the table; docs/theory.md, *Closure window* uses the table)"),
     FloodPreset("rapid_fall", "generic", "Table 2.6 rapid fall (hurricane)", 0.30 / HOUR, 0.30 / HOUR,
                 source="report Table 2.6"),
     FloodPreset("slow_fall", "generic", "Table 2.6 slow fall (riverine)", 0.02 / HOUR, 0.02 / HOUR,

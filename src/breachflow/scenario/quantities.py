@@ -1,4 +1,4 @@
-"""Boundary conversion of scenario inputs to SI scalars or DataArrays, and result attributes (SPEC §1).
+"""Boundary conversion of scenario inputs to SI scalars or DataArrays, and result attributes (docs/theory.md, *Units and notation*).
 
 Scalars stay Python floats. A list, array or array-valued Quantity becomes a DataArray whose dimension is
 named after the parameter, so ``fall_rate=["0.3 m/h", "0.02 m/h"]`` sweeps along a ``fall_rate``

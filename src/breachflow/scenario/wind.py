@@ -1,4 +1,4 @@
-"""Wind constraint on the start of closure work (SPEC §2; report §2.4, Fig 2.8).
+"""Wind constraint on the start of closure work (docs/theory.md, *Closure window*; report §2.4, Fig 2.8).
 
 Land cranes stop at about 13 m/s of wind, ship cranes at about 25 m/s (Watson 2004). Work can start at
 the first instant after the breach at which the wind speed is at or below the crane's limit.

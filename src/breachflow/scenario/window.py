@@ -1,4 +1,4 @@
-"""Breach closure window from stage hydrographs (SPEC §2; report §2.3–2.4, Tables 2.5–2.6, Fig 2.6).
+"""Breach closure window from stage hydrographs (docs/theory.md, *Closure window*; report §2.3–2.4, Tables 2.5–2.6, Fig 2.6).
 
 Times relative to the flood crest; the breach happens at ``t_0`` (``breach_time``; 0 in the report).
 
@@ -135,7 +135,7 @@ def closure_window(
         "title": "Breach closure window",
         "Conventions": "CF-1.8",
         "method": ("measured flood-side hydrograph, first crossing of the polder stage" if measured is not None
-                   else "linearised stage hydrographs") + " (breachflow SPEC §2; SERRI 70015-001 §2.4)",
+                   else "linearised stage hydrographs") + " (docs/theory.md, *Closure window*; SERRI 70015-001 §2.4)",
         "references": "SERRI Report 70015-001 (2009), Tables 2.5-2.6, Fig. 2.6",
     }
     if measured is not None:

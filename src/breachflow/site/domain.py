@@ -1,4 +1,4 @@
-"""The hydrodynamic domain of a real site, built around its breach (issue 13, SPEC §3–4).
+"""The hydrodynamic domain of a real site, built around its breach (issue 13, docs/theory.md, *Breach growth*, *Shallow-water equations*).
 
 :func:`build_site` reads the terrain and the levee, places and cuts the breach, finds the flood side
 and builds a :class:`~breachflow.hydro.terrain.Domain` along the levee at the breach, in the site CRS

@@ -1,5 +1,5 @@
 """Scenario-file sections of a closure run: ``[site]``, ``[hydro]``, ``[dem]``, ``[fluid]``,
-``[placement]``, ``[criteria]``, ``[closure]`` (SPEC §3, §4, §5, §6, §7).
+``[placement]``, ``[criteria]``, ``[closure]`` (docs/theory.md, *Breach growth*, *Shallow-water equations*, *DEM contact*, *Fluid forces on a mass*, *The closure cycle*).
 
 ``[levee]`` and ``[breach]`` (length, depth, wall_slope, scour_depth) of the scenario override the site
 preset's geometry; ``[flood]`` and ``[polder]``, when present, give the closure window the run is

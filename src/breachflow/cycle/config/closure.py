@@ -1,5 +1,5 @@
 """The ``[placement]``, ``[criteria]`` and ``[closure]`` sections: where and when masses are dropped, when
-the closure ends, and how the pile enters the flow model (SPEC §7)."""
+the closure ends, and how the pile enters the flow model (docs/theory.md, *The closure cycle*)."""
 from __future__ import annotations
 
 from dataclasses import dataclass

@@ -1,5 +1,5 @@
 """The ``[dem]`` and ``[fluid]`` sections: the DEM of the dropped masses (material, integrator, rest
-and cap) and the fluid forces on them (drag law, field sampling, velocity profile; SPEC §5, §6)."""
+and cap) and the fluid forces on them (drag law, field sampling, velocity profile; docs/theory.md, *DEM contact*, *Fluid forces on a mass*)."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field

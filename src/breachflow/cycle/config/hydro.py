@@ -1,5 +1,5 @@
 """The ``[hydro]`` section: the flow solver of a closure run, its resolution and steady-state tolerance,
-the warm re-solve (full domain or a window) and the nested fine grid (SPEC §4)."""
+the warm re-solve (full domain or a window) and the nested fine grid (docs/theory.md, *Shallow-water equations*)."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field

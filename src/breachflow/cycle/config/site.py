@@ -1,4 +1,4 @@
-"""The ``[site]`` section of a closure run: a preset scene (``demo_breach``, ``typical_breach``, SPEC §3)
+"""The ``[site]`` section of a closure run: a preset scene (``demo_breach``, ``typical_breach``, docs/theory.md, *Breach growth*)
 with overrides, or a real site from terrain files (:mod:`breachflow.site.config`), and the site's CRS."""
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ from ...scenario.geometry import BreachGeometry, BreachScene, LeveeGeometry, typ
 def demo_breach() -> BreachScene:
     """A small breach for the default run: a 3 m clay levee (crown 3 m, slopes 1V:2H) with water at the
     crest and a 12 m breach to the ground, 30 m of levee each side — the report's typical breach
-    (SPEC §3) scaled down so a closure completes in minutes on a laptop."""
+    (docs/theory.md, *Breach growth*) scaled down so a closure completes in minutes on a laptop."""
     return BreachScene(
         levee=LeveeGeometry(height=3.0, crown_width=3.0, flood_slope=2.0, protected_slope=2.0),
         breach=BreachGeometry(length=12.0, depth=3.0, wall_slope=0.0),

@@ -1,6 +1,6 @@
 """ADH / SMS 2-D meshes (``.3dm`` / ``.2dm``).
 
-Grammar (``shared/formats/README.md``; MDAL ``mdal_2dm.cpp``, ADH ``read_geo.c``): ``MESH2D`` (older
+Grammar (MDAL ``mdal_2dm.cpp``, ADH ``read_geo.c``): ``MESH2D`` (older
 files append numbers), ``ND id x y z``, ``E3T|TRI id n1 n2 n3 mat``, ``E4Q id n1..n4 mat``, ``E6T id n1..n6
 mat`` (corner nodes 1, 3, 5 are used), ``E2L``/``E3L`` (1-D, ignored), ``NS n1 n2 ... -nN [id] [name]`` node
 strings (kept in :attr:`MeshData.node_strings`; a long string continues on numeric lines or on further

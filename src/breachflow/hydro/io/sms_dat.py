@@ -1,6 +1,6 @@
 """SMS ASCII datasets (``.dat``: ADH ``*_dep.dat`` / ``*_vel.dat``, SMS, TUFLOW, BASEMENT, Hydro_AS-2D).
 
-Grammar (``shared/formats/README.md``; MDAL ``mdal_ascii_dat.cpp``, the SMS ASCII dataset documentation):
+Grammar (MDAL ``mdal_ascii_dat.cpp``, the SMS ASCII dataset documentation):
 ``DATASET``/``OBJTYPE``/``BEGSCL|BEGVEC``/``VECTYPE``/``OBJID``/``ND``/``NC``/``NAME``/``RT_JULIAN``/
 ``TIMEUNITS``/``TS istat t`` [+ NC status lines] + values/``ENDDS``. Values are listed per node id (line k
 is node id k when the dataset's ND equals the largest node id; otherwise in ascending id order).

@@ -1,4 +1,4 @@
-"""Sampling a hydrodynamic snapshot at particle positions (SPEC §6, report Fig 4.4).
+"""Sampling a hydrodynamic snapshot at particle positions (docs/theory.md, *Fluid forces on a mass*, report Fig 4.4).
 
 One API for structured grids and triangle meshes::
 

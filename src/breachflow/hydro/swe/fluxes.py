@@ -1,4 +1,4 @@
-"""Face fluxes of the finite-volume shallow-water solver (SPEC §4), one grid row at a time.
+"""Face fluxes of the finite-volume shallow-water solver (docs/theory.md, *Shallow-water equations*), one grid row at a time.
 
 MUSCL reconstruction of ``h, eta, u, v`` with a slope limiter (second order) or piecewise-constant
 values (first order), hydrostatic reconstruction at each face (Audusse et al. 2004,

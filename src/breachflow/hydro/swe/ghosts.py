@@ -1,4 +1,4 @@
-"""Ghost cells of the shallow-water solver from the boundary conditions (SPEC §4): levels (exact or
+"""Ghost cells of the shallow-water solver from the boundary conditions (docs/theory.md, *Shallow-water equations*): levels (exact or
 absorbing), discharge inlets, free outflow with continued bed and surface slopes, walls."""
 from __future__ import annotations
 

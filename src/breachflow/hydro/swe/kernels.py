@@ -1,4 +1,4 @@
-"""Numba kernels of the finite-volume shallow-water solver (SPEC §4): the time loop :func:`advance`.
+"""Numba kernels of the finite-volume shallow-water solver (docs/theory.md, *Shallow-water equations*): the time loop :func:`advance`.
 
 Conserved variables ``h, hu, hv`` on a structured grid padded with ``G = 2`` ghost layers
 (arrays ``(ny + 4, nx + 4)``, index ``[j, i]``, x along axis 1; :mod:`.layout`). Per stage:

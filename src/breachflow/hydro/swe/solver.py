@@ -1,4 +1,4 @@
-"""Driver of the embedded shallow-water solver (SPEC §4): state, time marching, steady state, output.
+"""Driver of the embedded shallow-water solver (docs/theory.md, *Shallow-water equations*): state, time marching, steady state, output.
 
 >>> from breachflow.hydro.terrain import uniform_grid, BoundaryCondition
 >>> dom = uniform_grid(0, 10, 0, 1, 0.5, initial_surface=1.0)
@@ -380,7 +380,7 @@ class SWESimulation:
     # ------------------------------------------------------------------ output
     def snapshot(self, *, source: str = "breachflow shallow-water solver (swe)", derived: bool = True,
                  **derived_kwargs) -> xr.Dataset:
-        """The grid snapshot Dataset (INTERFACES §1) with derived fields and the convergence history."""
+        """The grid snapshot Dataset (schema data_schemas/snapshot_grid.json) with derived fields and the convergence history."""
         d = self.domain
         h = self.depth.copy()
         u, v = self.velocity()

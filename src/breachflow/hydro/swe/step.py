@@ -1,4 +1,4 @@
-"""One forward-Euler stage of the shallow-water solver over the whole grid (SPEC §4), fused by rows.
+"""One forward-Euler stage of the shallow-water solver over the whole grid (docs/theory.md, *Shallow-water equations*), fused by rows.
 
 Per stage: primitive variables and the wave-speed bound in one pass (:func:`primitives`), the column
 range of each row whose update can be non-zero (:func:`activity`), then :func:`stage`: per block of
