@@ -3,14 +3,14 @@
 Closure-window arithmetic and breach growth (:mod:`breachflow.scenario`), hydrodynamic snapshots and the
 embedded shallow-water solver (:mod:`breachflow.hydro`), the discrete element method for dropped masses
 (:mod:`breachflow.dem`), the closure cycle (:mod:`breachflow.cycle`) and ensembles
-(:mod:`breachflow.ensemble`). See ``../shared/SPEC.md`` for the equations.
+(:mod:`breachflow.ensemble`). The equations and their sources: docs/theory.md.
 """
 from __future__ import annotations
 
 from .errors import BreachflowError, DiskFullError, InputError, ParseError, SchemaError, UnitError, PhysicsError
 from .units import ureg, Q_, to_si
 
-__version__ = "0.1.0"
+__version__ = "0.2.0"
 
 
 
