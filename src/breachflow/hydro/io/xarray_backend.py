@@ -37,10 +37,12 @@ class BreachflowBackendEntrypoint(BackendEntrypoint):
 
     description = "ADH/SMS, HEC-RAS (.sdf, HDF) and ESRI ASCII model results as breachflow snapshots (SI, CF)"
     open_dataset_parameters = ("filename_or_obj", "drop_variables", "format", "units", "crs", "companions",
-                               "plausibility")
+                               "plausibility", "options")
 
     def open_dataset(self, filename_or_obj, *, drop_variables=None, format=None, units=None, crs=None,
-                     companions=None, plausibility="raise"):
+                     companions=None, plausibility="raise", **options):
+        """Open *filename_or_obj* (and its *companions*) as :func:`~breachflow.hydro.io.open_snapshot` does;
+        *options* are the reader's own (``bed=``, ``roles=``, ``mesh_name=``, ``time_units=``, ...)."""
         from . import open_snapshot
         from ...errors import InputError
 
@@ -48,12 +50,13 @@ class BreachflowBackendEntrypoint(BackendEntrypoint):
             raise InputError("engine 'breachflow' opens files by path, not file objects or stores")
         path = Path(filename_or_obj)
         paths = [path, *(map(Path, companions) if companions is not None else _companions(path))]
-        ds = open_snapshot(paths, format=format, units=units, crs=crs, plausibility=plausibility)
+        ds = open_snapshot(paths, format=format, units=units, crs=crs, plausibility=plausibility, **options)
         if drop_variables:
             ds = ds.drop_vars(drop_variables, errors="ignore")
         return ds
 
     def guess_can_open(self, filename_or_obj) -> bool:
+        """True for the extensions only breachflow's readers claim (:data:`CLAIMED_EXTENSIONS`)."""
         try:
             return Path(filename_or_obj).suffix.lower() in CLAIMED_EXTENSIONS
         except TypeError:
