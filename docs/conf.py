@@ -22,9 +22,13 @@ copyright = "2026, breachflow developers"
 
 
 def _version() -> str:
-    """The version in pyproject.toml (one place)."""
-    text = (ROOT / "pyproject.toml").read_text(encoding="utf-8")
-    return re.search(r'^version\s*=\s*"([^"]+)"', text, re.M).group(1)
+    """The version in pyproject.toml (one place), else the installed package's."""
+    pyproject = ROOT / "pyproject.toml"
+    if pyproject.exists():
+        return re.search(r'^version\s*=\s*"([^"]+)"', pyproject.read_text(encoding="utf-8"), re.M).group(1)
+    from importlib.metadata import version as installed
+
+    return installed("breachflow")
 
 
 release = version = _version()
