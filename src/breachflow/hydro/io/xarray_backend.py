@@ -9,7 +9,7 @@ it finds cfgrib's and rioxarray's. Opening delegates to :func:`breachflow.hydro.
 result is the same validated SI snapshot Dataset. A snapshot that needs several files (an ADH mesh with its
 ``.dat`` datasets and ``.bc``) is opened from its mesh file: the companions named ``STEM_*.dat`` and
 ``STEM.bc`` beside it are found by name, or pass them as ``companions=[...]``; or call
-:func:`breachflow.open_snapshot` with the list.
+:func:`~breachflow.hydro.io.open_snapshot` with the list.
 """
 from __future__ import annotations
 
