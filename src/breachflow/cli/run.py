@@ -26,11 +26,11 @@ def run_model_problem(console=None, plot: Path | None = None, output: Path | Non
         console = _console()
     results = model_problem()
     console.print(window_table([r.window for r in results], [r.name.replace("model problem, ", "") for r in results],
-                               title="Model problem (report Table 2.5; docs/theory.md, *Closure window*: t_I = d_I / r_P = 10.0 h)"))
+                               title="Model problem (report Table 2.5; docs/theory.md, Closure window: t_I = d_I / r_P = 10.0 h)"))
     scene = typical_breach()
     growth, max_len, time_to = typical_breach_growth(scene)
     console.print(growth_table(growth, time_to=time_to, title=(
-        f"Typical breach (docs/theory.md, *Breach growth*): levee {scene.levee.height:.4g} m, crown {scene.levee.crown_width:.4g} m, "
+        f"Typical breach (docs/theory.md, Breach growth): levee {scene.levee.height:.4g} m, crown {scene.levee.crown_width:.4g} m, "
         f"1V:{scene.levee.flood_slope:g}H (A_L = {scene.levee.area:.0f} m²), water at the crest: "
         "breach length B (m) vs development time t_D")))
     console.print(max_length_table(max_len, title=f"Maximum breach length for h_W = {scene.surge_height:g} m (Table 2.9)"))

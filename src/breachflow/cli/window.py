@@ -79,7 +79,7 @@ def register(app: typer.Typer) -> None:
                           "breach_time": "--breach-time", "wind_limit": "--wind-limit"})
             raise cli_flags(exc, names)
         if ds["closure_window"].ndim == 0:
-            console.print(window_table([ds], ["value"], title="Breach closure window (docs/theory.md, *Closure window*)"))
+            console.print(window_table([ds], ["value"], title="Breach closure window (docs/theory.md, Closure window)"))
         else:
             console.print(window_grid_table(ds))
         if output is not None:

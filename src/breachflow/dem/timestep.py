@@ -68,5 +68,5 @@ def check_dt(dt: float, limit: float) -> float:
     if dt > limit:
         raise InputError(
             f"time step dt={dt:.6g} s exceeds the stable limit {limit:.6g} s of the stiffest contact "
-            f"(2/omega, docs/theory.md, *DEM contact*); use dt <= {limit:.6g} s (recommended {SAFETY * limit:.6g} s)")
+            f"(2/omega, docs/theory.md, DEM contact); use dt <= {limit:.6g} s (recommended {SAFETY * limit:.6g} s)")
     return dt

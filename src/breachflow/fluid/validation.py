@@ -110,7 +110,7 @@ def settling_curves(diameters=FIG52_DIAMETERS, density: float = STEEL, drag_laws
             "time": ("time", times, {"units": "s"}),
         },
         attrs={
-            "title": "Spheres settling from rest in still water (report Fig 5.2, docs/validation.md, *Settling spheres*)",
+            "title": "Spheres settling from rest in still water (report Fig 5.2, docs/validation.md, Settling spheres)",
             "particle_density_kg_m3": float(density), "fluid_density_kg_m3": fluid.rho,
             "fluid_kinematic_viscosity_m2_s": fluid.nu, "apparent_mass_coefficient": float(xi),
             "integrator": integrator, "time_step_s": float(dt), "global_damping": 0.0,
