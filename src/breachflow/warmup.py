@@ -7,7 +7,7 @@ temporary directory. That calls every kernel of a closure run (solver, DEM conta
 fluid forces, the many-steps-per-call DEM loop of the cycle's scene (:mod:`breachflow.dem.steploop_fluid`),
 sampling, remap) with the argument types of a real run, so numba compiles and caches each one; a user's
 first ``breachflow run`` then loads them from the cache instead of compiling (most of the CPU time of a
-first run on an empty cache; see README). Where the cache lives is numba's choice (``NUMBA_CACHE_DIR``,
+first run on an empty cache; see docs/performance.md). Where the cache lives is numba's choice (``NUMBA_CACHE_DIR``,
 which ``tasks.py`` sets to ``.numba_cache``).
 """
 from __future__ import annotations

@@ -4,7 +4,7 @@ Every case starts in free flight (no gravity) with the gap closed at a constant 
 begins at ``(3 + phase) dt`` exactly, and ends in free flight, so onset and release times follow from
 the free-flight positions exactly. Expectations are analytic (docs/theory.md, *DEM contact*; Chung & Ooi 2011 test 4).
 
-``python tests/dem/impact_cases.py [integrator]`` prints the tables quoted in the README.
+``python tests/dem/impact_cases.py [integrator]`` prints the tables quoted in docs/validation.md (DEM impacts).
 """
 from __future__ import annotations
 

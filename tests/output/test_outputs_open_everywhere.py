@@ -242,8 +242,9 @@ def test_format_1_run_directory_still_combines_and_resumes(run_dir, tmp_path):
         assert sorted(set(t.trajectory_cycle.values.tolist())) == [1, 2, 3]
 
 
-def test_readme_recipe_plots_the_closure_window_in_hours(every_output):
-    """The README's notebook line that plots the closure window, run as written on an ensemble result:
+def test_tutorial_recipe_plots_the_closure_window_in_hours(every_output):
+    """The tutorial's notebook line (docs/tutorials.md) that plots the closure window, run as written on an
+    ensemble result:
     the y axis says hours and the values are hours (dividing by 3600 kept the label "[s]")."""
     import matplotlib
 
@@ -251,7 +252,7 @@ def test_readme_recipe_plots_the_closure_window_in_hours(every_output):
     import matplotlib.pyplot as plt
     import pint_xarray  # noqa: F401
 
-    readme = (Path(__file__).resolve().parents[2] / "README.md").read_text()
+    readme = (Path(__file__).resolve().parents[2] / "docs" / "tutorials.md").read_text()
     line = next(ln for ln in readme.splitlines() if ln.startswith("ds.closure_window") and ".plot(" in ln)
     with xr.open_dataset(every_output["ensemble result"]) as ds:
         ds = ds.load()

@@ -68,7 +68,7 @@ def first_pass(idx, pos, vel, omega, force, torque, fp, tp, vp, wp, inv_m, inv_i
     Each particle's rows are loaded once into scalars and stored once (numba cannot tell that the arrays do
     not overlap, so it reloads a row after every store), and the rows are indexed with an unsigned index
     (no wraparound test for negative indices on each access): the pass costs about 0.75x the row-by-row
-    form on the 1000-sphere settled bed (``python3 tasks.py bench dem_kernel --phases``, README)."""
+    form on the 1000-sphere settled bed (``python3 tasks.py bench dem_kernel --phases``, docs/performance.md)."""
     return close_and_first_pass(idx, pos, vel, omega, force, torque, fp, tp, vp, wp, inv_m, inv_i, lmask, rmask, h,
                                 dt, predict, extrapolate, geom, periodic, box, use_box, active, awake, left_ids,
                                 pos_build, False, False, inv_m, lmask, inv_m, inv_m, False)

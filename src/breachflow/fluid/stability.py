@@ -14,7 +14,7 @@ mass; no lift force exists in the model) and the closure run's default rock mate
 when its horizontal displacement exceeds ``D/4``. The contact stiffness is scaled ``k_N ∝ D^2`` from
 the closure default (2e7 N/m for 2 m stones) so that overlaps are the same fraction of ``D`` at every
 size. Results are compared with :mod:`breachflow.scenario.stone` (Izbash, Shields) in the tests and in
-the README.
+docs/validation.md, *Stone stability: Izbash and Shields*.
 
 Which velocity Izbash's coefficient refers to: Izbash's ``u_c`` is the flow velocity *in the vicinity of
 the stone* (Izbash 1935, *Construction of dams by dumping stones into flowing water*; the riprap
@@ -26,7 +26,7 @@ engineers apply it to the depth-averaged velocity — a use limited to relative 
 ``(ln(30 h/k_s) - 1) / ln(30 z/k_s)`` (1.2–3.1 at the stone's centre for ``h/D`` = 2–100, ``k_s = 2 D``),
 so a criterion in depth-averaged ``U`` must grow with ``h/D`` (Shields does; Izbash does not).
 :func:`near_bed_velocity` gives the velocity at ``z = D`` above the bed level, the reference the
-comparison with Izbash uses for the profiles (README table).
+comparison with Izbash uses for the profiles (docs/validation.md table).
 
 Drag at the centre height vs over the stone's height: with the drag of the mean ``u|u|`` over the
 stone's projected area (Wiberg & Smith 1987, Water Resour. Res. 23(8)), the log-law effective velocity of

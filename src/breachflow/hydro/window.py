@@ -239,7 +239,7 @@ class WindowResolver:
                                if grown <= self.max_grow else f"change still at the window edge after {self.max_grow} growths")
                         # from the previous steady state, not from the window's merged state: the full
                         # re-solve from the latter stops with the far field still at its old level (the
-                        # pool's slow rise passes the rate test), README "work–precision of the window"
+                        # pool's slow rise passes the rate test), docs/performance.md, *Studies behind the defaults*
                         out = self._full(dom, None, initial, why, getattr(self, "_edge_change", None) if grown else None,
                                          grown)
                         self.last_info.update(far_info)

@@ -67,7 +67,7 @@ class DemSection:
 class FluidSection:
     """``[fluid]``: ``drag_law`` (registry name), ``sampling`` (``bilinear`` | ``neighbourhood``), ``xi``,
     ``velocity_profile`` (``log`` (default) | ``power`` | ``uniform``, :mod:`breachflow.fluid.profile`;
-    the log law follows Shields' depth dependence in the stone-stability validation, README) and
+    the log law follows Shields' depth dependence in the stone-stability validation, docs/validation.md) and
     ``roughness`` (k_s of the log law; default from the site's Manning n)."""
 
     drag_law: str = "report"

@@ -27,7 +27,7 @@ class HydroSection:
     ``.dat`` + ``.bc``, a HEC-RAS ``.sdf`` or 6.x plan ``.hdf`` — read with ``open_snapshot``), ``window``
     (``[x0, x1, y0, y1]`` of the ``nested`` local model; default the breach ± (B/2 + 3 B) along the levee,
     ± 3 B across), ``threads`` (numba threads of one solve; default 1, the least CPU time; more threads
-    can cut its wall time on free cores, README "Embedded shallow-water solver"). The default 2e-4 1/s puts the warm re-solves of the default scene within 0.37 % of
+    can cut its wall time on free cores, docs/performance.md, *Shallow water against ANUGA*). The default 2e-4 1/s puts the warm re-solves of the default scene within 0.37 % of
     their steady breach discharge (the former 2e-3 1/s and 60 s: 2.71 %; issue 12,
     ``python3 tasks.py bench steady``).
 
