@@ -1,9 +1,10 @@
-"""Write the shallow-water validation figure of docs/validation.md: Stoker's and Ritter's dam breaks against
-their analytic solutions (the cases of tests/swe/test_dam_breaks.py), depth profiles and L1 convergence.
+"""Write validation figures of docs/validation.md: Stoker's and Ritter's dam breaks against their analytic
+solutions (the cases of tests/swe/test_dam_breaks.py), depth profiles and L1 convergence; and the DEM's
+restitution error against the closed form over contact-onset phases (tests/dem/impact_cases.py).
 
     python3 tasks.py shell python docs/figures/make_validation_figures.py
 
-Prints the L1 errors and observed orders it plots.
+Prints the errors it plots.
 """
 from __future__ import annotations
 
@@ -21,6 +22,7 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parents[1]))
 from tests.swe.analytic import ritter, stoker  # noqa: E402  (the tests' independent closed forms)
 from tests.swe._util import cell_average, channel, observed_orders, run  # noqa: E402
+from tests.dem.impact_cases import phase_averaged_error  # noqa: E402
 
 H_L, H_R, X_DAM, T_END, LENGTH = 0.005, 0.001, 5.0, 6.0, 10.0
 GRIDS = (50, 100, 200, 400, 800)
@@ -66,7 +68,25 @@ def main() -> int:
         ax.set_title(f"{kind.capitalize()}: convergence")
         ax.legend(fontsize=8)
     fig.savefig(HERE / "swe_dam_breaks.png", dpi=100)
+    plt.close(fig)
+    dem_impacts()
     return 0
+
+
+def dem_impacts(steps=(10, 20, 40, 80)) -> None:
+    """Mean |restitution error| of a sphere hitting a plane (zeta 0.3) over 32 onset / release phases."""
+    fig, ax = plt.subplots(figsize=(6, 4.2), constrained_layout=True)
+    for integrator, marker in (("predicted_verlet", "o-"), ("velocity_verlet", "s--")):
+        errs = [phase_averaged_error("plane", 0.3, n, integrator) for n in steps]
+        print(f"DEM impact, plane, zeta 0.3, {integrator}: " +
+              ", ".join(f"{n} steps/contact {e:.4f} %" for n, e in zip(steps, np.array(errs) * 100)))
+        ax.loglog(steps, 100 * np.array(errs), marker, label=integrator)
+    ax.set_xlabel("time steps per contact")
+    ax.set_ylabel("mean |restitution error| (%)")
+    ax.set_title("sphere on a plane, damping ratio 0.3, window-averaged law", fontsize=10)
+    ax.legend()
+    fig.savefig(HERE / "dem_impacts.png", dpi=100)
+    plt.close(fig)
 
 
 if __name__ == "__main__":
