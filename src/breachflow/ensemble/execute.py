@@ -149,10 +149,42 @@ def plan(spec, out=None) -> tuple[EnsembleSpec, Path, list[Member], list[MemberT
     return spec, out_dir, members, tasks
 
 
+def check_scenarios(tasks: list[MemberTask], spec: EnsembleSpec | None = None) -> None:
+    """Parse every member's scenario before anything runs (unknown sections and keys, units, plausible
+    ranges: :func:`breachflow.scenario.parse_scenario`). A varied parameter the scenario does not have (a
+    misspelt ``"breach.lenght"``) fails every member alike: it is reported once, naming the parameter;
+    other refusals name each member and its varied values. Raises :class:`~breachflow.errors.InputError`."""
+    from ..errors import BreachflowError, ParseError
+    from ..scenario import parse_scenario
+
+    refused = []
+    for t in tasks:
+        try:
+            parse_scenario(t.scenario.text())
+        except BreachflowError as exc:
+            refused.append((t, getattr(exc, "reason", None) or str(exc)))
+    if not refused:
+        return
+    paths = dict(tasks[0].scenario.paths)
+    if len(refused) == len(tasks) and len({r for _, r in refused}) == 1:
+        reason = refused[0][1]
+        for name, dotted in paths.items():
+            section, _, key = dotted.rpartition(".")
+            if f"[{section}] {key}:" in reason or f"[{dotted.split('.')[0]}]" in reason and "unknown section" in reason:
+                raise InputError(f"[ensemble.vary] {dotted!r}: the scenario has no such parameter ({reason}); "
+                                 f"nothing was run")
+    shown = [f"member {t.scenario.number} ({', '.join(f'{k} = {v}' for k, v in t.scenario.values.items())}): {r}"
+             for t, r in refused]
+    shown = shown[:10] + ([f"... and {len(shown) - 10} more"] if len(shown) > 10 else [])
+    raise InputError(f"{len(refused)} of {len(tasks)} ensemble members have an invalid scenario (nothing was run):\n  "
+                     + "\n  ".join(shown))
+
+
 def check_members(tasks: list[MemberTask]) -> list[str]:
     """Ask the runner to check every member before anything runs (runners with a ``check(member)``
     method, e.g. ``closure``: physically impossible scenarios). Raises one :class:`~breachflow.errors.InputError` naming
     each refused member and its varied values; returns the distinct warnings with member counts."""
+    check_scenarios(tasks)
     if not tasks or not hasattr(tasks[0].runner_cls, "check"):
         return []
     runner = tasks[0].runner_cls(**tasks[0].options)
