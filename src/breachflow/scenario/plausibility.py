@@ -132,7 +132,8 @@ def _values(bound: Bound, raw, name: str) -> list[float]:
     if bound.kind == "count":
         items = raw if isinstance(raw, list) else [raw]
         return [float(v) for v in items if isinstance(v, (int, float)) and not isinstance(v, bool)]
-    v = si_input(raw, name=name, kind=bound.kind, default_unit="" if bound.kind in ("dimensionless", "manning") else None)
+    unit = {"dimensionless": "", "manning": "s/m**(1/3)"}.get(bound.kind)  # as the sections read them
+    v = si_input(raw, name=name, kind=bound.kind, default_unit=unit)
     return [float(x) for x in np.atleast_1d(np.asarray(getattr(v, "values", v), float)).ravel()]
 
 
