@@ -50,7 +50,7 @@ class Bound:
         return f"{q:.6g} {self.unit}"
 
 
-_BREACH = "a levee breach is metres to a few kilometres long (Upper Jones Tract, 2004: about 90 m)"
+_BREACH = "a levee breach is metres to a few kilometres long (Upper Jones Tract, 2004: about 90 m, Harder 2012)"
 _HEIGHT = "levees and their breaches are metres to a few tens of metres high"
 _EXTENT = "the simulated site reaches metres to kilometres from the breach"
 _MASS = ("dumped closure masses are stones, blocks or bags of centimetres to metres (EN 13383 gradings: "
@@ -63,8 +63,8 @@ RANGES: dict[tuple[str, str], Bound] = {
     ("breach", "depth"): Bound("length", 0.05, 50.0, "m", _HEIGHT),
     ("breach", "scour_depth"): Bound("length", 0.0, 50.0, "m", _HEIGHT),
     ("breach", "discharge"): Bound("discharge", 0.0, 1.0e5, "m^3/s",
-                                   "above the peak discharge of the largest rivers (the Amazon's is about 2e5 m³/s "
-                                   "over its whole width, a breach carries a small part of its river)"),
+                                   "a breach carries part of a river's or an estuary's flow; the bound lies above "
+                                   "the peak discharge of the largest rivers"),
     ("breach", "mean_velocity"): Bound("speed", 0.0, 20.0, "m/s",
                                        "flow through a breach is driven by metres of head: sqrt(2 g h) for 20 m of head "
                                        "is about 20 m/s"),
@@ -74,7 +74,7 @@ RANGES: dict[tuple[str, str], Bound] = {
     ("levee", "flood_slope"): Bound("dimensionless", 0.0, 50.0, "", "levee slopes are 1V:0H (a wall) to about 1V:10H"),
     ("levee", "protected_slope"): Bound("dimensionless", 0.0, 50.0, "", "levee slopes are 1V:0H (a wall) to about 1V:10H"),
     ("polder", "area"): Bound("area", 1.0e3, 1.0e11, "ha",
-                              "a polder is hectares to thousands of km² (the whole Netherlands is about 4e4 km²)"),
+                              "a polder is hectares to thousands of km²"),
     ("polder", "inundation_depth"): Bound("length", 0.001, 30.0, "m", "a permissible inundation depth is centimetres to metres"),
     ("polder", "pump_capacity"): Bound("discharge", 0.0, 1.0e5, "m^3/s", "pumping stations move up to thousands of m³/s"),
     ("flood", "surge_height"): Bound("length", 0.0, 30.0, "m", "the highest storm surges and river floods are metres to about ten metres"),
@@ -90,9 +90,9 @@ RANGES: dict[tuple[str, str], Bound] = {
     ("site", "extent_flood"): Bound("length", 0.0, 20_000.0, "m", _EXTENT),
     ("site", "extent_protected"): Bound("length", 0.0, 20_000.0, "m", _EXTENT),
     ("site", "ground_elevation"): Bound("length", -500.0, 9_000.0, "m",
-                                        "elevations on Earth lie between the Dead Sea shore (about -430 m) and 8,849 m"),
+                                        "the lowest and the highest land on Earth lie within this range"),
     ("site", "flood_water_elevation"): Bound("length", -500.0, 9_000.0, "m",
-                                             "elevations on Earth lie between the Dead Sea shore (about -430 m) and 8,849 m"),
+                                             "the lowest and the highest land on Earth lie within this range"),
     ("site", "manning_n"): Bound("manning", 0.005, 0.3, "s/m^(1/3)",
                                  "Manning's n of natural and lined channels lies between about 0.01 and 0.2"),
     ("hydro", "resolution"): Bound("length", 0.02, 1_000.0, "m",
@@ -151,7 +151,8 @@ def violation(section: str, key: str, raw, *, label: str | None = None) -> str |
         if not math.isfinite(v):
             return f"{label} = {_shown(raw)} is not a finite number"
         if not bound.lo <= v <= bound.hi:
-            return (f"{label} = {_shown(raw)} ({bound.show(v)}) is outside the plausible range "
+            shown = "" if bound.kind == "count" else f" ({bound.show(v)})"
+            return (f"{label} = {_shown(raw)}{shown} is outside the plausible range "
                     f"{bound.show(bound.lo)} to {bound.show(bound.hi)}: {bound.why}")
     return None
 
