@@ -187,3 +187,19 @@ def test_a_crash_during_overwrite_never_mixes_two_runs(tmp_path, monkeypatch):
     fresh = RunDirectory(rd.path)
     fresh.start("new", seed=2)  # no --overwrite needed: there is no run
     assert fresh.verify() == []
+
+
+def test_the_command_line_reports_a_stale_lock_before_anything_else(tmp_path):
+    from typer.testing import CliRunner
+
+    from breachflow.cli import app
+
+    run = tmp_path / "run"
+    p = _holder(run, 60)
+    os.kill(p.pid, signal.SIGKILL)
+    p.wait()
+    res = CliRunner().invoke(app, ["run", "--out", str(run), "--resume"], env={"COLUMNS": "300"})
+    out = " ".join(res.output.split())
+    assert f"note: a previous process died holding the lock of {run} (pid {p.pid} on host {socket.gethostname()}" in out
+    assert res.exit_code != 0 and "nothing to resume" in str(res.exception)
+    assert not (run / LOCK).exists()

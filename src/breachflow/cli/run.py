@@ -164,11 +164,6 @@ def run_closure_cli(scenario: Path | None, out: Path, resume: bool, overwrite: b
         rd = run.rundir
         console.attach_log(rd.path / "run.log")
         console.print(f"closure run: {name} → {out}", highlight=False)
-        if rd.stale_lock:
-            from ..output.lock import describe
-
-            console.print(f"note: a previous process died holding the lock of {out} ({describe(rd.stale_lock)}); "
-                          "its lock was taken over", highlight=False)
         for p in rd.swept:
             console.print(f"removed {p.name} (left by an interrupted run)", highlight=False)
         if resume:
@@ -221,7 +216,12 @@ def register(app: typer.Typer) -> None:
         from ..output import RunDirectory
 
         # the lock first: nothing is checked or written in a directory another process works on
-        with RunDirectory(out).lock():
+        with RunDirectory(out).lock() as lock:
+            if lock.stale:
+                from ..output.lock import describe
+
+                con.print(f"note: a previous process died holding the lock of {out} ({describe(lock.stale)}); "
+                          "its lock was taken over", highlight=False)
             overwrite = check_run_target(scenario, out, resume, overwrite)
             run_closure_cli(scenario, out, resume, overwrite, not no_plots, con)
 

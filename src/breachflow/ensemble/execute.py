@@ -152,8 +152,9 @@ def plan(spec, out=None) -> tuple[EnsembleSpec, Path, list[Member], list[MemberT
 def check_scenarios(tasks: list[MemberTask]) -> None:
     """Refuse, before anything runs, a varied parameter the scenario does not have (a misspelt
     ``"breach.lenght"`` in ``[ensemble.vary]``): it would fail every member alike. The first member's scenario
-    is parsed (:func:`breachflow.scenario.parse_scenario`; only the sections the runner reads, and a
-    runner's own sections that are no scenario section are left to it); an unknown key or section that is
+    is parsed (:func:`breachflow.scenario.parse_scenario`; only the sections the runner declares it reads —
+    a runner reading the whole table checks it itself with ``check`` — and a runner's own sections that are no
+    scenario section are left to it); an unknown key or section that is
     a varied parameter raises :class:`~breachflow.errors.InputError` naming it. Other problems of single
     members stay theirs: the member fails and is recorded, the others run."""
     from ..errors import BreachflowError
@@ -165,6 +166,8 @@ def check_scenarios(tasks: list[MemberTask]) -> None:
         return
     t = tasks[0]
     wanted = getattr(t.runner_cls, "sections", None)
+    if wanted is None:  # a runner that reads the whole table reads it its own way (and checks it: ``check``)
+        return
 
     def known(name):
         try:

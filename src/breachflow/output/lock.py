@@ -4,7 +4,7 @@
 names its holder (process id, host, start time, command). The operating system releases a ``flock`` when its
 process ends, however it ends (a ``kill -9`` included), so a lock can never outlive its process on the same
 host; what outlives it is the lock file with the holder's record (a clean release removes the file).
-Finding a record while taking a free lock therefore means the previous holder died without releasing it: :attr:`RunLock.stale` keeps that record
+Finding a record while taking a free lock therefore means the previous holder died without releasing it: ``RunLock.stale`` keeps that record
 and the command reports it.
 
 A second process asking for a held lock does not wait: :class:`RunLockedError` names the directory and the
@@ -133,9 +133,9 @@ _guard = threading.Lock()
 class RunLock:
     """``with RunLock(path):`` — hold the exclusive lock of run directory *path* (created if need be).
 
-    Raises :class:`RunLockedError` at once when another process holds it. After entering, :attr:`stale` is
+    Raises :class:`RunLockedError` at once when another process holds it. After entering, ``stale`` is
     the record of a previous holder that died without releasing the lock (``{}`` when there was none) and
-    :attr:`created_dir` tells whether the directory was made for this lock. On leaving, the lock file is
+    ``created_dir`` tells whether the directory was made for this lock. On leaving, the lock file is
     removed, and the directory too when it was made for the lock and nothing else was written into it (a
     refused scenario leaves nothing behind). A process that opened the old file and locks it after that
     removal sees that the file it locked is no longer the directory's lock file and tries again.

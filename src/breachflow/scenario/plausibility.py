@@ -55,7 +55,7 @@ _HEIGHT = "levees and their breaches are metres to a few tens of metres high"
 _EXTENT = "the simulated site reaches metres to kilometres from the breach"
 _MASS = ("dumped closure masses are stones, blocks or bags of centimetres to metres (EN 13383 gradings: "
          "5 kg to 15 t); a smaller mass is carried off by any closure flow and needs a DEM time step too short "
-         "to run, a larger one is not a mass but a structure")
+         "to run; the largest units placed in a gap are caissons of tens of metres")
 
 #: (section, key) → plausible range. Keys of a list value (a sweep, a diameter range) are checked item by item.
 RANGES: dict[tuple[str, str], Bound] = {
@@ -102,10 +102,10 @@ RANGES: dict[tuple[str, str], Bound] = {
     ("hydro", "t_max_initial"): Bound("time", 0.0, 30 * 86400.0, "s", "a steady state is reached in minutes to hours of model time"),
     ("hydro", "t_max"): Bound("time", 0.0, 30 * 86400.0, "s", "a steady state is reached in minutes to hours of model time"),
     ("dem", "max_time"): Bound("time", 0.0, 86400.0, "s", "dumped masses come to rest in seconds to minutes"),
-    ("placement", "diameter"): Bound("length", 0.05, 10.0, "m", _MASS),
-    ("placement", "density"): Bound("density", 1000.0, 8_000.0, "kg/m^3",
-                                    "closure masses are sand bags, rock or concrete (1,500 to 3,000 kg/m³), at most "
-                                    "steel (7,850 kg/m³)"),
+    ("placement", "diameter"): Bound("length", 0.05, 25.0, "m", _MASS),
+    ("placement", "density"): Bound("density", 0.0, 8_000.0, "kg/m^3",
+                                    "closure masses are sand bags, rock or concrete, at most steel (7,850 kg/m³); "
+                                    "masses not heavier than water are refused by the closure's own check"),
     ("placement", "release_height"): Bound("length", 0.0, 100.0, "m", "masses are dropped from a crane, a barge or a helicopter"),
     ("placement", "batch"): Bound("count", 1, 2_000, "",
                                   "a cycle dumps what one truck, skip, barge or helicopter load holds; every mass of "
