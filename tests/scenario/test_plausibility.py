@@ -80,7 +80,7 @@ def test_two_millimetre_masses_are_refused():
     with pytest.raises(ParseError) as info:
         parse_scenario(text)
     assert info.value.line == _line(text, "diameter")
-    assert "[placement] diameter = ['2 mm', '2 mm'] (0.002 m) is outside the plausible range 0.05 m to 10 m" in str(info.value)
+    assert "[placement] diameter = ['2 mm', '2 mm'] (0.002 m) is outside the plausible range 0.05 m to 25 m" in str(info.value)
 
 
 def test_a_misspelt_key_is_reported_at_its_own_line():
