@@ -34,20 +34,16 @@ def _pyproject_hash() -> str:
 
 
 def _numba_cache_dir() -> str:
-    """numba's on-disk cache (``cache=True``), one folder per state of the sources. numba checks only the
-    file of the function it caches, so a kernel that inlines a helper from another module (the DEM contact
-    law into the contact kernels) would keep a stale build after that helper changes; keying the folder on
-    every source file avoids that. Folders of earlier source states are removed."""
-    h = hashlib.sha256()
-    for f in sorted((ROOT / "src" / "breachflow").rglob("*.py")):
-        h.update(f.relative_to(ROOT).as_posix().encode() + b"\0" + f.read_bytes())
-    base = ROOT / ".numba_cache"
-    here = base / h.hexdigest()[:16]
-    if base.is_dir() and not here.is_dir():
-        for old in base.iterdir():
-            if old.is_dir():
-                shutil.rmtree(old, ignore_errors=True)
-    return str(here)
+    """numba's on-disk cache (``cache=True``), one folder per state of the sources; folders of earlier source
+    states are removed. Defined once, in src/breachflow/numba_cache.py (loaded here by path: this bootstrap
+    runs before the environment exists), which the package also uses to find the cache when started
+    directly (``.venv/bin/breachflow``)."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("_breachflow_numba_cache", ROOT / "src" / "breachflow" / "numba_cache.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return str(mod.source_cache_dir(ROOT, prune=True))
 
 
 def ensure_env() -> None:

@@ -7,8 +7,12 @@ embedded shallow-water solver (:mod:`breachflow.hydro`), the discrete element me
 """
 from __future__ import annotations
 
-from .errors import BreachflowError, DiskFullError, InputError, ParseError, SchemaError, UnitError, PhysicsError
-from .units import ureg, Q_, to_si
+from .numba_cache import configure_cache_dir as _configure_cache_dir
+
+_configure_cache_dir()  # the kernels warmed by tasks.py, wherever the program is started from
+
+from .errors import BreachflowError, DiskFullError, InputError, ParseError, SchemaError, UnitError, PhysicsError  # noqa: E402
+from .units import ureg, Q_, to_si  # noqa: E402
 
 __version__ = "0.2.0"
 

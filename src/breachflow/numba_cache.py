@@ -9,10 +9,70 @@ happens to the workers of an ensemble (:mod:`breachflow.ensemble`) and of the pa
 is not yet filled. :func:`serialise_cache_saves` makes every save of this process take an exclusive ``flock``
 on a lock file beside the index (tests/test_parallel_suite.py: two processes saving 300 entries each keep all
 600 with their own data; numba's own save kept 568, 13 pointing at the other's data).
+
+Where the cache is: :func:`source_cache_dir` — in a source checkout, ``.numba_cache/<hash>`` beside
+``pyproject.toml``, one folder per state of the sources (numba checks only the file of the function it
+caches, so a kernel that inlines a helper from another module would keep a stale build after that helper
+changes). ``tasks.py`` warms it, and :func:`configure_cache_dir` (run when :mod:`breachflow` is imported)
+points numba at the same folder, so ``.venv/bin/breachflow`` started from any directory uses the warmed
+kernels. ``NUMBA_CACHE_DIR``, when set, wins; an installed package keeps numba's default (``__pycache__``
+beside the sources).
+
+This module imports only the standard library: ``tasks.py`` loads it by path, before any environment exists.
 """
 from __future__ import annotations
 
+import hashlib
 import os
+import shutil
+import sys
+from pathlib import Path
+
+#: the package's folder (``src/breachflow`` in a checkout)
+PACKAGE = Path(__file__).resolve().parent
+
+
+def checkout_root(package: Path = PACKAGE) -> Path | None:
+    """The source checkout the package runs from (the folder with ``pyproject.toml`` above ``src/``), or None
+    for an installed package."""
+    root = package.parent.parent
+    if package.parent.name == "src" and (root / "pyproject.toml").is_file():
+        return root
+    return None
+
+
+def source_cache_dir(root: Path, *, prune: bool = False) -> Path:
+    """numba's cache folder for the sources under *root*: ``root/.numba_cache/<first 16 hex of the sha256 of
+    every src/breachflow/**.py, path and bytes>``. With *prune*, folders of earlier source states are removed."""
+    h = hashlib.sha256()
+    for f in sorted((root / "src" / "breachflow").rglob("*.py")):
+        h.update(f.relative_to(root).as_posix().encode() + b"\0" + f.read_bytes())
+    base = root / ".numba_cache"
+    here = base / h.hexdigest()[:16]
+    if prune and base.is_dir() and not here.is_dir():
+        for old in base.iterdir():
+            if old.is_dir():
+                shutil.rmtree(old, ignore_errors=True)
+    return here
+
+
+def configure_cache_dir() -> str | None:
+    """Point numba at the checkout's warmed cache unless ``NUMBA_CACHE_DIR`` is set; returns the folder used
+    (None: numba's default). Works before and after numba is imported."""
+    if os.environ.get("NUMBA_CACHE_DIR"):
+        return os.environ["NUMBA_CACHE_DIR"]
+    root = checkout_root()
+    if root is None:
+        return None
+    try:
+        here = str(source_cache_dir(root))
+    except OSError:
+        return None
+    os.environ["NUMBA_CACHE_DIR"] = here  # read by numba at import, and inherited by worker processes
+    config = sys.modules.get("numba.core.config")
+    if config is not None:
+        config.CACHE_DIR = here
+    return here
 
 
 def serialise_cache_saves() -> bool:

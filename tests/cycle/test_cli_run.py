@@ -142,10 +142,15 @@ def test_a_users_run_is_never_replaced_without_overwrite(tmp_path):
         assert (out / "scenario.toml").read_text() == text
 
 
-def test_only_the_default_run_of_the_default_scenario_is_replaced_silently(tmp_path):
+def test_no_run_is_replaced_without_overwrite_not_even_the_default(tmp_path):
+    """Issue 27: a second `breachflow run` of the embedded default used to replace the first's directory
+    silently (even while the first was running, and a crashed default run with committed cycles); now every
+    run, the default's included, is refused without --overwrite."""
     out = tmp_path / "default"
     RunDirectory(out).start(default_scenario_text(), seed=0)
-    assert check_run_target(None, out, resume=False, overwrite=False) is True  # the README command re-runs
+    with pytest.raises(InputError, match="holds a run of the embedded default scenario .*--overwrite"):
+        check_run_target(None, out, resume=False, overwrite=False)
+    assert check_run_target(None, out, resume=False, overwrite=True) is True
     with pytest.raises(InputError, match="--overwrite"):
         check_run_target(tmp_path / "other.toml", out, resume=False, overwrite=False)
     assert check_run_target(tmp_path / "other.toml", out, resume=False, overwrite=True) is True

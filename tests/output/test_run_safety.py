@@ -90,7 +90,9 @@ def test_full_disk_during_a_cycle_then_resume(tmp_path, monkeypatch):
     with pytest.raises(DiskFullError, match=re.escape(run.trajectories_path(2).name)):
         run.write_cycle(2, _field(2), _traj(2, 4), {"k": np.arange(3)}, {})
     monkeypatch.undo()
-    assert run.completed_cycles() == [1] and run.verify() == []
+    # the field file written before the full disk is no committed cycle's: verify names it, resume sweeps it
+    assert run.completed_cycles() == [1]
+    assert run.verify() == [f"{run.cycle_path(2)}: not in the manifest (a cycle file of no committed cycle)"]
     assert not [p for p in run.path.iterdir() if p.name.startswith(".")]
     # space freed: the resumed run sweeps the uncommitted cycle-2 field file and carries on
     resumed = RunDirectory(run.path)
@@ -130,7 +132,8 @@ def test_real_full_disk_names_the_file_and_resume_continues(small_tmpfs):
     with pytest.raises(DiskFullError, match=r"no space left on device writing .*cycle_0001\.nc"):
         run.write_cycle(1, _big_field(1), None, {"k": np.arange(3)}, {})
     assert run.completed_cycles() == []
-    assert sorted(p.name for p in run.path.iterdir()) == ["manifest.json", "scenario.toml"]  # nothing half-written
+    # nothing half-written (run.lock: the run still holds the directory's lock)
+    assert sorted(p.name for p in run.path.iterdir()) == ["manifest.json", "run.lock", "scenario.toml"]
     # free space (grow the file system), then resume and write the cycle
     r = subprocess.run(["mount", "-o", "remount,size=4m", str(small_tmpfs)], capture_output=True, text=True)
     assert r.returncode == 0, r.stderr

@@ -41,6 +41,19 @@ def register(app: typer.Typer) -> None:
         ds = run(spec, out=out, scheduler=scheduler, workers=workers, resume=resume, retry_failed=retry_failed,
                  progress=progress, console=console)
         console.print(summary_table(ds))
+        from ..errors import InputError
+
+        failed = int(ds.attrs.get("ensemble_failed", 0))
+        total = int(ds["member_status"].size)
+        if failed and failed == total:  # nothing to show for it: a failure, not a result
+            import numpy as np
+
+            errs = [str(e) for e in np.asarray(ds["member_error"].values).ravel() if str(e)] if "member_error" in ds else []
+            raise InputError(f"every member of the ensemble failed ({failed} of {total}); the first error: "
+                             f"{errs[0] if errs else 'see member_error in ensemble.nc'}")
+        if failed:
+            console.print(f"[bold yellow]{failed} of {total} members failed, {total - failed} ran[/]: their results are "
+                          "missing (NaN) in ensemble.nc; member_error / member_error_type say why", highlight=False)
 
 
 def summary_table(ds):

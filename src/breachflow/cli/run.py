@@ -104,9 +104,10 @@ DEFAULT_OUT = Path("runs/default")
 def check_run_target(scenario: Path | None, out: Path, resume: bool, overwrite: bool) -> bool:
     """Decide, before anything is written, whether ``breachflow run`` may use *out*; returns *overwrite*.
 
-    A run directory is only ever replaced without ``--overwrite`` when it holds the default run of the
-    embedded default scenario and no scenario is given (the README's command stays re-runnable); any
-    other run is refused with the flags that would continue or replace it. ``--resume`` needs a run."""
+    The caller holds the directory's lock (:meth:`~breachflow.output.RunDirectory.lock`). A run directory
+    is never replaced without ``--overwrite``, whatever its scenario (the embedded default included) and
+    state (finished, or stopped after some cycles): it is refused with the flags that would continue or
+    replace it. ``--resume`` needs a run."""
     from ..cycle.main import default_scenario_text
     from ..errors import InputError
     from ..output import RunDirectory
@@ -123,8 +124,6 @@ def check_run_target(scenario: Path | None, out: Path, resume: bool, overwrite: 
         return overwrite
     man = rd.manifest()
     is_default = man.get("scenario_sha256") == scenario_hash(default_scenario_text())
-    if scenario is None and is_default:
-        return True
     meta = man.get("metadata", {})
     what = ("the embedded default scenario" if is_default else
             f"scenario {meta.get('scenario_path') or str(out / 'scenario.toml')!r}")
@@ -214,8 +213,17 @@ def register(app: typer.Typer) -> None:
             _run_calculator(scenario, plot, out, con)
             return
         out = DEFAULT_OUT if out is None else out
-        overwrite = check_run_target(scenario, out, resume, overwrite)
-        run_closure_cli(scenario, out, resume, overwrite, not no_plots, con)
+        from ..output import RunDirectory
+
+        # the lock first: nothing is checked or written in a directory another process works on
+        with RunDirectory(out).lock() as lock:
+            if lock.stale:
+                from ..output.lock import describe
+
+                con.print(f"note: a previous process died holding the lock of {out} ({describe(lock.stale)}); "
+                          "its lock was taken over", highlight=False)
+            overwrite = check_run_target(scenario, out, resume, overwrite)
+            run_closure_cli(scenario, out, resume, overwrite, not no_plots, con)
 
     @app.command("model-problem")
     def model_problem_cmd(

@@ -49,6 +49,10 @@ def register(app: typer.Typer) -> None:
             "polder_area": polder_area, "inundation_depth": inundation_depth, "breach_discharge": discharge,
             "breach_length": breach_length, "mean_velocity": mean_velocity, "flood_duration": flood_duration,
         }
+        from ..scenario.plausibility import check_value
+
+        for option, value in {**given, "discharge": discharge, "pump_capacity": pump_capacity}.items():
+            check_value(option, value)  # "5 parsecs" is a length, but no breach's
         if hydrograph is not None:
             given["hydrograph"] = hydrograph
             for key in ("surge_height", "fall_rate", "rise_rate", "preset"):

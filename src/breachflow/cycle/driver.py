@@ -204,6 +204,13 @@ class ClosureRun(CycleDem):
 
     # ------------------------------------------------------------------ main loop
     def run(self) -> list[CycleReport]:
+        """Run the cycles (from the last committed one), then release the run directory's lock."""
+        try:
+            return self._run()
+        finally:
+            self.rundir.close()
+
+    def _run(self) -> list[CycleReport]:
         s = self.setup
         done = self.rundir.completed_cycles()
         if done:

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..scenario.config import load_scenario, parse_scenario
+from ..scenario.config import parse_scenario
 from .config import closure_setup
 from .driver import ClosureRun, CycleReport
 
@@ -114,8 +114,18 @@ def run_closure(scenario=None, out="runs/default", *, resume: bool = False, over
     *resume* and no scenario, the ``scenario.toml`` stored in the run directory) in the run directory
     *out*; returns the :class:`ClosureResult`.
 
-    The scenario is parsed and checked in full before the run directory is touched. *on_start(run)* is
+    The run directory's exclusive lock (:class:`~breachflow.output.lock.RunLock`) is taken first and held to
+    the end (:class:`~breachflow.output.lock.RunLockedError` names the holder when another process has it);
+    the scenario is parsed and checked in full before anything is written. *on_start(run)* is
     called with the :class:`~breachflow.cycle.driver.ClosureRun` once its directory is started or resumed, before any work."""
+    from ..output import RunDirectory
+
+    with RunDirectory(out).lock():  # held from before the first check until the plots are drawn
+        return _run_closure_locked(scenario, out, resume=resume, overwrite=overwrite, progress=progress,
+                                   plots=plots, on_start=on_start)
+
+
+def _run_closure_locked(scenario, out, *, resume, overwrite, progress, plots, on_start) -> ClosureResult:
     from ..output import RunDirectory
 
     t0 = _time.perf_counter()
@@ -134,8 +144,8 @@ def run_closure(scenario=None, out="runs/default", *, resume: bool = False, over
         sc = parse_scenario(text)
     else:
         path = Path(scenario)
-        sc = load_scenario(path)  # errors name the file and line
-        text = path.read_text(encoding="utf-8")
+        text = _read_text(path)  # read once: the text parsed is the text stored in the run directory
+        sc = parse_scenario(text, path=path)  # errors name the file and line
         source = str(path.resolve())
     setup = closure_setup(sc)
     run = ClosureRun(setup, out, text, resume=resume, overwrite=overwrite, progress=progress,
@@ -181,6 +191,15 @@ def run_closure(scenario=None, out="runs/default", *, resume: bool = False, over
         res.plots = [plot_plan_view(run.rundir, Path(out) / "plan_view.png"),
                      plot_closure_progress(run.rundir, Path(out) / "closure_progress.png")]
     return res
+
+
+def _read_text(path: Path) -> str:
+    from ..errors import InputError
+
+    try:
+        return path.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise InputError(f"{path}: cannot read scenario ({exc.strerror})") from None
 
 
 def peak_gap_speed(manifest, key: str = "gap_mean_speed", *, open_breach: bool = False) -> float:

@@ -149,10 +149,50 @@ def plan(spec, out=None) -> tuple[EnsembleSpec, Path, list[Member], list[MemberT
     return spec, out_dir, members, tasks
 
 
+def check_scenarios(tasks: list[MemberTask]) -> None:
+    """Refuse, before anything runs, a varied parameter the scenario does not have (a misspelt
+    ``"breach.lenght"`` in ``[ensemble.vary]``): it would fail every member alike. The first member's scenario
+    is parsed (:func:`breachflow.scenario.parse_scenario`; only the sections the runner declares it reads —
+    a runner reading the whole table checks it itself with ``check`` — and a runner's own sections that are no
+    scenario section are left to it); an unknown key or section that is
+    a varied parameter raises :class:`~breachflow.errors.InputError` naming it. Other problems of single
+    members stay theirs: the member fails and is recorded, the others run."""
+    from ..errors import BreachflowError
+    from ..scenario import parse_scenario
+    from ..scenario.config import _section_class
+    from ..scenario.toml import dump_toml
+
+    if not tasks:
+        return
+    t = tasks[0]
+    wanted = getattr(t.runner_cls, "sections", None)
+    if wanted is None:  # a runner that reads the whole table reads it its own way (and checks it: ``check``)
+        return
+
+    def known(name):
+        try:
+            _section_class(name, "", None)
+            return True
+        except BreachflowError:
+            return False
+
+    names = [s for s in t.scenario.table if wanted is None or (s in wanted and known(s))]
+    try:
+        parse_scenario(dump_toml(t.scenario.table, names))
+    except BreachflowError as exc:
+        reason = getattr(exc, "reason", None) or str(exc)
+        for dotted in t.scenario.paths.values():
+            section, key = dotted.split(".")[0], dotted.split(".")[-1]
+            if f"[{section}] {key}: unknown key" in reason or f"unknown section [{section}]" in reason:
+                raise InputError(f"[ensemble.vary] {dotted!r}: the scenario has no such parameter ({reason}); "
+                                 f"nothing was run") from None
+
+
 def check_members(tasks: list[MemberTask]) -> list[str]:
     """Ask the runner to check every member before anything runs (runners with a ``check(member)``
     method, e.g. ``closure``: physically impossible scenarios). Raises one :class:`~breachflow.errors.InputError` naming
     each refused member and its varied values; returns the distinct warnings with member counts."""
+    check_scenarios(tasks)
     if not tasks or not hasattr(tasks[0].runner_cls, "check"):
         return []
     runner = tasks[0].runner_cls(**tasks[0].options)

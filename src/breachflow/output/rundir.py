@@ -9,10 +9,15 @@ Layout::
 
     RUN/scenario.toml                  the scenario text the run was started with (``--resume`` reads it)
     RUN/run.log                        what the console showed, plus warnings (appended by every session)
+    RUN/run.lock                       the exclusive lock of the process working on the run (:mod:`.lock`)
 
 Every file is written atomically, and the manifest — rewritten atomically *after* a cycle's files —
 is the commit point: a crash leaves at worst stray temp files or files of a cycle the manifest does not
-list, which resuming sweeps away (:meth:`RunDirectory.sweep`). The manifest records the provenance
+list, which resuming sweeps away (:meth:`RunDirectory.sweep`). Every change is made under the directory's
+exclusive lock (:class:`~breachflow.output.lock.RunLock`, taken by :meth:`RunDirectory.start` when the caller
+does not hold it yet), committed cycles are numbered 1, 2, ... without gaps, and a manifest carries a
+``run_id``: a process writes only into the run it started or resumed. :meth:`RunDirectory.verify` checks
+the whole directory (docs/run-safety.md). The manifest records the provenance
 (:func:`breachflow.output.provenance.attrs`) of the command that started the run and of every resume.
 
 Each cycle file carries a length-1 ``cycle`` dimension coordinate on its per-cycle variables, its
@@ -28,6 +33,7 @@ import hashlib
 import io
 import json
 import re
+import uuid
 from datetime import datetime, timezone
 from pathlib import Path
 
@@ -38,6 +44,7 @@ from ..errors import InputError
 from . import provenance
 from .atomic import atomic_write, atomic_write_json, atomic_write_netcdf, atomic_write_text
 from .cf import netcdf_encoding
+from .lock import LOCK, RunLock, held_by_me
 
 MANIFEST = "manifest.json"
 #: the steady-state history of a cycle's solve: a dimension whose length varies from cycle to cycle,
@@ -75,6 +82,39 @@ class RunDirectory:
     def __init__(self, path):
         self.path = Path(path)
         self.swept: list[Path] = []  #: files :meth:`sweep` removed when the run was resumed
+        self.run_id: str | None = None  #: the ``run_id`` of the run this object started or resumed
+        self._lock: RunLock | None = None
+        #: the record of a process that died holding the directory's lock (``{}``: none), found by :meth:`start`
+        self.stale_lock: dict = {}
+
+    # ----------------------------------------------------------------- lock
+    def lock(self) -> RunLock:
+        """The directory's exclusive lock (``with rd.lock(): ...``; re-entrant within a process)."""
+        return RunLock(self.path)
+
+    def _hold_lock(self) -> None:
+        """Take the directory's lock for the life of this object unless this process holds it already."""
+        if self._lock is None:
+            self._lock = self.lock().acquire()
+            self.stale_lock = self._lock.stale
+
+    def __del__(self):
+        try:
+            self.close()
+        except Exception:
+            pass
+
+    def close(self) -> None:
+        """Release the lock :meth:`start` took (a no-op when the caller holds the lock itself)."""
+        if self._lock is not None:
+            lock, self._lock = self._lock, None
+            lock.release()
+
+    def _check_owner(self, man: dict) -> None:
+        """Refuse to write into a manifest of another run than the one this object started or resumed."""
+        if self.run_id is not None and man.get("run_id") != self.run_id:
+            raise InputError(f"{self.path}: the run was replaced by another process (run_id "
+                             f"{man.get('run_id')!r}, this process's {self.run_id!r}); stopping without writing")
 
     # ----------------------------------------------------------------- manifest
     @property
@@ -96,10 +136,13 @@ class RunDirectory:
               metadata: dict | None = None) -> dict:
         """Begin a run, or check that *resume* continues the same scenario; returns the manifest.
 
-        A new run in a directory holding another run is refused unless *overwrite*.
+        A new run in a directory holding another run is refused unless *overwrite*. The directory's lock is
+        taken first (:class:`~breachflow.output.lock.RunLockedError` when another process holds it) and kept
+        until :meth:`close` unless the caller holds it already.
         """
         digest = scenario_hash(scenario_text)
         self.swept: list[Path] = []
+        self._hold_lock()
         action = "start"
         if self.exists():
             man = self.manifest()
@@ -108,24 +151,33 @@ class RunDirectory:
                     raise InputError(
                         f"{self.path}: cannot resume: the run was started with another scenario or seed "
                         f"(scenario sha256 {man['scenario_sha256'][:12]}…, seed {man['seed']})")
+                self._check_continuity(man)
                 self.swept = self.sweep()
+                man.setdefault("run_id", uuid.uuid4().hex)
+                self.run_id = man["run_id"]
                 man.setdefault("sessions", []).append(session("resume"))
                 atomic_write_json(man, self.manifest_path)
                 return man
             if not overwrite:
                 raise InputError(f"{self.path}: holds a run already; use resume or overwrite")
-            for p in [*self.path.glob("cycle_*.nc"), *self.path.glob("trajectories_*.nc")]:
-                p.unlink()
-            for p in self.path.glob("restart_*.npz"):
+            # the old manifest goes first: a crash from here on leaves a directory without a run (a new run
+            # starts there), never a manifest that lists files of the old run beside the new one's
+            self.manifest_path.unlink()
+            for p in [*self.path.glob("cycle_*.nc"), *self.path.glob("trajectories_*.nc"),
+                      *self.path.glob("restart_*.npz")]:
                 p.unlink()
             self.swept = self.sweep()
             action = "overwrite"
         elif resume:
             raise InputError(f"{self.path}: nothing to resume (no {MANIFEST})")
+        else:
+            self.swept = self.sweep()  # cycle files of a run whose manifest never got written
         self.path.mkdir(parents=True, exist_ok=True)
         atomic_write_text(scenario_text, self.path / SCENARIO)
+        self.run_id = uuid.uuid4().hex
         man = {
             "format_version": FORMAT_VERSION,
+            "run_id": self.run_id,
             "created": datetime.now(timezone.utc).isoformat(timespec="seconds"),
             "scenario_sha256": digest,
             "seed": int(seed),
@@ -138,10 +190,18 @@ class RunDirectory:
         atomic_write_json(man, self.manifest_path)
         return man
 
+    def _check_continuity(self, man: dict) -> None:
+        nums = [c.get("cycle") for c in man.get("cycles", [])]
+        if nums != list(range(1, len(nums) + 1)):
+            raise InputError(f"{self.manifest_path}: committed cycles {nums} are not 1, 2, ... without gaps; "
+                             "the run directory is damaged (--overwrite starts it again)")
+
     def sweep(self) -> list[Path]:
         """Remove what a killed run can leave behind: temp files of interrupted atomic writes and cycle or
         restart files of cycles the manifest does not list. Returns the removed paths."""
         last = self.last_cycle() if self.exists() else 0
+        if not held_by_me(self.path):
+            raise InputError(f"{self.path}: sweeping a run directory needs its lock (RunDirectory.lock())")
         gone = []
         for p in sorted(self.path.iterdir()) if self.path.is_dir() else []:
             m = _CYCLE_FILE.match(p.name)
@@ -187,9 +247,14 @@ class RunDirectory:
     def write_cycle(self, g: int, field: xr.Dataset, trajectories: xr.Dataset | None, restart: dict,
                     summary: dict) -> None:
         """Write cycle *g*'s files atomically, then commit it to the manifest."""
+        self._hold_lock()
         man = self.manifest()
-        if man["cycles"] and g != man["cycles"][-1]["cycle"] + 1:
-            raise InputError(f"{self.path}: cycle {g} does not follow the last complete cycle {man['cycles'][-1]['cycle']}")
+        self._check_owner(man)
+        last = man["cycles"][-1]["cycle"] if man["cycles"] else 0
+        if g != last + 1:
+            raise InputError(f"{self.path}: cannot commit cycle {g}: "
+                             + (f"it does not follow the last complete cycle {last} (the next is {last + 1})" if last
+                                else "no cycle is complete yet; the first cycle is 1"))
         files = {}
         hist_vars = [v for v in field.data_vars if HISTORY_DIM in field[v].dims]
         root, hist = provenance.stamp(field.drop_vars(hist_vars)), field[hist_vars]
@@ -225,12 +290,16 @@ class RunDirectory:
 
     def update_metadata(self, **items) -> None:
         """Merge *items* into the manifest's ``metadata`` (atomically)."""
+        self._hold_lock()
         man = self.manifest()
+        self._check_owner(man)
         man.setdefault("metadata", {}).update(items)
         atomic_write_json(man, self.manifest_path)
 
     def finish(self, summary: dict) -> None:
+        self._hold_lock()
         man = self.manifest()
+        self._check_owner(man)
         man["finished"] = True
         man["final"] = summary
         atomic_write_json(man, self.manifest_path)
@@ -240,15 +309,44 @@ class RunDirectory:
             return {k: data[k] for k in data.files}
 
     def verify(self) -> list[str]:
-        """Checksums of every committed file; returns the list of problems (empty when intact)."""
+        """Check the whole directory; returns the list of problems (empty when intact): the manifest reads,
+        its cycles are 1, 2, ... without gaps, every committed file is there with its checksum, no cycle,
+        trajectory or restart file lies there that the manifest does not list, no temp file of an interrupted
+        write is left, ``scenario.toml`` is the scenario the manifest records, and a finished run's final
+        record names its last cycle."""
+        try:
+            man = self.manifest()
+        except InputError as exc:
+            return [str(exc)]
         problems = []
-        for c in self.manifest()["cycles"]:
+        nums = [c.get("cycle") for c in man.get("cycles", [])]
+        if nums != list(range(1, len(nums) + 1)):
+            problems.append(f"{self.manifest_path}: committed cycles {nums} are not 1, 2, ... without gaps")
+        listed = set()
+        for c in man.get("cycles", []):
             for kind, name in c["files"].items():
+                listed.add(name)
                 p = self.path / name
                 if not p.exists():
                     problems.append(f"{p}: missing")
                 elif file_sha256(p) != c["sha256"][kind]:
                     problems.append(f"{p}: checksum mismatch")
+        for p in sorted(self.path.iterdir()):
+            if p.name in listed or p.name == LOCK:
+                continue
+            if _CYCLE_FILE.match(p.name):
+                problems.append(f"{p}: not in the manifest (a cycle file of no committed cycle)")
+            elif _TEMP.match(p.name):
+                problems.append(f"{p}: temp file left by an interrupted write")
+        sc = self.path / SCENARIO
+        if not sc.exists():
+            problems.append(f"{sc}: missing")
+        elif scenario_hash(sc.read_text(encoding="utf-8")) != man.get("scenario_sha256"):
+            problems.append(f"{sc}: not the scenario the manifest records (sha256 "
+                            f"{str(man.get('scenario_sha256'))[:12]}…)")
+        if man.get("finished") and nums and man.get("final", {}).get("cycles", nums[-1]) != nums[-1]:
+            problems.append(f"{self.manifest_path}: finished after cycle {man['final']['cycles']} but the last "
+                            f"committed cycle is {nums[-1]}")
         return problems
 
     # ----------------------------------------------------------------- archive

@@ -411,6 +411,9 @@ def parse_scenario(text: str, path: Path | None = None) -> Scenario:
             raise ParseError(f"top-level key {name!r} outside any [section]", path=path, line=_line_of(text, "", name))
         cls = _section_class(name, text, path)
         scenario.sections[name] = cls.from_table(table, SectionContext(path, text, name))
+    from .plausibility import check_scenario
+
+    check_scenario(data, text, path)  # the one place plausible ranges are checked (docs/run-safety.md)
     return scenario
 
 

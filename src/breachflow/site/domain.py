@@ -125,6 +125,10 @@ def build_site(spec: SiteSpec, resolution: float, *, align: bool = True) -> Site
     if not resolution > 0:
         raise InputError(f"[hydro] resolution must be > 0 m, got {resolution}")
     terrain = load_terrain(spec.terrain, crs=spec.crs, vertical_units=spec.terrain_units, variable=spec.terrain_variable)
+    if terrain.crs_wkt is None:  # never assumed: the levee, the breach and every output are placed in it
+        raise InputError(f"{spec.terrain}: the terrain has no CRS (none in the file, no .prj beside it); state the CRS "
+                         f"of its coordinates with [site] crs = \"EPSG:nnnn\" (the levee, the breach and the outputs "
+                         f"are placed in it)")
     levee = load_levee(spec.levee, coords=spec.levee_coords, crs=terrain.crs_wkt if spec.levee is None else None,
                        source=_w(spec, "levee_coords"))
     _check_crs(terrain, levee)
@@ -373,6 +377,12 @@ def _place_breach(spec: SiteSpec, terrain: Terrain, levee: LeveeLine) -> Breach:
     if not np.all(np.isfinite(zc)):
         bad = p[np.flatnonzero(~np.isfinite(zc))[0]]
         x0, x1, y0, y1 = terrain.bounds
+        if x0 <= bad[0] <= x1 and y0 <= bad[1] <= y1:  # inside the raster: its cells there are NODATA / NaN
+            n_bad = int(np.count_nonzero(~np.isfinite(zc)))
+            raise InputError(f"{terrain.path}: the terrain has no elevation (NODATA / NaN cells) at the breach: "
+                             f"{n_bad} of {zc.size} points of the levee line across the breach, the first at "
+                             f"({bad[0]:.1f}, {bad[1]:.1f}); fill the gap in the DEM (e.g. gdal_fillnodata) or move "
+                             f"the breach")
         raise InputError(f"{terrain.path}: the terrain (x {x0:.1f}…{x1:.1f}, y {y0:.1f}…{y1:.1f}) does not cover the "
                          f"breach (no elevation at ({bad[0]:.1f}, {bad[1]:.1f}) on the levee line)")
     crest = float(np.max(zc))

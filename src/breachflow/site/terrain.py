@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError
+from ..errors import InputError, ParseError
 
 #: vertical units we recognise → metres per unit
 VERTICAL_UNITS = {"m": 1.0, "metre": 1.0, "meter": 1.0, "metres": 1.0, "meters": 1.0,
@@ -117,6 +117,7 @@ def _read_raster(path):
     except Exception as exc:
         raise InputError(f"{path}: cannot read as a raster DEM ({exc})") from None
     with src:
+        _check_raster_size(path, src)
         t = src.transform
         if t.b != 0 or t.d != 0:
             raise InputError(f"{path}: rotated rasters are not supported (geotransform {tuple(t)[:6]})")
@@ -133,6 +134,32 @@ def _read_raster(path):
     if y[1] < y[0]:
         y, z = y[::-1], z[::-1, :]
     return x, y, z, crs, declared
+
+
+#: the most cells a terrain raster may have (float64: 8 bytes each, 4 GB)
+MAX_RASTER_CELLS = 500_000_000
+
+
+def _check_raster_size(path, src) -> None:
+    """Refuse, before reading, a raster whose header announces more cells than fit in memory or, for an ESRI
+    ASCII grid, more values than its file can hold (each value takes a character and a separator)."""
+    nx, ny = int(src.width), int(src.height)
+    cells = nx * ny
+    line = None
+    if (src.driver or "").upper() == "AAIGRID":
+        with open(path, "rb") as fh:
+            for k, raw in enumerate(fh.readlines(4096)[:12], start=1):
+                if raw.strip().lower().startswith(b"ncols"):
+                    line = k
+                    break
+        size = Path(path).stat().st_size
+        if cells > (size + 1) // 2:
+            raise ParseError(f"header ncols {nx:,} × nrows {ny:,} = {cells:,} values, but the file is only {size:,} "
+                             f"bytes (at most {(size + 1) // 2:,} values); wrong ncols/nrows?", path=path, line=line)
+    if cells > MAX_RASTER_CELLS:
+        raise ParseError(f"the raster has {nx:,} × {ny:,} = {cells:,} cells, more than the {MAX_RASTER_CELLS:,} a "
+                         f"terrain may have (clip it to the breach's surroundings, e.g. gdal_translate -projwin)",
+                         path=path, line=line)
 
 
 def _read_netcdf(path, variable):

@@ -52,10 +52,14 @@ class PlacementSection:
 
     @classmethod
     def from_table(cls, table, ctx):
+        ctx.check_keys(table, PlacementPlan.__dataclass_fields__)  # a misspelt key is named at its own line
         try:
             return cls(PlacementPlan.from_config(table))
         except (BreachflowError, TypeError, ValueError) as exc:
-            key = next((k for k in table if k in str(exc)), None)
+            msg = str(exc)  # the key the message is about: the one named first (not one in a list of allowed keys)
+            found = sorted((msg.find(f"placement.{k}") if f"placement.{k}" in msg else msg.find(k), k)
+                           for k in table if k in msg)
+            key = found[0][1] if found else None
             raise ctx.error(str(exc), key) from None
 
 

@@ -178,8 +178,10 @@ def block_values(block: bytes, n_lines: int, ncols: int | None, *, path, first_l
 
 
 def _block_values_slow(block, n_lines, ncols, *, path, first_line, what, allow_extra):
-    out = np.empty((n_lines, ncols))
     lines = block.split(b"\n")
+    # no more rows than the block has lines: a header count of 1e12 must not allocate before the first
+    # missing line is reported
+    out = np.empty((min(n_lines, len(lines)), ncols))
     for i in range(n_lines):
         lineno = first_line + i
         toks = lines[i].split() if i < len(lines) else []

@@ -134,6 +134,11 @@ def read_asc(path) -> AscGrid:
             rest.append(block)
     data = b"".join(rest)
     n = nrows * ncols
+    most = (len(data) + 1) // 2  # every value takes a character and a separator
+    if n > most:  # checked before anything of that size is allocated
+        raise ParseError(f"header ncols {ncols:,} × nrows {nrows:,} = {n:,} values, but the file holds only "
+                         f"{len(data):,} bytes of values (at most {most:,} values); wrong ncols/nrows?",
+                         path=path, line=head["ncols"][1])
     vals = parse_floats(data)
     if vals is None or vals.size != n or np.isinf(vals).any():
         vals = _slow_values(data, n, path, first_data_line)

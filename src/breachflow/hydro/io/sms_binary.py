@@ -13,6 +13,7 @@ run, not a time: it is left out (and named in a warning).
 """
 from __future__ import annotations
 
+import os
 import struct
 import warnings
 from pathlib import Path
@@ -36,6 +37,10 @@ class _Bytes:
         pos = self.fh.tell()
         if n < 0:
             raise ParseError(f"binary SMS dataset: negative size of {what} (byte {pos}; NUMDATA / NUMCELLS < 0?)", path=self.path)
+        left = os.fstat(self.fh.fileno()).st_size - pos
+        if n > left:  # checked before reading: a corrupt NUMDATA would otherwise allocate gigabytes
+            raise ParseError(f"binary SMS dataset ends inside {what} (byte {pos}: {n:,} bytes announced by the "
+                             f"header counts, {left:,} left in the file)", path=self.path)
         b = self.fh.read(n)
         if len(b) != n:
             raise ParseError(f"binary SMS dataset ends inside {what} (byte {pos})", path=self.path)
