@@ -120,10 +120,16 @@ def trajectories_dataset(trajectory_id, time, pos, vel=None, *, cycle: int, cycl
 
 
 def netcdf_encoding(ds: xr.Dataset) -> dict:
-    """Encoding that writes NaN as ``_FillValue`` for float variables and none for integer ones."""
+    """Encoding that writes NaN as ``_FillValue`` for float variables and none for integer ones, and text
+    variables as CF character arrays (dimension ``<name>_strlen``) rather than NetCDF-4 variable-length
+    strings, which the CF-1.8 checker and GDAL's classic netCDF driver do not accept."""
     enc = {}
     for name, da in ds.variables.items():
-        if np.issubdtype(da.dtype, np.floating) and name not in ds.dims:
+        if da.dtype.kind in "OUS":
+            enc[name] = {"dtype": "S1", "char_dim_name": f"{name}_strlen", "_FillValue": None}
+            if da.dtype.kind != "S":  # xarray encodes str as UTF-8 into the char array
+                enc[name]["_Encoding"] = "utf-8"
+        elif np.issubdtype(da.dtype, np.floating) and name not in ds.dims:
             enc[name] = {"_FillValue": np.nan}
         elif name in ds.dims or not np.issubdtype(da.dtype, np.floating):
             enc[name] = {"_FillValue": None}
