@@ -148,11 +148,14 @@ def cycle_variables(report) -> dict[str, xr.Variable]:
     return out
 
 
-#: CF ``axis``-free declaration of the cycle counter (see docs/outputs.md): an integer coordinate
-#: variable ``cycle(cycle)``; GDAL's netCDF driver reads a band dimension without a warning only when its
-#: coordinate variable is a time (``axis = "T"``) or vertical one, and a closure cycle is a step of the
-#: operation in time, so ``axis = "T"`` is set with ``units = "1"`` (an ordinal step, no clock time).
-CYCLE_COORD_ATTRS = {"long_name": "closure cycle <g> (step of the closure operation)", "units": "count"}
+#: The ``cycle`` coordinate variable: the cycle number <g> (int32, units "count"). CF has no axis for a
+#: counter, and a CF time axis needs a reference date the closure operation does not have (its clock
+#: starts with the first mass). GDAL's netCDF driver reads an extra dimension of a raster silently only
+#: when its coordinate variable is a time or a vertical axis ("dimension #0 (cycle) is not a Time or
+#: Vertical dimension" otherwise), so the cycle is declared the band axis ``axis = "Z"``: GIS tools list
+#: the cycles as the levels of a grid, and the CF checker accepts a dimensionless Z coordinate. The
+#: time of each cycle on the operation clock is a separate variable along ``cycle``. See docs/outputs.md.
+CYCLE_COORD_ATTRS = {"long_name": "closure cycle <g>", "units": "count", "axis": "Z"}
 
 
 def cycle_coordinate(cycles) -> xr.Variable:
