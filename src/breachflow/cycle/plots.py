@@ -148,9 +148,11 @@ def plan_view_figure(rundir, cycle: int | None = None):
         site = "site_breach_centre" in ds.attrs
         turned = "grid_rotation_deg" in ds.attrs
         if site:  # map coordinates (or the breach-aligned grid's, as large): in full, with the CRS
+            from matplotlib.ticker import MaxNLocator
+
             for axis in (ax.xaxis, ax.yaxis):
                 axis.set_major_formatter(map_axis_formatter())
-            ax.tick_params(axis="x", labelrotation=30)
+                axis.set_major_locator(MaxNLocator(4))
             name = crs_name(ds)
             where = "breach-aligned grid" + (f" about {name}" if name else "") if turned else (name or "site CRS")
             ax.set_xlabel(f"x along the levee (m, {where})" if turned else f"easting (m, {where})")
@@ -168,6 +170,8 @@ def plan_view_figure(rundir, cycle: int | None = None):
     fig.legend(handles=handles, loc="outside lower center", ncol=3 if len(show) == 1 else 5, fontsize=8, frameon=False)
     if cycle is None:
         fig.suptitle(_wrap(closure_reason(rundir), fig, 10), fontsize=10)
+    # room between the figure title, the panel titles and the legend (constrained layout, in inches)
+    fig.get_layout_engine().set(h_pad=0.12, w_pad=0.08)
     return fig
 
 
