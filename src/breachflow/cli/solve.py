@@ -69,7 +69,9 @@ def register(app: typer.Typer) -> None:
         threads: int = typer.Option(1, help="numba threads"),
         out: Optional[Path] = typer.Option(None, "--out", "-o", help="snapshot NetCDF to write [default: snapshot_swe.nc]"),
         output: Optional[Path] = typer.Option(None, "--output", hidden=True),
-        png: str = typer.Option("speed_swe.png", help="plan-view speed map to write ('' for none)"),
+        png: str = typer.Option("", help="plan-view speed map (PNG) to write [default: none]"),
+        crs: str = typer.Option("", help="CRS of the scene's coordinates (EPSG code, WKT or PROJ string, as [site] crs) "
+                                "[default: the local transverse Mercator closure runs use]"),
     ) -> None:
         """Solve the shallow-water flow through a levee breach to steady state."""
         import dataclasses
@@ -98,6 +100,10 @@ def register(app: typer.Typer) -> None:
         tol = to_si(tolerance, name="--tolerance", kind="1/s", default_unit="1/s", positive=True)
         tmax = to_si(t_max, name="--t-max", kind="time", positive=True)
         dom = breach_domain(sc, dx, levee_no_flow=not levee_as_bed)
+        from ..hydro.crs import local_crs_wkt, resolve_crs
+
+        # the CRS a closure run of the scene writes (the documented local one unless --crs)
+        dom.crs_wkt = resolve_crs(crs, where="--crs", data_unit="m") if crs else local_crs_wkt()
         con = console()
         con.print(f"[bold]{scene}[/]: {dom.shape[1]} × {dom.shape[0]} cells of {dom.dx:.2f} × {dom.dy:.2f} m, order {order}")
         sim = SWESimulation(dom, SWEOptions(order=order, courant=courant, threads=threads))
