@@ -46,15 +46,15 @@ def plot_plan_view(rundir, out, cycle: int | None = None) -> Path:
     return out
 
 
-#: margin around the breach and the placed masses in the plan view: a quarter of the breach length, at
-#: least twice the largest mass diameter and 5 m
+#: margin around the breach and the placed masses in the plan view: half the breach length, at least
+#: twice the largest mass diameter and 5 m
 PLAN_MARGIN_MIN = 5.0
 
 
 def plan_extent(ds) -> tuple[float, float, float, float]:
     """``(x0, x1, y0, y1)`` of the plan view of cycle file *ds*: the breach section (global attribute
     ``breach_section``, ``x_start x_end y`` on the grid) and every placed mass inside the domain, with a
-    margin (:data:`PLAN_MARGIN_MIN`, a quarter of the breach length, twice the largest mass), within the
+    margin (:data:`PLAN_MARGIN_MIN`, half the breach length, twice the largest mass), within the
     grid. A file without ``breach_section`` (written before it existed) is framed around the breach
     centre (``site_breach_centre``, else the origin) at +-25 m or around its masses."""
     x, y = np.asarray(ds.x.values, float), np.asarray(ds.y.values, float)
@@ -79,7 +79,7 @@ def plan_extent(ds) -> tuple[float, float, float, float]:
             xs += [float((px[placed] - r).min()), float((px[placed] + r).max())]
             ys += [float((py[placed] - r).min()), float((py[placed] + r).max())]
             dmax = float(d[placed].max())
-    margin = max(PLAN_MARGIN_MIN, 0.25 * abs(bx1 - bx0), 2.0 * dmax)
+    margin = max(PLAN_MARGIN_MIN, 0.5 * abs(bx1 - bx0), 2.0 * dmax)
     return (max(gx0, min(xs) - margin), min(gx1, max(xs) + margin),
             max(gy0, min(ys) - margin), min(gy1, max(ys) + margin))
 
@@ -127,8 +127,11 @@ def plan_view_figure(rundir, cycle: int | None = None):
     show = [cycles[0], cycles[-1]] if cycle is None and len(cycles) > 1 else [cycle or cycles[-1]]
     fig, axes = plt.subplots(1, len(show), figsize=(6.2 * len(show), 6.2), squeeze=False, constrained_layout=True)
     vmax = None
+    files = {g: rundir.open_cycle(g) for g in show}
+    boxes = np.array([plan_extent(ds) for ds in files.values()])  # one frame for every panel: the union
+    frame = (boxes[:, 0].min(), boxes[:, 1].max(), boxes[:, 2].min(), boxes[:, 3].max())
     for ax, g in zip(axes[0], show):
-        ds = rundir.open_cycle(g)
+        ds = files[g]
         speed = np.hypot(ds.u.values, ds.v.values)
         vmax = vmax or max(float(speed.max()), 0.1)
         x, y = ds.x.values, ds.y.values
@@ -141,7 +144,7 @@ def plan_view_figure(rundir, cycle: int | None = None):
         for px, py, d, rest in zip(ds.particle_x.values[act], ds.particle_y.values[act],
                                    ds.particle_diameter.values[act], ds.particle_resting.values[act]):
             ax.add_patch(plt.Circle((px, py), d / 2, fill=False, color="white" if rest > 0 else "red", lw=0.8))
-        x0, x1, y0, y1 = plan_extent(ds)
+        x0, x1, y0, y1 = frame
         ax.set_xlim(x0, x1)
         ax.set_ylim(y0, y1)
         ax.set_aspect("equal")
