@@ -97,6 +97,20 @@ def files(tmp_path_factory):
     out["settle output"] = save_settling(ds, tmp / "settling")["netcdf"]
 
     out["ensemble.nc"] = _ensemble_file(tmp)
+
+    from typer.testing import CliRunner
+
+    from breachflow.cli import app
+
+    res = CliRunner().invoke(app, ["solve", "demo_breach", "--resolution", "4 m", "--t-max", "5 s", "--order", "1",
+                                   "-o", str(tmp / "solve.nc")])
+    assert res.exit_code == 0, res.output
+    out["solve output"] = tmp / "solve.nc"
+    res = CliRunner().invoke(app, ["window", "--surge-height", "2.8 m", "--fall-rate", "40 cm/hr", "--polder-area",
+                                   "800 ha", "--inundation-depth", "90 cm", "--breach-length", "30 m",
+                                   "--mean-velocity", "3 m/s", "-o", str(tmp / "window.nc")])
+    assert res.exit_code == 0, res.output
+    out["window output"] = tmp / "window.nc"
     return out
 
 
@@ -137,7 +151,8 @@ batch = 10
     return write_result(ds, tmp / "ensemble.nc")
 
 
-KINDS = ["cycle file", "trajectories", "combine archive", "model-problem output", "settle output", "ensemble.nc"]
+KINDS = ["cycle file", "trajectories", "combine archive", "model-problem output", "settle output", "ensemble.nc",
+         "solve output", "window output"]
 
 
 @pytest.mark.parametrize("kind", KINDS)
@@ -157,7 +172,7 @@ def _gdal_variables(path) -> list[str]:
 
 #: the files holding map grids (GDAL rasters); the others are tables (trajectories, ensemble, settling
 #: curves, closure windows), which GDAL's raster driver would take for grids without map axes
-GRIDS = ["cycle file", "combine archive"]
+GRIDS = ["cycle file", "combine archive", "solve output"]
 
 
 @pytest.mark.parametrize("kind", GRIDS)
@@ -176,5 +191,5 @@ def test_every_written_grid_opens_in_gdal_without_a_warning(checker, files, kind
         assert res.returncode == 0, text
         warn = [ln for ln in text.splitlines() if "warning" in ln.lower()]
         assert not warn, f"{kind}: gdalinfo {name}:\n" + "\n".join(warn)
-        if name.endswith((":depth", ":u", ":bed_elevation")):
-            assert "UTM zone 15N" in text, text
+        if name.endswith((":depth", ":u", ":bed_elevation")):  # the run's CRS; solve: the local one
+            assert ("UTM zone 15N" if kind != "solve output" else "breachflow local transverse Mercator") in text, text
