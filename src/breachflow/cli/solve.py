@@ -76,7 +76,6 @@ def register(app: typer.Typer) -> None:
         """Solve the shallow-water flow through a levee breach to steady state."""
         import dataclasses
 
-        from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
         from rich.table import Table
 
         from ..errors import InputError
@@ -113,14 +112,11 @@ def register(app: typer.Typer) -> None:
             region = breach_vicinity(dom, sc)
         elif monitor_radius:
             region = breach_vicinity(dom, sc, to_si(monitor_radius, name="--monitor-radius", kind="length", positive=True))
-        bar = Progress(TextColumn("solving"), BarColumn(bar_width=20), TextColumn("{task.fields[t]:.0f}/{task.total:.0f} s, "
-                       "rates {task.fields[rh]:.1e} {task.fields[rq]:.1e} 1/s (steady < {task.fields[tol]:.0e})"),
-                       TimeElapsedColumn(), console=con, transient=True, disable=level() <= QUIET)
-        with bar:
-            task = bar.add_task("solve", total=tmax, t=0.0, rh=float("nan"), rq=float("nan"), tol=tol)
+        from ..output.progress import Progress
 
+        with Progress("solving", total=tmax, unit="s simulated", console=con, quiet=level() <= QUIET) as bar:
             def progress(s_, h_):
-                bar.update(task, completed=s_.t, t=s_.t, rh=h_.depth_rate[-1], rq=h_.discharge_rate[-1])
+                bar.update(s_.t, note=f"rates {h_.depth_rate[-1]:.1e} {h_.discharge_rate[-1]:.1e} 1/s (steady < {tol:.0e})")
 
             hist = sim.run_to_steady(tol, tmax, region=region, progress=progress)
         wall = time.perf_counter() - wall0
