@@ -107,3 +107,20 @@ def test_piped_run_says_what_it_does_before_cycle_1(tmp_path):
     done = out.index("set-up and steady flow through the open breach (before cycle 1): done")
     assert start < done < out.index("cycle   1")
     assert "before cycle 1): started" in (tmp_path / "run" / "run.log").read_text()
+
+
+def test_piped_ensemble_progress_reports_members():
+    from breachflow.ensemble.execute import _progress
+
+    con, buf = _piped()
+    with _progress(con, 3, True) as advance:
+        advance(True)
+        advance(False)
+        advance(True)
+    lines = buf.getvalue().splitlines()
+    assert lines[0] == "members: started"
+    assert lines[-1].startswith("members: done 3/3 members 2 ok, 1 failed")
+    con, buf = _piped()
+    with _progress(con, 1, False) as advance:  # --no-progress
+        advance(True)
+    assert buf.getvalue() == ""
