@@ -147,7 +147,14 @@ batch = 10
         res = {k: v.to_json() for k, v in normalise_results(raw, runner.outputs).items()}
         records.append({"status": "ok", "results": res, "seed": i, "elapsed": 2.0, "cpu_time": 2.0, "key": f"m{i}",
                         "run_dir": str(tmp / f"m{i}")})
-    ds = build_dataset(spec, records, runner, out_dir=tmp)
+    # the closure members' runs: the 2-cycle run of this module as every ok member's closure run
+    for i in range(6):
+        (tmp / f"m{i}").mkdir(exist_ok=True)
+        (tmp / f"m{i}" / "closure").symlink_to(tmp / "run", target_is_directory=True)
+    from breachflow.ensemble.cycles import add_per_cycle
+
+    ds = add_per_cycle(build_dataset(spec, records, runner, out_dir=tmp), records, runner)
+    assert ds["cycle_breach_discharge"].dims == ("mass_size", "replicate", "cycle")
     return write_result(ds, tmp / "ensemble.nc")
 
 

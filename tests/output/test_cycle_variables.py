@@ -153,3 +153,36 @@ def test_inspect_and_export_take_the_runs_own_files(run_dir, tmp_path, which):
         assert res.exit_code == 0, res.output
         res = runner.invoke(app, ["inspect", str(path), "--cycle", "9"])
         assert res.exit_code != 0 and "no cycle 9" in str(res.output) + str(res.exception)
+
+
+def test_ensemble_result_carries_the_members_per_cycle_figures(run_dir, tmp_path):
+    """A closure ensemble's result has cycle_<name> along (ensemble dims, cycle): member 0's closure run is
+    the 3-cycle run of this module, member 1 failed (NaN / fill)."""
+    from breachflow.cycle.runner import ClosureRunner
+    from breachflow.ensemble.cycles import add_per_cycle
+    from breachflow.ensemble.dataset import build_dataset, open_result, write_result
+    from breachflow.ensemble.spec import parse_spec
+
+    spec = parse_spec('''
+[ensemble]
+name = "per cycle"
+runner = "closure"
+[ensemble.vary]
+mass_size = { parameter = "placement.diameter", values = ["1 m", "2 m"] }
+''')
+    m0 = tmp_path / "m0"
+    m0.mkdir()
+    (m0 / "closure").symlink_to(run_dir, target_is_directory=True)
+    records = [{"status": "ok", "results": {}, "seed": 1, "elapsed": 1.0, "cpu_time": 1.0, "key": "m0", "run_dir": str(m0)},
+               {"status": "failed", "error_type": "RuntimeError", "error_message": "x", "seed": 2, "elapsed": 1.0,
+                "cpu_time": 1.0, "key": "m1", "run_dir": str(tmp_path / "m1")}]
+    ds = add_per_cycle(build_dataset(spec, records, ClosureRunner, out_dir=tmp_path), records, ClosureRunner)
+    back = open_result(write_result(ds, tmp_path / "ensemble.nc"))
+    with xr.open_mfdataset(str(run_dir / "cycle_*.nc"), data_vars="all") as cyc:
+        for name in ("breach_discharge", "gap_mean_speed", "mass_in_place", "criterion_max_speed"):
+            v = back["cycle_" + name]
+            assert v.dims == ("mass_size", "cycle") and v.attrs["units"] == cyc[name].attrs["units"]
+            np.testing.assert_array_equal(v.values[0], cyc[name].values)
+            assert np.isnan(v.values[1]).all()
+        np.testing.assert_array_equal(back["cycle_masses_placed"].values[0], [2, 4, 6])
+    assert back.cycle.values.tolist() == [1, 2, 3]

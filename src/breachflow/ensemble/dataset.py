@@ -269,6 +269,8 @@ def validate_result(ds: xr.Dataset, *, source: str | None = None) -> xr.Dataset:
         want = dims
         if var.attrs.get("ensemble_reduction") == "replicate":
             want = tuple(d for d in dims if d != "replicate")
+        elif var.attrs.get("ensemble_per_cycle") == "cycle":  # breachflow.ensemble.cycles
+            want = (*dims, "cycle")
         if tuple(var.dims) != want:
             problems.append(f"{name}: dims {tuple(var.dims)}, expected the ensemble dimensions {want}")
         if np.issubdtype(var.dtype, np.number) and "units" not in var.attrs and "flag_values" not in var.attrs:

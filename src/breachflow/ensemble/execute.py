@@ -212,6 +212,10 @@ def run(spec, *, out=None, scheduler: str | None = None, workers: int | None = N
         _execute(spec, tasks, pending, records, scheduler=scheduler, workers=workers, client=client,
                  progress=progress, console=console)
     ds = build_dataset(spec, records, tasks[0].runner_cls, out_dir=out_dir)
+    from .cycles import add_per_cycle
+
+    ds = add_per_cycle(ds, [{**(r or {}), "run_dir": (r or {}).get("run_dir") or t.run_dir} for r, t in zip(records, tasks)],
+                       tasks[0].runner_cls)
     n_failed = int(ds.attrs["ensemble_failed"])
     if write:
         path = write_result(ds, out_dir / "ensemble.nc")
