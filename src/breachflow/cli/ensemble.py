@@ -78,8 +78,8 @@ def summary_table(ds):
     for col in ("variable", "min", "max", "units"):
         table.add_column(col, justify="right" if col in ("min", "max") else "left")
     for name, var in ds.data_vars.items():
-        if name in STATUS_VARIABLES or not np.issubdtype(var.dtype, np.number):
-            continue
+        if name in STATUS_VARIABLES or not np.issubdtype(var.dtype, np.number) or var.attrs.get("ensemble_per_cycle"):
+            continue  # per-cycle figures (cycle_<name>) are for plots, not the summary
         reduced = var.attrs.get("ensemble_reduction") == "replicate"
         vals = (var.values.ravel() if reduced else var.values[ok]).astype(float)
         if "_FillValue" in var.encoding:
