@@ -81,14 +81,22 @@ def ensure_check_tools() -> None:
     and the test then says what is missing (it skips on a developer machine, fails in CI)."""
     t0 = time.perf_counter()
     missing = [deb for deb, present in CHECK_DEBS.items() if not present()]
-    if missing and hasattr(os, "geteuid") and os.geteuid() == 0 and shutil.which("apt-get"):
-        print(f"[tasks] installing {' '.join(missing)} (apt-get) for the CF/GDAL check", flush=True)
+    can_apt = hasattr(os, "geteuid") and os.geteuid() == 0 and shutil.which("apt-get")
+    if missing and not can_apt:
+        print(f"[tasks] the CF/GDAL check needs the Debian packages {' '.join(missing)}, which are not installed; "
+              f"not installing them ({'apt-get missing' if not shutil.which('apt-get') else 'not root'}): the CF/GDAL "
+              f"tests skip, naming what is missing (install them with `sudo apt-get install {' '.join(missing)}`)",
+              flush=True)
+    if missing and can_apt:
+        print(f"[tasks] installing the Debian packages {' '.join(missing)} with apt-get (as root: apt-get update, then "
+              f"apt-get install) for the CF/GDAL check", flush=True)
         env = dict(os.environ, DEBIAN_FRONTEND="noninteractive")
         ok = subprocess.run(["apt-get", "update", "-qq"], env=env, stdout=subprocess.DEVNULL).returncode == 0
         ok = ok and subprocess.run(["apt-get", "install", "-y", "-qq", "--no-install-recommends", *missing],
                                    env=env, stdout=subprocess.DEVNULL).returncode == 0
         if not ok:
-            print(f"[tasks] warning: could not install {' '.join(missing)}", file=sys.stderr, flush=True)
+            print(f"[tasks] warning: could not install {' '.join(missing)}; the CF/GDAL tests will skip, naming them",
+                  file=sys.stderr, flush=True)
     res = subprocess.run([sys.executable, str(ROOT / "tools" / "cf_check.py"), "--setup"], stdout=subprocess.DEVNULL)
     if res.returncode:
         print("[tasks] warning: could not set up the cfchecker environment (tools/cf_check.py --setup)",

@@ -132,7 +132,7 @@ def probability_figure(ds, path: Path) -> Path:
 
     from breachflow.output.atomic import atomic_path
 
-    ds = ds.transpose("mass_size", "polder_area", "breach_length", "replicate")
+    ds = ds.transpose("mass_size", "polder_area", "breach_length", "replicate", ...)  # per-cycle variables: cycle last
     sizes = ds["mass_size"].values
     lengths, areas_ha = ds["breach_length"].values, ds["polder_area"].values / 1e4
     p = ds["closure_probability"].values
@@ -178,7 +178,7 @@ def figure(ds, path: Path) -> Path:
 
     if "replicate" in ds.dims:
         return probability_figure(ds, path)
-    ds = ds.transpose("mass_size", "polder_area", "breach_length")
+    ds = ds.transpose("mass_size", "polder_area", "breach_length", ...)
     cat = categories(ds)
     sizes = ds["mass_size"].values
     lengths, areas_ha = ds["breach_length"].values, ds["polder_area"].values / 1e4

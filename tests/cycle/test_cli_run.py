@@ -51,7 +51,7 @@ def test_default_run_closes_the_breach_and_combines(default_run, tmp_path):
         and any("moving" in t for t in labels) and any("contour" in t for t in labels)
     governing = last["governing"]
     reason = closure_reason(rd)
-    assert fig._suptitle.get_text() == reason
+    assert fig._suptitle.get_text().replace("\n", " ") == reason  # wrapped to the figure's width
     assert reason.startswith(f"closed at cycle {len(man['cycles'])}: ")
     for name in governing.split("+"):  # mode "all": every criterion governs
         assert name in reason and f"{last['criteria'][name]['value']:.3g}" in reason

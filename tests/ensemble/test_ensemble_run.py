@@ -250,7 +250,10 @@ def test_closure_feasibility_pipeline_runs_closure_members(client, tmp_path, cap
     assert mod.main([str(tmp_path), "--lengths", "8", "--areas", "20", "200", "--sizes", "2.5",
                      "--replicates", "2", "--scheduler", client.scheduler.address]) == 0
     ds = open_result(tmp_path / "ensemble.nc")
-    assert ds.sizes == {"breach_length": 1, "polder_area": 2, "mass_size": 1, "replicate": 2}
+    # the ensemble dimensions, and the closure members' per-cycle figures along cycle (at most 8 cycles)
+    assert {d: n for d, n in ds.sizes.items() if d != "cycle"} == {"breach_length": 1, "polder_area": 2, "mass_size": 1,
+                                                                   "replicate": 2}
+    assert ds.sizes["cycle"] == int(ds["cycles"].max())
     assert (ds["member_status"] == 0).all()
     assert ds["mass_size"].attrs["units"] == "m" and ds["mass_size"].values.tolist() == [2.5]
     # docs/theory.md, *Closure window* with the pipeline's base scenario: Q_D = h_W B 3 m/s, r_P = Q_D / A_P,
@@ -262,6 +265,10 @@ def test_closure_feasibility_pipeline_runs_closure_members(client, tmp_path, cap
     cycles = ds["cycles"].values.ravel()
     assert np.all((cycles >= 1) & (cycles <= 8))
     np.testing.assert_array_equal(ds["masses_placed"].values.ravel(), 6 * cycles)
+    # per cycle: 6 masses a cycle up to each member's last cycle, fill value after it
+    per = ds["cycle_masses_placed"].values.reshape(-1, ds.sizes["cycle"])
+    for row, n in zip(per, cycles):
+        np.testing.assert_array_equal(row[:n], 6 * np.arange(1, n + 1))
     np.testing.assert_allclose(ds["closure_duration"].values.ravel(), 6 * cycles * 120.0)
     achieved = ds["closure_achieved"].values.ravel() == 1
     np.testing.assert_array_equal(ds["feasible"].values.ravel() == 1,

@@ -90,7 +90,9 @@ def test_infer_no_flow_marks_the_dry_cells_the_water_would_flood():
     assert with_no_flow(g3) is g3  # the model's own mask is kept
 
 
-@pytest.mark.parametrize("spacing,ox,oy", [(1.9, 0.37, 0.83), (3.1, 1.37, -0.61), (4.6, -0.83, 2.11)])
+# one spacing and offset in the default run; the others run with --slow
+@pytest.mark.parametrize("spacing,ox,oy", [(1.9, 0.37, 0.83), pytest.param(3.1, 1.37, -0.61, marks=pytest.mark.slow),
+                                           pytest.param(4.6, -0.83, 2.11, marks=pytest.mark.slow)])
 def test_nested_from_esri_grids_reproduces_the_field_near_the_breach(typical_grid, tmp_path, spacing, ox, oy):
     """The typical breach's steady state as ESRI grids at a spacing and origin that match neither the
     4 m solver grid nor the local 4.07 m grid (finer and coarser), listed in ``[hydro] snapshots`` and

@@ -11,7 +11,10 @@ import pkgutil
 import typer
 import typer.rich_utils
 
+from . import _help
 from ._common import help_width
+
+_help.install()
 
 if help_width() is not None and typer.rich_utils.MAX_WIDTH is None:  # TERMINAL_WIDTH, if set, wins
     typer.rich_utils.MAX_WIDTH = help_width()

@@ -16,7 +16,10 @@ def register(app: typer.Typer) -> None:
         workers: Optional[int] = typer.Option(None, help="Worker processes of the local cluster (default: one per core); "
                                               "with --scheduler: use only this many of its workers."),
         out: Optional[Path] = typer.Option(None, "--out", "-o", help="Output directory (default: the spec's output, else SPEC.ensemble/)."),
-        resume: bool = typer.Option(True, help="Skip members completed by an earlier run of the same spec."),
+        resume: bool = typer.Option(False, "--resume", help="Continue an ensemble in --out: skip the members an "
+                                    "earlier run completed (as `run --resume`)."),
+        overwrite: bool = typer.Option(False, "--overwrite", help="Run every member again in an --out that holds "
+                                       "an ensemble."),
         retry_failed: bool = typer.Option(True, help="On resume, rerun members that failed before."),
         progress: bool = typer.Option(True, help="Show a progress bar over members."),
         list_runners: bool = typer.Option(False, "--list-runners", help="List the member runners and exit."),
@@ -38,6 +41,7 @@ def register(app: typer.Typer) -> None:
             return
         if spec is None:
             raise typer.BadParameter("give an ensemble spec TOML file (or --list-runners)")
+        check_ensemble_target(spec, out, resume, overwrite)
         ds = run(spec, out=out, scheduler=scheduler, workers=workers, resume=resume, retry_failed=retry_failed,
                  progress=progress, console=console)
         console.print(summary_table(ds))
@@ -56,6 +60,23 @@ def register(app: typer.Typer) -> None:
                           "missing (NaN) in ensemble.nc; member_error / member_error_type say why", highlight=False)
 
 
+def check_ensemble_target(spec, out, resume: bool, overwrite: bool) -> None:
+    """The convention of ``breachflow run`` (docs/cli.md): an output directory holding an ensemble is
+    continued only with ``--resume`` and run again only with ``--overwrite``; otherwise refused, naming both."""
+    from ..errors import InputError
+    from ..ensemble.execute import plan
+
+    if resume and overwrite:
+        raise InputError("--resume continues an ensemble and --overwrite runs it again: give one of them")
+    _, out_dir, _, _ = plan(spec, out)
+    held = (out_dir / "ensemble.nc").exists() or any((out_dir / "members").glob("*/result.json"))
+    if resume and not held:
+        raise InputError(f"{out_dir}: nothing to resume (no ensemble there); start it without --resume")
+    if held and not (resume or overwrite):
+        raise InputError(f"{out_dir} holds an ensemble already; refusing to run it again. Use --resume to continue "
+                         f"it (members done are kept), --overwrite to run every member again, or another --out")
+
+
 def summary_table(ds):
     """Rich table: each result variable's range over the successful members, with units; failures listed."""
     import numpy as np
@@ -70,8 +91,8 @@ def summary_table(ds):
     for col in ("variable", "min", "max", "units"):
         table.add_column(col, justify="right" if col in ("min", "max") else "left")
     for name, var in ds.data_vars.items():
-        if name in STATUS_VARIABLES or not np.issubdtype(var.dtype, np.number):
-            continue
+        if name in STATUS_VARIABLES or not np.issubdtype(var.dtype, np.number) or var.attrs.get("ensemble_per_cycle"):
+            continue  # per-cycle figures (cycle_<name>) are for plots, not the summary
         reduced = var.attrs.get("ensemble_reduction") == "replicate"
         vals = (var.values.ravel() if reduced else var.values[ok]).astype(float)
         if "_FillValue" in var.encoding:

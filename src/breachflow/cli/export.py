@@ -11,7 +11,9 @@ import typer
 def register(app: typer.Typer) -> None:
     @app.command()
     def export(
-        snapshot: Path = typer.Argument(..., help="Snapshot NetCDF (from `breachflow solve`, `ingest` or a run)."),
+        snapshot: Path = typer.Argument(..., help="Snapshot NetCDF (from `breachflow solve` or `ingest`), or a run's "
+                                        "cycle file or `combine` archive."),
+        cycle: Optional[int] = typer.Option(None, "--cycle", help="cycle of a run's file to export [default: the last one in the file]"),
         format: str = typer.Option(..., "--format", "-f", help="adh | esri | sdf | hecras_hdf"),
         out: Optional[Path] = typer.Option(None, "--out", "-o", help="Output prefix (adh, esri: PREFIX.3dm, PREFIX_dep.dat, ...; sdf: PREFIX.sdf; hecras_hdf: PREFIX.p01.hdf)."),
         output: Optional[Path] = typer.Option(None, "--output", hidden=True),
@@ -28,7 +30,8 @@ def register(app: typer.Typer) -> None:
         from ..hydro.io.meshing import to_unaligned_mesh
         from ..hydro.io.sdf_writer import write_sdf
         from ..hydro.io.writers import write_adh, write_esri
-        from ..hydro.snapshot import is_mesh, read_snapshot
+        from ..hydro.snapshot import is_mesh
+        from ..output.runfiles import read_grid_file
         from ._common import console, pick_out
 
         output = pick_out(out, output)
@@ -38,7 +41,7 @@ def register(app: typer.Typer) -> None:
         fmt = format.lower()
         if fmt not in ("adh", "esri", "sdf", "hecras_hdf"):
             raise InputError(f"--format {format!r}: choose adh, esri, sdf or hecras_hdf")
-        ds = read_snapshot(snapshot)
+        ds = read_grid_file(snapshot, cycle)
         if nodes is not None and fmt not in ("adh", "hecras_hdf"):
             raise InputError(f"--nodes triangulates for adh or hecras_hdf, not {fmt}")
         if fmt in ("adh", "hecras_hdf"):

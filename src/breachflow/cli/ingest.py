@@ -113,9 +113,12 @@ def register(app: typer.Typer) -> None:
         _print(f"wrote {output}", ds)
 
     @app.command()
-    def inspect(snapshot: Path = typer.Argument(..., help="Snapshot NetCDF written by `breachflow ingest` or the solver.")) -> None:
+    def inspect(snapshot: Path = typer.Argument(..., help="Snapshot NetCDF written by `breachflow ingest` or `solve`, "
+                                                "or a run's cycle file or `combine` archive."),
+                cycle: Optional[int] = typer.Option(None, "--cycle", help="cycle of a run's file to inspect "
+                                                    "[default: the last one in the file]")) -> None:
         """Validate a snapshot NetCDF and print its summary."""
-        from ..hydro.snapshot import read_snapshot
+        from ..output.runfiles import read_grid_file
 
-        ds = read_snapshot(snapshot)
+        ds = read_grid_file(snapshot, cycle)
         _print(str(snapshot), ds)

@@ -140,10 +140,17 @@ def run_closure_cli(scenario: Path | None, out: Path, resume: bool, overwrite: b
     """The closure run with a live progress line per cycle and a summary table; the console output (and
     warnings) also go to ``OUT/run.log``."""
     from ..cycle.main import run_closure
-    from ._common import VERBOSE, fmt
+    from ..output.progress import Progress
+    from ._common import QUIET, VERBOSE, fmt, level
+
+    # the scenario's set-up and the steady flow through the open breach come before cycle 1
+    first = Progress("set-up and steady flow through the open breach (before cycle 1)", console=console,
+                     quiet=level() <= QUIET)
 
     def progress(rep):
         from rich.markup import escape
+
+        first.__exit__(None, None, None)
 
         crit = escape("[" + ", ".join(f"{c.name} {c.value:.3g}{' met' if c.satisfied else ''}" for c in rep.criteria) + "]")
         console.print(f"[bold]cycle {rep.cycle:3d}[/]  masses {rep.masses:4d}  max speed {rep.max_speed:5.2f} m/s  "
@@ -178,8 +185,9 @@ def run_closure_cli(scenario: Path | None, out: Path, resume: bool, overwrite: b
                 console.print("resuming: no cycle was complete, starting at cycle 1", highlight=False)
 
     try:
-        res = run_closure(scenario, out, resume=resume, overwrite=overwrite, progress=progress, plots=plots,
-                          on_start=on_start)
+        with first:
+            res = run_closure(scenario, out, resume=resume, overwrite=overwrite, progress=progress, plots=plots,
+                              on_start=on_start)
         console.print(summary_table(res.table_rows()))
         for p in res.plots:
             console.print(f"wrote {p}", highlight=False)

@@ -19,9 +19,9 @@ def register(app: typer.Typer) -> None:
         out: Path = typer.Option(Path("settling"), "--out", "-o", help="output directory (NetCDF, CSV, PNG)"),
     ) -> None:
         """Spheres settling from rest in still water: velocity–time curves, plot, terminal velocities."""
-        from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
         from rich.table import Table
 
+        from ..output.progress import Progress
         from ._common import QUIET, console, level
 
         from ..fluid.validation import drag_crisis_time, save_settling, settling_curves
@@ -29,14 +29,9 @@ def register(app: typer.Typer) -> None:
 
         ds_ = [to_si(d, name="--diameter", kind="length", default_unit="m", positive=True) for d in diameter]
         con = console()
-        bar = Progress(TextColumn("settling"), BarColumn(), TextColumn("{task.fields[law]}: {task.completed:.0f} of "
-                       "{task.total:.0f} records"), TimeElapsedColumn(), console=con, transient=True,
-                       disable=level() <= QUIET)
-        with bar:
-            task = bar.add_task("settle", total=1, law="")
-
+        with Progress("settling", unit="records", console=con, quiet=level() <= QUIET) as bar:
             def progress(j, r, n):
-                bar.update(task, total=len(drag_law) * n, completed=j * n + r, law=drag_law[j])
+                bar.update(j * n + r, total=len(drag_law) * n, note=drag_law[j])
 
             ds = settling_curves(ds_, to_si(density, name="--density", kind="density", positive=True), tuple(drag_law),
                              dt=to_si(dt, name="--dt", kind="time", default_unit="s", positive=True),

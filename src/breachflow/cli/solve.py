@@ -69,12 +69,13 @@ def register(app: typer.Typer) -> None:
         threads: int = typer.Option(1, help="numba threads"),
         out: Optional[Path] = typer.Option(None, "--out", "-o", help="snapshot NetCDF to write [default: snapshot_swe.nc]"),
         output: Optional[Path] = typer.Option(None, "--output", hidden=True),
-        png: str = typer.Option("speed_swe.png", help="plan-view speed map to write ('' for none)"),
+        png: str = typer.Option("", help="plan-view speed map (PNG) to write [default: none]"),
+        crs: str = typer.Option("", help="CRS of the scene's coordinates (EPSG code, WKT or PROJ string, as [site] crs) "
+                                "[default: the local transverse Mercator closure runs use]"),
     ) -> None:
         """Solve the shallow-water flow through a levee breach to steady state."""
         import dataclasses
 
-        from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
         from rich.table import Table
 
         from ..errors import InputError
@@ -98,6 +99,10 @@ def register(app: typer.Typer) -> None:
         tol = to_si(tolerance, name="--tolerance", kind="1/s", default_unit="1/s", positive=True)
         tmax = to_si(t_max, name="--t-max", kind="time", positive=True)
         dom = breach_domain(sc, dx, levee_no_flow=not levee_as_bed)
+        from ..hydro.crs import local_crs_wkt, resolve_crs
+
+        # the CRS a closure run of the scene writes (the documented local one unless --crs)
+        dom.crs_wkt = resolve_crs(crs, where="--crs", data_unit="m") if crs else local_crs_wkt()
         con = console()
         con.print(f"[bold]{scene}[/]: {dom.shape[1]} × {dom.shape[0]} cells of {dom.dx:.2f} × {dom.dy:.2f} m, order {order}")
         sim = SWESimulation(dom, SWEOptions(order=order, courant=courant, threads=threads))
@@ -107,14 +112,11 @@ def register(app: typer.Typer) -> None:
             region = breach_vicinity(dom, sc)
         elif monitor_radius:
             region = breach_vicinity(dom, sc, to_si(monitor_radius, name="--monitor-radius", kind="length", positive=True))
-        bar = Progress(TextColumn("solving"), BarColumn(bar_width=20), TextColumn("{task.fields[t]:.0f}/{task.total:.0f} s, "
-                       "rates {task.fields[rh]:.1e} {task.fields[rq]:.1e} 1/s (steady < {task.fields[tol]:.0e})"),
-                       TimeElapsedColumn(), console=con, transient=True, disable=level() <= QUIET)
-        with bar:
-            task = bar.add_task("solve", total=tmax, t=0.0, rh=float("nan"), rq=float("nan"), tol=tol)
+        from ..output.progress import Progress
 
+        with Progress("solving", total=tmax, unit="s simulated", console=con, quiet=level() <= QUIET) as bar:
             def progress(s_, h_):
-                bar.update(task, completed=s_.t, t=s_.t, rh=h_.depth_rate[-1], rq=h_.discharge_rate[-1])
+                bar.update(s_.t, note=f"rates {h_.depth_rate[-1]:.1e} {h_.discharge_rate[-1]:.1e} 1/s (steady < {tol:.0e})")
 
             hist = sim.run_to_steady(tol, tmax, region=region, progress=progress)
         wall = time.perf_counter() - wall0

@@ -33,6 +33,7 @@ from ..hydro.sampling import FieldSampler
 from ..schemas import validate
 from ..output import RunDirectory, particles_dataset, trajectories_dataset
 from ..output.cf import pad_particles
+from ..output.cycle_variables import cycle_coordinate, cycle_variables
 from .dem_cycle import CycleDem, dem_view  # noqa: F401  (dem_view: re-exported, the nested tests import it here)
 from .criteria import CycleContext, EndCriteria, gap_section_speeds, section_discharge, seepage_in_section
 from .losses import (LOSS_LIMIT, cannot_close, carried_away_faster, cycle_losses, gap_speed, gap_speed_and_depth,
@@ -469,21 +470,15 @@ class ClosureRun(CycleDem):
         ds = xr.merge([grid, part], combine_attrs="override")
         ds.attrs.update(grid.attrs)
         ds.attrs.update(self.setup.attrs)
-        ds.attrs.update(title=f"breachflow closure run {self.setup.name!r}, cycle {rep.cycle}", cycle=np.int32(rep.cycle),
-                        masses_placed=np.int32(rep.masses), closure_achieved=np.int32(rep.closed),
-                        governing_criterion=rep.governing, hydro_work=rep.hydro, stability_check=rep.stability,
-                        dem_converged=np.int32(rep.dem_converged), dem_steps=np.int64(rep.dem_steps),
-                        operation_time_s=float(rep.operation_time), masses_lost=np.int32(rep.left_domain),
-                        masses_lost_cycle=np.int32(rep.lost_cycle), tonnage_lost_t=float(rep.lost_tonnage),
-                        gap_speed_m_s=float(rep.gap_speed), verdict=rep.verdict,
-                        breach_discharge_m3_s=float(rep.breach_discharge),
-                        gap_max_speed_m_s=float(rep.gap_max_speed), gap_mean_speed_m_s=float(rep.gap_mean_speed),
-                        placement_strategy=self.setup.placement.positions)
-        for r in rep.criteria:
-            ds.attrs[f"criterion_{r.name}"] = f"{r.value:.6g} {r.units} (threshold {r.threshold:.6g}, {'met' if r.satisfied else 'not met'})"
+        # per-cycle figures are variables along ``cycle`` (output.cycle_variables), not global attributes:
+        # xr.open_mfdataset would keep the first file's attributes for every cycle
+        bx = self.setup.breach_x
+        ds.attrs.update(title=f"breachflow closure run {self.setup.name!r}",
+                        placement_strategy=self.setup.placement.positions,
+                        breach_section=f"{bx[0]:.3f} {bx[1]:.3f} {self.setup.levee_y:.3f}")
         if self.setup.frame is not None:
             ds = self.setup.frame.georeference(ds)
-        return with_cycle_dimension(ds, rep.cycle)
+        return with_cycle_dimension(ds, rep.cycle).assign(cycle_variables(rep))
 
 
 def with_cycle_dimension(ds: xr.Dataset, g: int) -> xr.Dataset:
@@ -493,11 +488,11 @@ def with_cycle_dimension(ds: xr.Dataset, g: int) -> xr.Dataset:
     steady-state history, whose length varies, is written to the group ``convergence_history``."""
     ds = ds.copy()
     for name in list(ds.data_vars):
-        if name != "crs":
+        if name != "crs" and "cycle" not in ds[name].dims:
             ds[name] = ds[name].expand_dims("cycle")
     # units "count" (UDUNITS, dimensionless), not "1": GDAL passes coordinate attributes as text tags and
     # rioxarray's open_rasterio turns "1" into the int 1 and fails testing it for "since" (rioxarray <= 0.23)
-    return ds.assign_coords(cycle=("cycle", np.array([g], "i4"), {"long_name": "closure cycle <g>", "units": "count"}))
+    return ds.assign_coords(cycle=cycle_coordinate([g]))
 
 
 def _summary(rep: CycleReport) -> dict:

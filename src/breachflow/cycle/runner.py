@@ -19,6 +19,8 @@ class ClosureRunner:
     """Closure simulation + closure window of one member (options: ``plots`` = false by default)."""
 
     sections = None
+    #: the members' cycle files, whose per-cycle figures the ensemble result carries (breachflow.ensemble.cycles)
+    cycle_files = "closure/cycle_*.nc"
     outputs: ClassVar[dict[str, dict]] = {**WindowRunner.outputs, **CLOSURE_OUTPUTS}
     optional_outputs: ClassVar[frozenset[str]] = WindowRunner.optional_outputs
 

@@ -216,7 +216,7 @@ def replicate_reductions(ds: xr.Dataset) -> xr.Dataset:
         p = xr.where(n > 0, closed / n.where(n > 0), np.nan)
         what = "inside the closure window" if flag == "feasible" else "within the cycle limit"
         ds["closure_probability"] = fresh(p.astype(float), long_name=f"probability of closure {what} (over replicates)",
-                                          units="1", cell_methods="replicate: mean")
+                                          units="1")
         lo, hi = wilson_interval(closed.values, n.values)
         for name, arr, side in (("closure_probability_lower", lo, "lower"), ("closure_probability_upper", hi, "upper")):
             ds[name] = fresh(xr.DataArray(arr, dims=p.dims),
@@ -226,8 +226,7 @@ def replicate_reductions(ds: xr.Dataset) -> xr.Dataset:
             continue
         v = ds[name].where(ok)
         units = ds[name].attrs.get("units", "1")
-        ds[f"{name}_median"] = fresh(v.median("replicate"), long_name=f"median over replicates of {name}", units=units,
-                                     cell_methods="replicate: median")
+        ds[f"{name}_median"] = fresh(v.median("replicate"), long_name=f"median over replicates of {name}", units=units)
         for q in (10, 90):
             ds[f"{name}_p{q}"] = fresh(v.quantile(q / 100, "replicate").drop_vars("quantile"),
                                        long_name=f"{q} % quantile over replicates of {name}", units=units)
@@ -270,6 +269,8 @@ def validate_result(ds: xr.Dataset, *, source: str | None = None) -> xr.Dataset:
         want = dims
         if var.attrs.get("ensemble_reduction") == "replicate":
             want = tuple(d for d in dims if d != "replicate")
+        elif var.attrs.get("ensemble_per_cycle") == "cycle":  # breachflow.ensemble.cycles
+            want = (*dims, "cycle")
         if tuple(var.dims) != want:
             problems.append(f"{name}: dims {tuple(var.dims)}, expected the ensemble dimensions {want}")
         if np.issubdtype(var.dtype, np.number) and "units" not in var.attrs and "flag_values" not in var.attrs:
@@ -292,8 +293,11 @@ def write_result(ds: xr.Dataset, path) -> Path:
     from ..output.provenance import stamp
 
     ds = stamp(ds)  # breachflow version, git commit, command (one helper for every writer)
+    from ..output.cf import cf_text_coordinates, string_encoding
+
+    ds = cf_text_coordinates(ds)
     with atomic_path(path, suffix=".nc") as tmp:
-        ds.to_netcdf(tmp, engine="netcdf4")
+        ds.to_netcdf(tmp, engine="netcdf4", encoding=string_encoding(ds))
     return path
 
 
@@ -301,8 +305,10 @@ def open_result(path) -> xr.Dataset:
     """Open an ensemble result NetCDF (loaded into memory, file closed) in the representation
     :func:`breachflow.ensemble.run` returns: integer flags with their fill value, ``str`` arrays.
     (``xr.open_dataset`` works too; it decodes masked integers to float with NaN.)"""
+    from ..output.cf import restore_text_coordinates
+
     with xr.open_dataset(path) as ds:
-        ds = ds.load()
+        ds = restore_text_coordinates(ds.load())
     for name, var in list(ds.variables.items()):
         if var.dtype == object:  # NetCDF-4 strings come back as objects
             ds[name] = var.astype(str)

@@ -252,6 +252,10 @@ def run(spec, *, out=None, scheduler: str | None = None, workers: int | None = N
         _execute(spec, tasks, pending, records, scheduler=scheduler, workers=workers, client=client,
                  progress=progress, console=console)
     ds = build_dataset(spec, records, tasks[0].runner_cls, out_dir=out_dir)
+    from .cycles import add_per_cycle
+
+    ds = add_per_cycle(ds, [{**(r or {}), "run_dir": (r or {}).get("run_dir") or t.run_dir} for r, t in zip(records, tasks)],
+                       tasks[0].runner_cls)
     n_failed = int(ds.attrs["ensemble_failed"])
     if write:
         path = write_result(ds, out_dir / "ensemble.nc")
@@ -449,31 +453,25 @@ def _modules_of(runner_cls) -> tuple[str, ...]:
 
 
 class _progress:
-    """A rich progress bar over members (ok / failed counts)."""
+    """Progress over members (ok / failed counts): :class:`breachflow.output.progress.Progress`, a bar on a
+    terminal and a line at least every 10 s when piped or logged."""
 
     def __init__(self, console, total: int, enabled: bool):
         self.console, self.total, self.enabled = console, total, enabled
         self.ok = self.failed = 0
 
     def __enter__(self):
-        if not self.enabled:
-            return self._advance
-        from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+        from ..output.progress import Progress
 
-        self.bar = Progress(TextColumn("members"), BarColumn(), MofNCompleteColumn(),
-                            TextColumn("[green]{task.fields[ok]} ok[/] [red]{task.fields[failed]} failed[/]"),
-                            TimeElapsedColumn(), TimeRemainingColumn(), console=self.console, transient=False)
-        self.bar.start()
-        self.task = self.bar.add_task("members", total=self.total, ok=0, failed=0)
+        self.bar = Progress("members", total=self.total, unit="members", console=self.console,
+                            quiet=not self.enabled).__enter__()
         return self._advance
 
     def _advance(self, ok: bool) -> None:
         self.ok += bool(ok)
         self.failed += not ok
-        if self.enabled:
-            self.bar.update(self.task, advance=1, ok=self.ok, failed=self.failed)
+        self.bar.update(advance=1, note=f"{self.ok} ok, {self.failed} failed")
 
     def __exit__(self, *exc):
-        if self.enabled:
-            self.bar.stop()
+        self.bar.__exit__(*exc)
         return False

@@ -105,11 +105,12 @@ def settling_curves(diameters=FIG52_DIAMETERS, density: float = STEEL, drag_laws
             "terminal_velocity": (("drag_law", "diameter"), v_t, {"long_name": "terminal velocity, root of the force balance", "units": "m s-1"}),
         },
         coords={
-            "drag_law": ("drag_law", [law.name for law in laws]),
-            "diameter": ("diameter", diameters, {"units": "m"}),
-            "time": ("time", times, {"units": "s"}),
+            "drag_law": ("drag_law", [law.name for law in laws], {"long_name": "drag law of the curve"}),
+            "diameter": ("diameter", diameters, {"long_name": "sphere diameter", "units": "m"}),
+            "time": ("time", times, {"long_name": "time since release from rest", "units": "s"}),
         },
         attrs={
+            "Conventions": "CF-1.8",
             "title": "Spheres settling from rest in still water (report Fig 5.2, docs/validation.md, Settling spheres)",
             "particle_density_kg_m3": float(density), "fluid_density_kg_m3": fluid.rho,
             "fluid_kinematic_viscosity_m2_s": fluid.nu, "apparent_mass_coefficient": float(xi),
@@ -159,7 +160,10 @@ def save_settling(ds: xr.Dataset, out_dir, stem: str = "settling") -> dict[str, 
     paths = {"netcdf": out / f"{stem}.nc", "csv": out / f"{stem}.csv", "png": out / f"{stem}.png"}
     from ..output.provenance import stamp
 
-    atomic_write(paths["netcdf"], lambda tmp: stamp(ds).to_netcdf(tmp))
+    from ..output.cf import cf_text_coordinates, string_encoding
+
+    disk = cf_text_coordinates(stamp(ds))
+    atomic_write(paths["netcdf"], lambda tmp: disk.to_netcdf(tmp, encoding=string_encoding(disk)))
     table = ds[["velocity", "depth", "reynolds", "cd"]].to_dataframe().reset_index()
     atomic_write(paths["csv"], lambda tmp: table.to_csv(tmp, index=False, float_format="%.9g"))
     plot_settling(ds, paths["png"])

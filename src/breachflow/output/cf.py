@@ -119,12 +119,56 @@ def trajectories_dataset(trajectory_id, time, pos, vel=None, *, cycle: int, cycl
     return ds
 
 
-def netcdf_encoding(ds: xr.Dataset) -> dict:
-    """Encoding that writes NaN as ``_FillValue`` for float variables and none for integer ones."""
+def string_encoding(ds: xr.Dataset) -> dict:
+    """Encoding that writes the text variables of *ds* as CF character arrays (dimension ``<name>_strlen``,
+    UTF-8) rather than NetCDF-4 variable-length strings, which the CF checker (CF-1.8) and GDAL's classic
+    netCDF driver do not accept. Merge it into a writer's encoding."""
     enc = {}
     for name, da in ds.variables.items():
+        if da.dtype.kind in "OUS":
+            enc[name] = {"dtype": "S1", "char_dim_name": f"{name}_strlen", "_FillValue": None}
+            if da.dtype.kind != "S":
+                enc[name]["_Encoding"] = "utf-8"
+    return enc
+
+
+def netcdf_encoding(ds: xr.Dataset) -> dict:
+    """Encoding that writes NaN as ``_FillValue`` for float variables and none for integer ones, and text
+    as CF character arrays (:func:`string_encoding`)."""
+    enc = string_encoding(ds)
+    for name, da in ds.variables.items():
+        if name in enc:
+            continue
         if np.issubdtype(da.dtype, np.floating) and name not in ds.dims:
             enc[name] = {"_FillValue": np.nan}
         elif name in ds.dims or not np.issubdtype(da.dtype, np.floating):
             enc[name] = {"_FillValue": None}
     return enc
+
+
+#: suffix of the auxiliary coordinate holding the text labels of an indexed dimension (:func:`cf_text_coordinates`)
+LABEL_SUFFIX = "_label"
+
+
+def cf_text_coordinates(ds: xr.Dataset) -> xr.Dataset:
+    """*ds* with every text dimension coordinate (``drag_law = ["report", ...]``) turned into the CF form
+    the checkers accept: an integer index coordinate of the same name and the labels in the auxiliary
+    coordinate ``<name>_label`` (a character array). :func:`restore_text_coordinates` undoes it."""
+    for name in list(ds.dims):
+        if name in ds.coords and ds[name].dtype.kind in "OUS":
+            attrs = dict(ds[name].attrs)
+            labels = np.asarray(ds[name].values).astype(str)
+            ds = ds.assign_coords({name: (name, np.arange(labels.size, dtype="i4"),
+                                          {"long_name": f"index of {attrs.get('long_name', name)}", "units": "1"})})
+            ds = ds.assign_coords({name + LABEL_SUFFIX: (name, labels, {**attrs, "long_name": attrs.get("long_name", name)})})
+    return ds
+
+
+def restore_text_coordinates(ds: xr.Dataset) -> xr.Dataset:
+    """Undo :func:`cf_text_coordinates`: the labels of ``<name>_label`` back as the dimension coordinate."""
+    for name in list(ds.dims):
+        lab = name + LABEL_SUFFIX
+        if lab in ds.coords and ds[lab].dims == (name,):
+            attrs = dict(ds[lab].attrs)
+            ds = ds.drop_vars(lab).assign_coords({name: (name, np.asarray(ds[lab].values).astype(str), attrs)})
+    return ds

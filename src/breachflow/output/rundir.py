@@ -44,6 +44,7 @@ from ..errors import InputError
 from . import provenance
 from .atomic import atomic_write, atomic_write_json, atomic_write_netcdf, atomic_write_text
 from .cf import netcdf_encoding
+from .cycle_variables import cycle_coordinate
 from .lock import LOCK, RunLock, held_by_me
 
 MANIFEST = "manifest.json"
@@ -374,11 +375,15 @@ class RunDirectory:
         fields = []
         for g in cycles:
             fields.append(self.open_cycle(g, decode_times=False))
-        grid_vars = [v for v in fields[-1].data_vars if "particle" not in fields[-1][v].dims]
+        # the grid mapping is one variable of the archive (no cycle dimension: CF §5.6)
+        static = [v for v in fields[-1].data_vars if v == "crs"]
+        grid_vars = [v for v in fields[-1].data_vars if "particle" not in fields[-1][v].dims and v not in static]
         grids = _pad_to_common_sizes([f[grid_vars] for f in fields])
         stacked = xr.concat(grids, dim="cycle", data_vars="all", coords="minimal",
                             compat="override", join="override")
-        stacked = stacked.assign_coords(cycle=("cycle", np.asarray(cycles, "i4"), {"long_name": "closure cycle <g>", "units": "count"}))
+        stacked = stacked.assign_coords(cycle=cycle_coordinate(cycles))
+        for v in static:
+            stacked[v] = fields[-1][v]
         last = fields[-1]
         part_vars = [v for v in last.data_vars if "particle" in last[v].dims]
         final = last[part_vars]

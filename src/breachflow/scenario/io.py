@@ -31,6 +31,11 @@ def write_netcdf(ds: xr.Dataset, path) -> Path:
         validate(ds, "closure_window")
     from ..output.provenance import stamp
 
+    from ..output.cf import string_encoding
+
+    from ..output.cf import cf_text_coordinates
+
+    ds = cf_text_coordinates(stamp(netcdf_ready(ds)))
     with atomic_path(path) as tmp:
-        stamp(netcdf_ready(ds)).to_netcdf(tmp)
+        ds.to_netcdf(tmp, encoding=string_encoding(ds))
     return path
