@@ -10,6 +10,7 @@ import numpy as np
 from ...errors import InputError
 from ...scenario.geometry import BreachGeometry
 from ..criteria import EndCriteria
+from ..leakage import DEFAULT_ALLOWED_RISE
 from ..losses import breach_area
 from ..placement import PlacementPlan
 from .closure import ClosureSection
@@ -144,11 +145,15 @@ def closure_setup(scenario, *, overrides: dict | None = None):
         raise InputError(f"[closure] area = {list(closure.area)} is a box on the CRS axes, but the grid of this site "
                          f"runs along the levee ({built.frame.angle_deg:.1f}° from the CRS x axis); leave it out "
                          f"(the breach area is then the whole domain)")
-    # without [criteria]: a porous pile is closed when the overflow has stopped and the seepage is below 30 %
-    # of the open breach's discharge (its toe stays fast); an impervious one when the flow in the breach is slow
+    # without [criteria]: a porous pile is closed when the overflow has stopped and the polder takes what still
+    # leaks through it (cycle/leakage.py; without a polder: seepage below 30 % of the open breach's discharge);
+    # an impervious one when the flow in the breach is slow
     criteria = scenario["criteria"].criteria if "criteria" in scenario else EndCriteria.from_config(
-        {"mode": "all", "max_cycles": 20, "overflow_discharge": "0.5 m^3/s", "seepage_fraction": 0.3}
+        {"mode": "all", "max_cycles": 20, "overflow_discharge": "0.5 m^3/s", "polder_leakage": f"{DEFAULT_ALLOWED_RISE} m/day"}
         if closure.remap == "porous" else {"mode": "any", "max_cycles": 20, "max_speed": "0.5 m/s"})
+    for item in criteria.items:
+        if hasattr(item, "bind_scenario"):
+            item.bind_scenario(scenario)
     if isinstance(solver, _StageSolver):
         solver.plan = placement
     setup = ClosureSetup(domain=dom, solver=solver, placement=placement, criteria=criteria, dem=dem,
