@@ -56,7 +56,7 @@ CURVE_FRACTIONS = (0.08, 0.75)
 ROCK_SPHERICITY = 0.8
 #: rolling resistance of an angular rock on a bed of rock (volume-equivalent sphere), calibrated against
 #: Izbash's critical velocity (documentation page *Materials and the seal*)
-ROCK_ROLLING_FRICTION = 0.6
+ROCK_ROLLING_FRICTION = 1.2
 #: Coulomb friction rock on rock (tan 31°; the closure run's default)
 ROCK_FRICTION = 0.6
 #: porosity of a dumped layer of a standard grading (Rock Manual §3.5: 0.35–0.40 for standard gradings)

@@ -134,6 +134,19 @@ def closure_setup(scenario, *, overrides: dict | None = None):
     closure = scenario.get("closure") or ClosureSection()
     placement = scenario["placement"].plan if "placement" in scenario else PlacementPlan(
         diameter=(1.4, 1.6), batch=4, positions="line", start=(xc - half + 0.5, yc), stop=(xc + half - 0.5, yc))
+    mat_params = placement.dem_parameters()
+    if mat_params is not None:
+        # the closure material sets friction, rolling resistance and the shape's drag; [dem] keys given
+        # explicitly still win (cycle/placement.py, breachflow.materials)
+        upd = {k: mat_params[k] for k in ("friction", "rolling_friction") if k not in mat_keys}
+        dem = replace(dem, material=replace(dem.material, **upd))
+        if mat_params["drag_coefficient"] is not None:
+            from ...fluid.drag import get_drag_law
+
+            dem = replace(dem, drag_law=get_drag_law("constant", value=mat_params["drag_coefficient"]))
+        metadata.update(material=placement.mix.name, material_drag_coefficient=mat_params["drag_coefficient"],
+                        material_friction=dem.material.friction,
+                        material_rolling_friction=dem.material.rolling_friction)
     if placement.positions not in ("zone", "list") and placement.start == placement.stop == (0.0, 0.0):
         # no line given (line, vertical, horizontal): across the breach along the levee centreline, one
         # radius in from the walls (the breach heads)
