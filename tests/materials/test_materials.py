@@ -120,3 +120,23 @@ def test_mix_fractions_hold_by_tonnage():
     assert t == pytest.approx([0.25, 0.75], abs=0.02)
     with pytest.raises(InputError, match="one drag coefficient"):
         MaterialMix(["HMA_1000_3000", "concrete_cube"])
+
+
+def test_builtins_are_declared_as_entry_points():
+    """Every built-in material (and the polder_leakage criterion) is declared in pyproject.toml and the entry
+    point names the object the registry holds."""
+    import importlib
+    import tomllib
+    from pathlib import Path
+
+    from breachflow.cycle.criteria import criteria
+
+    eps = tomllib.loads((Path(__file__).resolve().parents[2] / "pyproject.toml").read_text())["project"]["entry-points"]
+    mats = eps["breachflow.materials"]
+    get_material("sphere")  # loads the built-ins
+    assert sorted(k.lower() for k in mats) == sorted(MATERIALS._items)
+    for name, target in mats.items():
+        mod, attr = target.split(":")
+        assert getattr(importlib.import_module(mod), attr) is MATERIALS.get(name), name
+    mod, attr = eps["breachflow.criteria"]["polder_leakage"].split(":")
+    assert getattr(importlib.import_module(mod), attr) is criteria.get("polder_leakage")

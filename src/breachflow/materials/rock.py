@@ -194,8 +194,8 @@ def _standard(name):
     return make
 
 
-for _name in STANDARD_GRADINGS:
-    MATERIALS.register(_name, _standard(_name))
+for _name in STANDARD_GRADINGS:  # module-level factories: the entry points in pyproject.toml name them
+    globals()[_name] = MATERIALS.register(_name, _standard(_name))
 
 
 @MATERIALS.register("rock")
