@@ -16,8 +16,8 @@ diameter of a unit is ``D_n = (M / rho)^(1/3)`` (the side of the cube of equal v
 
 Materials are chosen by name from the registry :data:`MATERIALS` (entry-point group
 ``breachflow.materials``): the EN 13383-1 standard rock gradings ``HMA_300_1000`` … ``HMA_10000_15000`` and
-``LMA_5_40`` … ``LMA_60_300`` (:mod:`.rock`), ``big_bag``, ``concrete_cube``, ``stabilized_soil``
-(:mod:`.units`) and ``sphere`` (the spheres of ``[placement] diameter`` and ``density``, as before). See the
+``LMA_5_40`` … ``LMA_60_300`` (:mod:`breachflow.materials.rock`), ``big_bag``, ``concrete_cube``, ``stabilized_soil``
+(:mod:`breachflow.materials.units`) and ``sphere`` (the spheres of ``[placement] diameter`` and ``density``, as before). See the
 documentation page *Materials and the seal*.
 """
 from __future__ import annotations

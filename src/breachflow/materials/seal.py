@@ -60,7 +60,7 @@ class Grading:
 
     @classmethod
     def from_rock(cls, rock) -> "Grading":
-        """The nominal diameters D_n15/D_n50/D_n85 of a rock grading (:class:`~.rock.GradedRock`)."""
+        """The nominal diameters D_n15/D_n50/D_n85 of a rock grading (:class:`~breachflow.materials.rock.GradedRock`)."""
         d = rock.diameter_at_fraction([0.15, 0.5, 0.85])
         return cls(rock.name, float(d[0]), float(d[1]), float(d[2]), rock.porosity, rock.density)
 
