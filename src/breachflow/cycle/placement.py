@@ -58,12 +58,36 @@ class PlacementPlan:
     points: list = field(default_factory=list)
     release_height: float = 1.0
     rate: float = 20.0 / 3600.0  # masses per second
+    #: a closure material (:mod:`breachflow.materials`): a name (``"HMA_1000_3000"``), a table
+    #: (``{name = "big_bag", mass_max = 5000}``) or a list of them; None or ``"sphere"``: spheres of
+    #: ``diameter`` and ``density``
+    material: object = None
+    #: mass fractions of the delivered tonnage, one per material of a list (default: equal)
+    fractions: tuple | None = None
 
     #: unit kind of each quantity key of ``[placement]`` (``from_config`` converts with these)
     KEY_KINDS = {"diameter": "length", "density": "density", "start": "length", "stop": "length",
                  "zone": "length", "points": "length", "release_height": "length", "rate": "1/s"}
 
     def __post_init__(self):
+        self._mix = None
+        if self.material is not None and self.material != "sphere":
+            from ..materials import MaterialMix
+
+            mats = self.material if isinstance(self.material, (list, tuple)) else [self.material]
+            if self.fractions is not None and len(self.fractions) != len(mats):
+                raise InputError(f"placement.fractions: give one fraction per material ({len(mats)}), "
+                                 f"got {list(self.fractions)}")
+            self._mix = MaterialMix(mats, self.fractions)
+            # the range of the DEM spheres' diameters and densities (wall offsets, breach area, sanity checks)
+            mass, rho, _ = self._mix.sample(np.random.default_rng(0), 4096)
+            from ..materials import sphere_diameter
+
+            d = sphere_diameter(mass, rho)
+            self.diameter = (float(d.min()), float(d.max()))
+            self.density = (float(rho.min()), float(rho.max()))
+        elif self.fractions is not None:
+            raise InputError("placement.fractions needs placement.material")
         self.diameter = tuple(np.broadcast_to(np.asarray(self.diameter, float), (2,)))
         self.density = tuple(np.broadcast_to(np.asarray(self.density, float), (2,)))
         if not (0 < self.diameter[0] <= self.diameter[1]) or not np.all(np.isfinite(self.diameter)):
@@ -93,6 +117,15 @@ class PlacementPlan:
         unknown = set(cfg) - allowed
         if unknown:
             raise InputError(f"placement: unknown key(s) {sorted(unknown)}; allowed: {sorted(allowed)}")
+        if cfg.get("material") not in (None, "sphere") and ({"diameter", "density"} & set(cfg)):
+            raise InputError(f"placement.material = {cfg['material']!r} sets the units' sizes and density; leave out "
+                             f"placement.{' and placement.'.join(sorted({'diameter', 'density'} & set(cfg)))}")
+        if "fractions" in cfg:
+            fr = cfg["fractions"]
+            if not isinstance(fr, (list, tuple)) or not all(isinstance(v, (int, float)) and not isinstance(v, bool)
+                                                           for v in fr):
+                raise InputError(f"placement.fractions must be a list of numbers, got {fr!r}")
+            cfg["fractions"] = tuple(float(v) for v in fr)
 
         def pair(key, kind):
             v = cfg[key]
@@ -135,6 +168,16 @@ class PlacementPlan:
                         f"(x {x_range[0]:.6g} .. {x_range[1]:.6g} m, y {y_range[0]:.6g} .. {y_range[1]:.6g} m)")
 
     @property
+    def mix(self):
+        """The :class:`~breachflow.materials.MaterialMix` of ``material`` (None: spheres of ``diameter``)."""
+        return self._mix
+
+    def dem_parameters(self) -> dict | None:
+        """What the material sets in the DEM and the fluid forces (friction, rolling friction, drag and lift
+        coefficients), None for spheres."""
+        return None if self._mix is None else self._mix.dem_parameters()
+
+    @property
     def strategy(self):
         """The placement strategy object named by ``positions``."""
         return placement_strategies.get(self.positions)()
@@ -163,8 +206,14 @@ class PlacementPlan:
         release, for the strategies that read it (``uses_pile``)."""
         rng = np.random.default_rng([int(seed), int(g)])
         n = self.batch
-        d = rng.uniform(self.diameter[0], self.diameter[1], n) if self.diameter[1] > self.diameter[0] else np.full(n, self.diameter[0])
-        rho = rng.uniform(self.density[0], self.density[1], n) if self.density[1] > self.density[0] else np.full(n, self.density[0])
+        if self._mix is not None:
+            from ..materials import sphere_diameter
+
+            mass, rho, _ = self._mix.sample(rng, n)
+            d = sphere_diameter(mass, rho)  # the volume-equivalent sphere of each unit
+        else:
+            d = rng.uniform(self.diameter[0], self.diameter[1], n) if self.diameter[1] > self.diameter[0] else np.full(n, self.diameter[0])
+            rho = rng.uniform(self.density[0], self.density[1], n) if self.density[1] > self.density[0] else np.full(n, self.density[0])
         k = (g - 1) * n + np.arange(n)  # running index of the masses
         xy = np.asarray(self.strategy.positions(self, k, d, rng, pile), float).reshape(n, 2)
         r = 0.5 * d

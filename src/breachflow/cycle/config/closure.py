@@ -15,7 +15,8 @@ from ..placement import POSITION_MODES, PlacementPlan
 class PlacementSection:
     """``[placement]``: see :class:`~.placement.PlacementPlan` (``diameter``, ``density``, ``batch``,
     ``positions`` (``line`` | ``zone`` | ``list`` | ``vertical`` | ``horizontal``, :mod:`~.strategies`),
-    ``start``/``stop``/``zone``/``points``, ``release_height``, ``rate``)."""
+    ``start``/``stop``/``zone``/``points``, ``release_height``, ``rate``, ``material`` (a closure material of
+    :mod:`breachflow.materials`, e.g. ``"HMA_1000_3000"``, or a list with ``fractions``))."""
 
     plan: PlacementPlan
 
@@ -31,6 +32,17 @@ class PlacementSection:
         for f in fields(PlacementPlan):
             default = f.default if f.default is not MISSING else None
             kind = PlacementPlan.KEY_KINDS.get(f.name)
+            if f.name == "material":
+                out[f.name] = {"description": "closure material (breachflow.materials): a name such as "
+                                              "\"HMA_1000_3000\", a table {name = ..., parameters}, or a list of them; "
+                                              "default: spheres of diameter and density",
+                               "anyOf": [{"type": "string"}, {"type": "object"},
+                                         {"type": "array", "items": {"anyOf": [{"type": "string"}, {"type": "object"}]}}]}
+                continue
+            if f.name == "fractions":
+                out[f.name] = {"description": "mass fractions of the tonnage, one per material of the list",
+                               "type": "array", "items": {"type": "number", "minimum": 0}}
+                continue
             if kind is None:
                 out[f.name] = {"type": "integer" if f.name == "batch" else "string"}
                 if default is not None:

@@ -10,6 +10,7 @@ import numpy as np
 from ...errors import InputError
 from ...scenario.geometry import BreachGeometry
 from ..criteria import EndCriteria
+from ..leakage import DEFAULT_ALLOWED_RISE
 from ..losses import breach_area
 from ..placement import PlacementPlan
 from .closure import ClosureSection
@@ -133,6 +134,19 @@ def closure_setup(scenario, *, overrides: dict | None = None):
     closure = scenario.get("closure") or ClosureSection()
     placement = scenario["placement"].plan if "placement" in scenario else PlacementPlan(
         diameter=(1.4, 1.6), batch=4, positions="line", start=(xc - half + 0.5, yc), stop=(xc + half - 0.5, yc))
+    mat_params = placement.dem_parameters()
+    if mat_params is not None:
+        # the closure material sets friction, rolling resistance and the shape's drag; [dem] keys given
+        # explicitly still win (cycle/placement.py, breachflow.materials)
+        upd = {k: mat_params[k] for k in ("friction", "rolling_friction") if k not in mat_keys}
+        dem = replace(dem, material=replace(dem.material, **upd))
+        if mat_params["drag_coefficient"] is not None:
+            from ...fluid.drag import get_drag_law
+
+            dem = replace(dem, drag_law=get_drag_law("constant", value=mat_params["drag_coefficient"]))
+        metadata.update(material=placement.mix.name, material_drag_coefficient=mat_params["drag_coefficient"],
+                        material_friction=dem.material.friction,
+                        material_rolling_friction=dem.material.rolling_friction)
     if placement.positions not in ("zone", "list") and placement.start == placement.stop == (0.0, 0.0):
         # no line given (line, vertical, horizontal): across the breach along the levee centreline, one
         # radius in from the walls (the breach heads)
@@ -144,11 +158,15 @@ def closure_setup(scenario, *, overrides: dict | None = None):
         raise InputError(f"[closure] area = {list(closure.area)} is a box on the CRS axes, but the grid of this site "
                          f"runs along the levee ({built.frame.angle_deg:.1f}° from the CRS x axis); leave it out "
                          f"(the breach area is then the whole domain)")
-    # without [criteria]: a porous pile is closed when the overflow has stopped and the seepage is below 30 %
-    # of the open breach's discharge (its toe stays fast); an impervious one when the flow in the breach is slow
+    # without [criteria]: a porous pile is closed when the overflow has stopped and the polder takes what still
+    # leaks through it (cycle/leakage.py; without a polder: seepage below 30 % of the open breach's discharge);
+    # an impervious one when the flow in the breach is slow
     criteria = scenario["criteria"].criteria if "criteria" in scenario else EndCriteria.from_config(
-        {"mode": "all", "max_cycles": 20, "overflow_discharge": "0.5 m^3/s", "seepage_fraction": 0.3}
+        {"mode": "all", "max_cycles": 20, "overflow_discharge": "0.5 m^3/s", "polder_leakage": f"{DEFAULT_ALLOWED_RISE} m/day"}
         if closure.remap == "porous" else {"mode": "any", "max_cycles": 20, "max_speed": "0.5 m/s"})
+    for item in criteria.items:
+        if hasattr(item, "bind_scenario"):
+            item.bind_scenario(scenario)
     if isinstance(solver, _StageSolver):
         solver.plan = placement
     setup = ClosureSetup(domain=dom, solver=solver, placement=placement, criteria=criteria, dem=dem,

@@ -1,0 +1,284 @@
+"""A closure is done when what still flows through the dam is less than the polder can take.
+
+The flow left through the dam (overflow + seepage, the breach discharge ``Q`` through the breach section) is
+stated as the rise of the polder's water level per day, ``86 400 Q / A_P`` (m/day, polder area ``A_P``), and
+against the pump capacity ``Q_P``: the polder takes the leakage when the net rise ``86 400 (Q - Q_P) / A_P``
+is at most the allowed rise per day (:func:`polder_leakage_check`). The registered end criterion
+``polder_leakage`` (threshold: the allowed rise, e.g. ``"1 cm/day"``) reads the polder's area and pump
+capacity from the scenario's ``[polder]`` (or from its own ``area`` / ``pump_capacity`` keys); without them
+it falls back to the older criterion ``seepage_fraction < 0.3`` (seepage through the pile below 30 % of the
+open breach's discharge) and says so.
+
+Sealing. With ``seal = ["sand", "gravel", "quarry_run"]`` (finest first; names of
+:data:`breachflow.materials.seal.DEFAULT_SEAL_GRADINGS` or tables ``{name, d15, d50, d85, porosity,
+density}``) the criterion judges the dam *after* a seal on its upstream face: once the overflow alone is
+below what the polder takes, it finds the thinnest seal layer (up to ``max_seal_thickness``, with each
+filter ``filter_thickness`` thick) that brings the seepage down far enough (1-D Forchheimer flow through the
+layers in series, :mod:`breachflow.materials.seal`) and reports its thickness and tonnage per layer. The
+dam's flow path is its mean width, the bulk volume of the resting masses over the gap width and the wetted
+height; the head is the flood level minus the water level behind the dam. The filter rules between the
+layers and the rock are checked when the scenario is read.
+"""
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass
+
+from ..errors import BreachflowWarning, InputError
+from ..units import to_si
+from .criteria import Criterion, CriterionResult, SeepageFraction, criteria, section_discharge
+
+SECONDS_PER_DAY = 86400.0
+#: allowed net polder rise of the default criterion (m/day): a choice to state, not a standard — set it for
+#: the polder at hand (``[criteria] polder_leakage = "… cm/day"``)
+DEFAULT_ALLOWED_RISE = 0.01
+#: the old criterion the fallback uses when the polder is unknown (seepage / open-breach discharge)
+FALLBACK_SEEPAGE_FRACTION = 0.3
+
+
+@dataclass(frozen=True)
+class LeakageVerdict:
+    """The leakage (m³/s) as polder rise per day (gross and net of pumping, m/day), as a multiple of the pump
+    capacity (``inf`` without pumps), and whether the polder takes it."""
+
+    leakage: float
+    rise_per_day: float
+    net_rise_per_day: float
+    pump_ratio: float
+    acceptable: bool
+
+
+def polder_leakage_check(leakage: float, area: float, pump_capacity: float,
+                         allowed_rise_per_day: float) -> LeakageVerdict:
+    """Judge a *leakage* (m³/s) into a polder of *area* (m²) with pumps of *pump_capacity* (m³/s): rise
+    ``86 400 |Q| / A`` m/day, net rise ``86 400 max(|Q| - Q_P, 0) / A``; acceptable when the net rise is at
+    most *allowed_rise_per_day* (m/day)."""
+    q, a, p, allowed = abs(float(leakage)), float(area), float(pump_capacity), float(allowed_rise_per_day)
+    if not (math.isfinite(a) and a > 0):
+        raise InputError(f"polder area must be > 0 m^2, got {area!r}")
+    if not (math.isfinite(p) and p >= 0):
+        raise InputError(f"pump capacity must be >= 0 m^3/s, got {pump_capacity!r}")
+    if not (math.isfinite(allowed) and allowed >= 0):
+        raise InputError(f"allowed polder rise must be >= 0 m/day, got {allowed_rise_per_day!r}")
+    rise = SECONDS_PER_DAY * q / a
+    net = SECONDS_PER_DAY * max(q - p, 0.0) / a
+    ratio = q / p if p > 0 else (math.inf if q > 0 else 0.0)
+    return LeakageVerdict(q, rise, net, ratio, bool(net <= allowed))
+
+
+def _polder_of(scenario):
+    """``(area m², pump capacity m³/s)`` of the scenario's polder, or None: ``scenario.polder`` when the
+    scenario has that attribute, else its ``[polder]`` section."""
+    pol = getattr(scenario, "polder", None)
+    if pol is None and hasattr(scenario, "get"):
+        try:
+            pol = scenario.get("polder")
+        except Exception:  # noqa: BLE001 - a scenario without the section
+            pol = None
+    if pol is None:
+        return None
+    area = getattr(pol, "area", None)
+    pump = getattr(pol, "pump_capacity", 0.0) or 0.0
+    try:
+        area, pump = float(area), float(pump)
+    except (TypeError, ValueError):  # a swept polder (DataArray): one run judges one polder
+        return None
+    return (area, pump) if area > 0 else None
+
+
+@criteria.register("polder_leakage")
+class PolderLeakage(Criterion):
+    """Net polder rise per day from the flow left through the dam (m/day; :func:`polder_leakage_check`).
+
+    Threshold: the allowed rise (``"1 cm/day"``); keys ``area`` and ``pump_capacity`` override the scenario's
+    ``[polder]``. Without a polder it judges ``seepage_fraction < 0.3`` instead (a warning says so)."""
+
+    name, kind, units, compare = "polder_leakage", "speed", "m day-1", "below"
+    description = "net polder rise per day from the leakage through the dam (pumping deducted)"
+
+    def __init__(self, threshold=f"{DEFAULT_ALLOWED_RISE} m/day", area=None, pump_capacity=None, seal=None,
+                 filter_thickness="0.5 m", max_seal_thickness="2 m", face_slope=1.5, law="ergun"):
+        self.threshold = to_si(threshold, name="criteria.polder_leakage", kind="speed",
+                               nonnegative=True) * SECONDS_PER_DAY
+        self.area = None if area is None else to_si(area, name="criteria.polder_leakage.area", kind="area",
+                                                     positive=True)
+        self.pump_capacity = None if pump_capacity is None else to_si(
+            pump_capacity, name="criteria.polder_leakage.pump_capacity", kind="discharge", nonnegative=True)
+        self._fallback = None
+        self.seal_layers = None if seal is None else [_grading(g) for g in (seal if isinstance(seal, list) else [seal])]
+        self.filter_thickness = to_si(filter_thickness, name="criteria.polder_leakage.filter_thickness",
+                                      kind="length", positive=True)
+        self.max_seal_thickness = to_si(max_seal_thickness, name="criteria.polder_leakage.max_seal_thickness",
+                                        kind="length", positive=True)
+        self.face_slope = float(face_slope)
+        self.law = law
+        self.rock = None
+        self.seal_plan = None
+
+    def bind_rock(self, rock) -> None:
+        """The dam's rock grading (:class:`~breachflow.materials.seal.Grading`); checks the filter rules from the
+        seal through its filters to the rock (:func:`~breachflow.materials.seal.check_filter`)."""
+        from ..materials.seal import check_filter
+
+        self.rock = rock
+        if self.seal_layers:
+            try:
+                check_filter([*self.seal_layers, rock])
+            except InputError as exc:
+                raise InputError(f"[criteria] polder_leakage {exc}") from None
+
+    def bind_scenario(self, scenario) -> None:
+        """Take the polder's area and pump capacity from *scenario* where not given; without them switch to
+        the fallback ratio criterion and warn."""
+        pol = _polder_of(scenario)
+        if self.area is None and pol is not None:
+            self.area = pol[0]
+        if self.pump_capacity is None:
+            self.pump_capacity = pol[1] if pol is not None else 0.0
+        if self.area is None:
+            self._use_fallback()
+        if self.seal_layers:
+            plan = None
+            try:
+                plan = scenario["placement"].plan if scenario is not None and "placement" in scenario else None
+            except Exception:  # noqa: BLE001 - no placement section: the run's default spheres
+                plan = None
+            self.bind_rock(_rock_grading(plan))
+
+    def _use_fallback(self):
+        if self._fallback is None:
+            self._fallback = SeepageFraction(FALLBACK_SEEPAGE_FRACTION)
+            warnings.warn(f"[criteria] polder_leakage: no polder area ([polder] area); the closure is judged by "
+                          f"seepage_fraction < {FALLBACK_SEEPAGE_FRACTION:g} of the open breach's discharge instead",
+                          BreachflowWarning, stacklevel=3)
+
+    @property
+    def fallback(self) -> bool:
+        return self._fallback is not None
+
+    def verdict(self, ctx) -> LeakageVerdict:
+        q = section_discharge(ctx.snapshot, ctx.breach_x, ctx.levee_y)
+        return polder_leakage_check(q, self.area, self.pump_capacity or 0.0, self.threshold)
+
+    def value(self, ctx):
+        return self.verdict(ctx).net_rise_per_day
+
+    def sealed(self, ctx, v: LeakageVerdict):
+        """``(net rise after the seal m/day, plan dict)`` or None when no seal within the limits suffices."""
+        from dataclasses import replace
+
+        from ..materials.seal import SealDesign, required_thickness
+
+        target = self.threshold * self.area / SECONDS_PER_DAY + (self.pump_capacity or 0.0)
+        qs = min(abs(ctx.seepage_discharge), v.leakage)
+        qo = v.leakage - qs
+        if qs <= 0.0 or qo >= target:
+            return None
+        geom = dam_geometry(ctx, self.rock.porosity)
+        if geom is None:
+            return None
+        head, height, length, width = geom
+        filters = tuple((g, self.filter_thickness) for g in self.seal_layers[1:])
+        design = SealDesign(self.seal_layers[0], self.max_seal_thickness, self.rock, filters, self.law)
+        if length <= self.max_seal_thickness + self.filter_thickness * len(filters):
+            return None
+        t = required_thickness(design, qs, target - qo, head, height, length,
+                               max_fraction=self.max_seal_thickness / length)
+        if not math.isfinite(t):
+            return None
+        design = replace(design, thickness=max(t, 1e-3))
+        q_after = qo + qs * design.reduction(head, height, length)
+        face = width * height * math.hypot(1.0, self.face_slope)
+        plan = {"seal_thickness": t, "filter_thickness": self.filter_thickness, "face_area": face,
+                "tonnage": design.tonnage(face), "leakage_before": v.leakage, "leakage_after": q_after,
+                "head": head, "height": height, "flow_path": length}
+        return SECONDS_PER_DAY * max(q_after - (self.pump_capacity or 0.0), 0.0) / self.area, plan
+
+    def evaluate(self, ctx) -> CriterionResult:
+        if self.area is None:
+            self._use_fallback()
+        if self._fallback is not None:
+            r = self._fallback.evaluate(ctx)
+            return CriterionResult(r.name, r.value, r.threshold, r.units, r.satisfied,
+                                   f"{r.description} (no polder area: fallback of polder_leakage)")
+        v = self.verdict(ctx)
+        self.seal_plan = None
+        if self.seal_layers and not v.acceptable and self.rock is not None:
+            res = self.sealed(ctx, v)
+            if res is not None:
+                net, plan = res
+                self.seal_plan = plan
+                tons = ", ".join(f"{k} {t:.0f} t" for k, t in plan["tonnage"].items())
+                return CriterionResult(
+                    self.name, net, self.threshold, self.units, bool(net <= self.threshold * (1 + 1e-9)),
+                    f"leakage {v.leakage:.4g} m3/s ({v.rise_per_day:.3g} m/day over {self.area:.4g} m2) sealed by "
+                    f"{plan['seal_thickness']:.3g} m of {self.seal_layers[0].name} on the upstream face "
+                    f"({plan['face_area']:.4g} m2; {tons}): {plan['leakage_after']:.4g} m3/s, net "
+                    f"{net:.3g} m/day")
+        pump = (f"{v.pump_ratio:.3g} x the pump capacity {self.pump_capacity:.3g} m3/s" if self.pump_capacity
+                else "no pumps")
+        return CriterionResult(self.name, v.net_rise_per_day, self.threshold, self.units, v.acceptable,
+                               f"leakage {v.leakage:.4g} m3/s = polder rise {v.rise_per_day:.3g} m/day over "
+                               f"{self.area:.4g} m2 ({pump}); net {v.net_rise_per_day:.3g} m/day")
+
+
+def _grading(spec):
+    """A seal layer: a name of :data:`~breachflow.materials.seal.DEFAULT_SEAL_GRADINGS` or a table."""
+    from ..materials.seal import DEFAULT_SEAL_GRADINGS, Grading
+
+    if isinstance(spec, str):
+        if spec not in DEFAULT_SEAL_GRADINGS:
+            raise InputError(f"criteria.polder_leakage.seal: unknown layer {spec!r}; use one of "
+                             f"{sorted(DEFAULT_SEAL_GRADINGS)} or a table {{name, d15, d50, d85, porosity}}")
+        return DEFAULT_SEAL_GRADINGS[spec]
+    if isinstance(spec, dict):
+        spec = dict(spec)
+        kw = {k: to_si(spec.pop(k), name=f"criteria.polder_leakage.seal.{k}", kind="length", positive=True)
+              for k in ("d15", "d50", "d85") if k in spec}
+        try:
+            return Grading(name=str(spec.pop("name")), **kw, **{k: float(v) for k, v in spec.items()})
+        except (KeyError, TypeError) as exc:
+            raise InputError(f"criteria.polder_leakage.seal: a layer table needs name, d15, d50, d85 ({exc})") from None
+    raise InputError(f"criteria.polder_leakage.seal: a layer is a name or a table, got {spec!r}")
+
+
+def _rock_grading(plan):
+    """The dam's grading from the placement: a graded-rock material's D_n15/D_n50/D_n85, else the spheres'
+    nominal diameters over ``diameter`` (D_n = D (pi/6)^(1/3))."""
+    from ..materials.rock import GradedRock
+    from ..materials.seal import Grading
+
+    mix = getattr(plan, "mix", None)
+    if mix is not None and isinstance(mix.materials[0], GradedRock):
+        return Grading.from_rock(mix.materials[0])
+    d = (0.75, 0.75) if plan is None else plan.diameter
+    k = (math.pi / 6.0) ** (1.0 / 3.0)
+    lo, hi = k * d[0], k * d[1]
+    return Grading("rock dam", lo, 0.5 * (lo + hi), hi, porosity=0.4)
+
+
+def dam_geometry(ctx, porosity):
+    """``(head m, wetted height m, mean flow path m, gap width m)`` of the dam in *ctx*, or None without one:
+    the flow path is the bulk volume of the resting masses in the gap over (gap width x wetted height); the
+    head the flood level minus the median water level of the row just behind the dam."""
+    import numpy as np
+
+    x0, x1 = ctx.breach_x
+    width = x1 - x0
+    height = ctx.flood_level - ctx.bottom
+    sel = ctx.resting & (ctx.pos[:, 0] >= x0) & (ctx.pos[:, 0] <= x1) if len(ctx.radius) else np.zeros(0, bool)
+    if width <= 0 or height <= 0 or not sel.any():
+        return None
+    solid = float(np.sum(4.0 / 3.0 * np.pi * ctx.radius[sel] ** 3))
+    length = solid / (1.0 - porosity) / (width * height)
+    ds = ctx.snapshot
+    y = np.asarray(ds["y"].values, float)
+    x = np.asarray(ds["x"].values, float)
+    y_back = float(np.max(ctx.pos[sel, 1] + ctx.radius[sel])) + (abs(y[1] - y[0]) if y.size > 1 else 0.0)
+    j = int(np.argmin(np.abs(y - y_back)))
+    ws = np.asarray(ds["water_surface"].values, float)[j]
+    wet = (np.asarray(ds["depth"].values, float)[j] > 0) & (x >= x0) & (x <= x1)
+    behind = float(np.median(ws[wet])) if wet.any() else ctx.bottom
+    head = ctx.flood_level - behind
+    return (head, height, length, width) if head > 0 and length > 0 else None
