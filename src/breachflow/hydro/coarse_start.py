@@ -1,12 +1,12 @@
 """Coarse-to-fine start of a cold steady solve (grid sequencing).
 
 A cold start fills the flood side, breaks through the breach and spreads the jet over the polder before
-the flow settles: hundreds of seconds of simulated time, every one of them at the fine grid's cost per
+the flow settles: about a minute of simulated time for the typical breach, every one of them at the fine grid's cost per
 cell and step. The same transient on cells ``factor`` times larger costs about ``factor³`` less (fewer
 cells, longer steps), and its steady state, laid on the fine grid
-(:func:`breachflow.hydro.swe.solver._regrid`: the wet-weighted water surface on the fine bed, the
-velocities interpolated), leaves the fine solve only the local correction: the classic grid sequencing of
-steady CFD (e.g. Blazek, *Computational Fluid Dynamics: Principles and Applications*, §9.4).
+(the warm start from another grid of
+:class:`~breachflow.hydro.swe.solver.SWESimulation`: the wet-weighted water surface on the fine bed, the
+velocities interpolated), leaves the fine solve only the local correction: the grid sequencing of steady CFD solvers.
 
 The fine solve's steady-state test is the same as from the cold start (tolerance, monitored region and
 breach section), so the answer is the fine grid's steady state within that tolerance; the coarse level
@@ -33,6 +33,22 @@ def coarse_region(region, index, shape) -> np.ndarray | None:
     J, I = np.nonzero(np.asarray(region, bool))
     out[jy[J], ix[I]] = True
     return out
+
+
+def coarse_surface(dom, index, cdom) -> np.ndarray | None:
+    """The initial water surface of *dom* on the coarse grid: the mean over the block's wet fine cells (NaN
+    where the whole block is dry), so that a filled basin stays filled and dry land stays dry."""
+    if dom.initial_surface is None:
+        return None
+    jy, ix = index
+    J, I = np.meshgrid(jy, ix, indexing="ij")
+    flat = (J * cdom.shape[1] + I).ravel()
+    n = cdom.shape[0] * cdom.shape[1]
+    eta = np.asarray(dom.initial_surface, float)
+    wet = np.isfinite(eta) & (eta > dom.bed) & ~dom.obstacle
+    total = np.bincount(flat, weights=np.where(wet, eta, 0.0).ravel(), minlength=n)
+    count = np.bincount(flat, weights=wet.ravel().astype(float), minlength=n)
+    return np.where(count > 0, total / np.maximum(count, 1), np.nan).reshape(cdom.shape)
 
 
 class CoarseStartSWE:
@@ -64,6 +80,7 @@ class CoarseStartSWE:
         dom = domain if obstacles is None else domain.with_obstacles(_mask(obstacles, domain))
         c0 = _time.process_time()
         cdom, index = coarse_domain(dom, self.factor)
+        cdom.initial_surface = coarse_surface(dom, index, cdom)
         csim = SWESimulation(cdom, s.options)
         region = None if s.region is None else coarse_region(_mask(s.region, dom), index, cdom.shape)
         csim.run_to_steady(s.tolerance, s.t_max, s.check_interval, region=region, section=s.section,
