@@ -1,6 +1,6 @@
 """The typical breach to its verdict, CPU time per start of the first solve, with the error figure.
 
-    python3 tasks.py bench verdict [--resolution 2] [--starts cold,coarse] [--seed 1]
+    python3 tasks.py bench verdict [--resolution 2] [--starts cold,coarse] [--seed 1] [--parallel]
                                    [--reference-tolerance 2e-5] [--reference-t-max 1800] [--json FILE]
 
 ``examples/typical_breach.toml`` at ``--resolution`` m runs to its verdict once per ``[hydro] cold_start``
@@ -70,13 +70,23 @@ def scenario_text(res: float, seed: int, start: str, tolerance: float | None = N
     return text.replace("[hydro]\n", "[hydro]\n" + extra, 1)
 
 
-def run_child(work: Path, tag: str, text: str, only_first: bool = False) -> dict:
+def start_child(work: Path, tag: str, text: str, only_first: bool = False):
+    """Start one child process; returns ``(process, result file, start time)``."""
     sc = work / f"{tag}.toml"
     sc.write_text(text, encoding="utf-8")
     rfile = work / f"{tag}.json"
-    subprocess.run([sys.executable, __file__, "--child", str(sc), str(work / f"run_{tag}"), str(rfile),
-                    "1" if only_first else "0"], check=True)
-    return json.loads(rfile.read_text())
+    proc = subprocess.Popen([sys.executable, __file__, "--child", str(sc), str(work / f"run_{tag}"), str(rfile),
+                             "1" if only_first else "0"])
+    return proc, rfile, time.perf_counter()
+
+
+def finish_child(job) -> dict:
+    proc, rfile, w0 = job
+    if proc.wait() != 0:
+        raise SystemExit(f"child {rfile.stem} failed (exit code {proc.returncode})")
+    r = json.loads(rfile.read_text())
+    r["wall"] = time.perf_counter() - w0
+    return r
 
 
 def main(argv) -> int:
@@ -90,15 +100,24 @@ def main(argv) -> int:
     ap.add_argument("--reference-tolerance", type=float, default=None)
     ap.add_argument("--reference-t-max", type=float, default=1800.0)
     ap.add_argument("--json", default=None)
+    ap.add_argument("--parallel", action="store_true", help="run the children at the same time (CPU times are "
+                    "per child; on a loaded machine this shortens the wall time)")
     a = ap.parse_args(argv)
     starts = [s.strip() for s in a.starts.split(",") if s.strip()]
     rows = {}
     with tempfile.TemporaryDirectory() as tmp:
         work = Path(tmp)
+        jobs = {}
         for s in starts:
-            w0 = time.perf_counter()
-            rows[s] = run_child(work, f"verdict_{s}", scenario_text(a.resolution, a.seed, s))
-            rows[s]["wall"] = time.perf_counter() - w0
+            jobs[s] = start_child(work, f"verdict_{s}", scenario_text(a.resolution, a.seed, s))
+            if not a.parallel:
+                jobs[s] = finish_child(jobs[s])
+        ref_job = None
+        if a.reference_tolerance:
+            ref_job = start_child(work, "reference", scenario_text(a.resolution, a.seed, "cold", a.reference_tolerance,
+                                                                   a.reference_t_max), only_first=True)
+        for s in starts:
+            rows[s] = jobs[s] if isinstance(jobs[s], dict) else finish_child(jobs[s])
             r = rows[s]
             print(f"{a.resolution:g} m, seed {a.seed}, cold_start {s}: CPU {r['cpu']:.1f} s (first solve "
                   f"{r['first_cpu']:.1f}, re-solves {r['resolve_cpu']:.1f}, DEM {r['dem_cpu']:.1f}), wall {r['wall']:.0f} s; "
@@ -106,9 +125,8 @@ def main(argv) -> int:
                   f"{r['tonnage']:,.0f} t placed, {r['lost_t']:,.0f} t lost; open breach Q {r['q0']:.2f} m3/s, "
                   f"gap speed {r['gap0']:.4f} mean / {r['gapmax0']:.4f} max m/s", flush=True)
         ref = None
-        if a.reference_tolerance:
-            ref = run_child(work, "reference", scenario_text(a.resolution, a.seed, "cold", a.reference_tolerance,
-                                                             a.reference_t_max), only_first=True)
+        if ref_job is not None:
+            ref = finish_child(ref_job)
             print(f"reference (cold, tolerance {a.reference_tolerance:g} 1/s, t_max {a.reference_t_max:g} s, "
                   f"{'converged' if ref['converged'] else 'NOT converged'} at t = {ref['t']:.0f} s): Q {ref['q0']:.2f} "
                   f"m3/s, gap speed {ref['gap0']:.4f} m/s, CPU {ref['cpu']:.1f} s", flush=True)
