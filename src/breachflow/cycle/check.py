@@ -266,7 +266,8 @@ def run_check(run_dir, scenario_text: str, scenario_path=None, *, section: Check
             else:
                 runs.append(_member_run(rec, half if hyd else res, None, s))
     if section.refine and refine_allowed and section.refine_seeds == 0:
-        runs.append(_open_breach_on(sc, scenario_path, res, section))
+        runs.append(_open_breach_cached(out_dir / "grid" / f"open_breach_{section.grid}.json", scenario_text, sc,
+                                        scenario_path, res, section))
     result = judge(runs, section.tolerance)
     result.wall_time, result.cpu_time = _time.perf_counter() - w0, _time.process_time() - c0
     ds = result.dataset()
@@ -320,6 +321,25 @@ def _member_run(rec: dict, res: float, refine, seed: int) -> CheckRun:
                         error=f"{rec.get('error_type', '?')}: {rec.get('error_message', 'not run')}")
     man = json.loads((Path(rec["run_dir"]) / "closure" / "manifest.json").read_text())
     return _run_of(man, res, refine, seed, cpu=float(rec.get("cpu_time", math.nan)))
+
+
+def _open_breach_cached(path: Path, text: str, sc, scenario_path, res: float, section: CheckSection) -> CheckRun:
+    """:func:`_open_breach_on`, kept in *path* (JSON) for the same scenario text: a resumed check does not
+    solve it again."""
+    import dataclasses
+    import hashlib
+
+    from ..ensemble.io import atomic_write_json, read_json
+
+    key = hashlib.sha256(text.encode()).hexdigest()
+    rec = read_json(path)
+    if rec and rec.get("scenario_sha256") == key:
+        return CheckRun(**{k: math.nan if v is None and k != "closed" else v for k, v in rec["run"].items()})
+    run = _open_breach_on(sc, scenario_path, res, section)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    atomic_write_json(path, {"scenario_sha256": key, "run": {k: _f(v) if isinstance(v, float) else v
+                                                             for k, v in dataclasses.asdict(run).items()}})
+    return run
 
 
 def _open_breach_on(sc, scenario_path, res: float, section: CheckSection) -> CheckRun:
