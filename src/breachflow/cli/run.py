@@ -183,9 +183,16 @@ def run_closure_cli(scenario: Path | None, out: Path, resume: bool, overwrite: b
     try:
         res = run_closure(scenario, out, resume=resume, overwrite=overwrite, progress=progress, plots=plots,
                           on_start=on_start)
-        console.print(summary_table(res.table_rows()))
-        if check:
-            _check_cli(out, overwrite, console)
+        rows = res.table_rows()
+        checked = _check_cli(out, overwrite, console) if check else None
+        if checked is not None:
+            # the run's own "closed" stands only when the check confirms it (docs/verdict-check.md)
+            rows = [(k, v if k != "closure achieved" or checked.robust or not res.closed else
+                     f"this run only (seed and cell size of the scenario); verdict check: {checked.statement}")
+                    for k, v in rows]
+            rows += checked.rows() + [("check wall / CPU time", f"{checked.wall_time:.1f} s / {checked.cpu_time:.1f} s"),
+                                      ("check results", str(Path(out) / "check.nc"))]
+        console.print(summary_table(rows))
         for p in res.plots:
             console.print(f"wrote {p}", highlight=False)
     except BaseException as exc:
@@ -196,8 +203,9 @@ def run_closure_cli(scenario: Path | None, out: Path, resume: bool, overwrite: b
         console.detach_log()
 
 
-def _check_cli(out: Path, overwrite: bool, console) -> None:
-    """Run the verdict check of the finished run in *out* (unless ``[check] enabled = false``) and print it."""
+def _check_cli(out: Path, overwrite: bool, console):
+    """Run the verdict check of the finished run in *out* (unless ``[check] enabled = false``: None) and
+    return its :class:`~breachflow.cycle.check.CheckResult`."""
     from ..cycle.check import CheckSection, run_check
     from ..output import RunDirectory
     from ..scenario import parse_scenario
@@ -208,13 +216,10 @@ def _check_cli(out: Path, overwrite: bool, console) -> None:
     path = Path(path) if path and Path(path).is_file() else None
     section = parse_scenario(text, path=path).get("check") or CheckSection()
     if not section.enabled:
-        return
+        return None
     console.print("verdict check: other placement seeds and the next finer grid ([check]; --no-check skips it)",
                   highlight=False)
-    result = run_check(out, text, path, section=section, console=console, fresh=overwrite)
-    console.print(summary_table(result.rows() + [("check wall / CPU time", f"{result.wall_time:.1f} s / "
-                                                                          f"{result.cpu_time:.1f} s"),
-                                                 ("check results", str(Path(out) / "check.nc"))]))
+    return run_check(out, text, path, section=section, console=console, fresh=overwrite)
 
 
 def register(app: typer.Typer) -> None:
