@@ -218,7 +218,7 @@ def _check_cli(out: Path, overwrite: bool, console):
     if not section.enabled:
         return None
     console.print("verdict check: other placement seeds and the next finer grid ([check]; --no-check skips it)",
-                  highlight=False)
+                  highlight=False, markup=False)
     return run_check(out, text, path, section=section, console=console, fresh=overwrite)
 
 
@@ -233,8 +233,8 @@ def register(app: typer.Typer) -> None:
         resume: bool = typer.Option(False, "--resume", help="Continue a closure run from its last complete cycle."),
         overwrite: bool = typer.Option(False, "--overwrite", help="Replace the run already in --out."),
         no_plots: bool = typer.Option(False, "--no-plots", help="Do not draw the plan-view and progress PNGs."),
-        no_check: bool = typer.Option(False, "--no-check", help="Skip the verdict check (other placement seeds, "
-                                      "the next finer grid; [check]) for a quick look."),
+        no_check: bool = typer.Option(False, "--no-check", help="Skip the verdict check (other placement seeds "
+                                      "and the next finer grid, set in the scenario's check table) for a quick look."),
         plot: Optional[Path] = typer.Option(None, help="Calculator scenarios: write the Fig 2.6-style chart to this PNG."),
     ) -> None:
         """Run the closure simulation (default: the embedded scenario), or a calculator-only scenario file."""
