@@ -24,6 +24,7 @@ from __future__ import annotations
 import json
 import math
 import time as _time
+import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -242,8 +243,6 @@ def run_check(run_dir, scenario_text: str, scenario_path=None, *, section: Check
     # a nested or external-flow run has no "next finer grid" of its own solver; only seeds are checked
     solver = getattr(hydro, "solver", "swe")
     refine_allowed = solver == "swe" and refine is None
-    import tomllib
-
     coarse, fine, grid = check_members(section, res, seed, refine_allowed=refine_allowed)
     out_dir = run_dir / "check"
     if fresh and out_dir.exists():
