@@ -138,7 +138,8 @@ class CheckResult:
         for r in self.runs:
             what = r.outcome if not r.error else f"failed: {r.error}"
             extra = "" if r.closed is None else f", {r.cycles} cycles, {r.in_place:,.0f} t in place"
-            out.append((f"  {r.label}, seed {r.seed}{' (this run)' if r.own else ''}",
+            who = f"{r.label}, seed {r.seed}" if r.seed >= 0 else r.label
+            out.append((f"  {who}{' (this run)' if r.own else ''}",
                         f"{what}{extra}; open breach {r.discharge:,.0f} m³/s, gap speed {r.gap_mean_speed:.2f} mean / "
                         f"{r.gap_max_speed:.2f} max m/s"))
         for k, v in self.flow_difference.items():
