@@ -136,9 +136,11 @@ def check_run_target(scenario: Path | None, out: Path, resume: bool, overwrite: 
         f"or another --out directory")
 
 
-def run_closure_cli(scenario: Path | None, out: Path, resume: bool, overwrite: bool, plots: bool, console) -> None:
+def run_closure_cli(scenario: Path | None, out: Path, resume: bool, overwrite: bool, plots: bool, console,
+                    check: bool = True) -> None:
     """The closure run with a live progress line per cycle and a summary table; the console output (and
-    warnings) also go to ``OUT/run.log``."""
+    warnings) also go to ``OUT/run.log``. With *check* (and ``[check] enabled``) the verdict is checked on
+    other placement seeds and the next finer grid (:mod:`breachflow.cycle.check`)."""
     from ..cycle.main import run_closure
     from ..output.progress import Progress
     from ._common import QUIET, VERBOSE, fmt, level
@@ -188,7 +190,16 @@ def run_closure_cli(scenario: Path | None, out: Path, resume: bool, overwrite: b
         with first:
             res = run_closure(scenario, out, resume=resume, overwrite=overwrite, progress=progress, plots=plots,
                               on_start=on_start)
-        console.print(summary_table(res.table_rows()))
+        rows = res.table_rows()
+        checked = _check_cli(out, overwrite, console) if check else None
+        if checked is not None:
+            # the run's own "closed" stands only when the check confirms it (docs/verdict-check.md)
+            rows = [(k, v if k != "closure achieved" or checked.robust or not res.closed else
+                     f"this run only (seed and cell size of the scenario); verdict check: {checked.statement}")
+                    for k, v in rows]
+            rows += checked.rows() + [("check wall / CPU time", f"{checked.wall_time:.1f} s / {checked.cpu_time:.1f} s"),
+                                      ("check results", str(Path(out) / "check.nc"))]
+        console.print(summary_table(rows))
         for p in res.plots:
             console.print(f"wrote {p}", highlight=False)
     except BaseException as exc:
@@ -197,6 +208,25 @@ def run_closure_cli(scenario: Path | None, out: Path, resume: bool, overwrite: b
         raise
     finally:
         console.detach_log()
+
+
+def _check_cli(out: Path, overwrite: bool, console):
+    """Run the verdict check of the finished run in *out* (unless ``[check] enabled = false``: None) and
+    return its :class:`~breachflow.cycle.check.CheckResult`."""
+    from ..cycle.check import CheckSection, run_check
+    from ..output import RunDirectory
+    from ..scenario import parse_scenario
+
+    rd = RunDirectory(out)
+    text = rd.scenario_text()
+    path = rd.manifest().get("metadata", {}).get("scenario_path")
+    path = Path(path) if path and Path(path).is_file() else None
+    section = parse_scenario(text, path=path).get("check") or CheckSection()
+    if not section.enabled:
+        return None
+    console.print("verdict check: other placement seeds and the next finer grid ([check]; --no-check skips it)",
+                  highlight=False, markup=False)
+    return run_check(out, text, path, section=section, console=console, fresh=overwrite)
 
 
 def register(app: typer.Typer) -> None:
@@ -210,6 +240,8 @@ def register(app: typer.Typer) -> None:
         resume: bool = typer.Option(False, "--resume", help="Continue a closure run from its last complete cycle."),
         overwrite: bool = typer.Option(False, "--overwrite", help="Replace the run already in --out."),
         no_plots: bool = typer.Option(False, "--no-plots", help="Do not draw the plan-view and progress PNGs."),
+        no_check: bool = typer.Option(False, "--no-check", help="Skip the verdict check (other placement seeds "
+                                      "and the next finer grid, set in the scenario's check table) for a quick look."),
         plot: Optional[Path] = typer.Option(None, help="Calculator scenarios: write the Fig 2.6-style chart to this PNG."),
     ) -> None:
         """Run the closure simulation (default: the embedded scenario), or a calculator-only scenario file."""
@@ -231,7 +263,7 @@ def register(app: typer.Typer) -> None:
                 con.print(f"note: a previous process died holding the lock of {out} ({describe(lock.stale)}); "
                           "its lock was taken over", highlight=False)
             overwrite = check_run_target(scenario, out, resume, overwrite)
-            run_closure_cli(scenario, out, resume, overwrite, not no_plots, con)
+            run_closure_cli(scenario, out, resume, overwrite, not no_plots, con, check=not no_check)
 
     @app.command("model-problem")
     def model_problem_cmd(

@@ -47,6 +47,7 @@ SECTION_PROVIDERS: dict[str, str] = {
     "placement": "breachflow.cycle.config",
     "criteria": "breachflow.cycle.config",
     "ensemble": "breachflow.ensemble.config",
+    "check": "breachflow.cycle.check",
 }
 
 

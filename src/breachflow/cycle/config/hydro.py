@@ -43,7 +43,9 @@ class HydroSection:
     ``solver = "swe"``): a nested fine grid of that cell size around the breach (``window``, default the
     breach ± (B/2 + 3 B) along the levee, ± 3 B across) inside the coarse domain at ``resolution``: the
     coarse open-breach steady state is solved once and is the regional field of the ``nested`` local model
-    (:mod:`breachflow.hydro.nested`) the closure runs on."""
+    (:mod:`breachflow.hydro.nested`) the closure runs on. ``cold_start`` (``cold`` | ``coarse``): the first
+    ``swe`` solve from the initial state on the run's grid, or from the steady state of a grid twice as
+    coarse (:mod:`breachflow.hydro.coarse_start`; docs/verdict-check.md)."""
 
     solver: str = "swe"
     resolution: float = 1.0
@@ -63,13 +65,14 @@ class HydroSection:
     resolve_far_factor: int = 2
     refine: float | None = None
     steady_average: bool = False
+    cold_start: str = "cold"
 
     @classmethod
     def from_table(cls, table, ctx):
         ctx.check_keys(table, {"solver", "resolution", "order", "courant", "tolerance", "t_max_initial", "t_max",
                                "monitor_radius", "snapshots", "window", "threads", "resolve", "resolve_margin",
                                "resolve_edge_level", "resolve_far", "resolve_far_factor", "refine",
-                               "steady_average"})
+                               "steady_average", "cold_start"})
         out = cls(
             solver=ctx.raw(table, "solver", default="swe"),
             resolution=ctx.quantity(table, "resolution", "length", default="1 m", positive=True),
@@ -86,7 +89,12 @@ class HydroSection:
             resolve_far=ctx.raw(table, "resolve_far", default="frozen"),
             resolve_far_factor=ctx.raw(table, "resolve_far_factor", types=(int,), default=2),
             steady_average=ctx.raw(table, "steady_average", types=(bool,), default=False),
+            cold_start=ctx.raw(table, "cold_start", default="cold"),
         )
+        from ...hydro.coarse_start import COLD_STARTS
+
+        if out.cold_start not in COLD_STARTS:
+            raise ctx.error(f"cold_start = {out.cold_start!r}; use one of {list(COLD_STARTS)}", "cold_start")
         if out.threads < 1:
             raise ctx.error(f"threads = {out.threads}: needs at least 1", "threads")
         out.refine = ctx.quantity(table, "refine", "length", positive=True)

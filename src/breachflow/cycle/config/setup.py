@@ -207,6 +207,10 @@ class _WarmStartSWE:
                   section=section, threads=hydro.threads, average=hydro.steady_average)
         self.cold = get_solver("swe", t_max=hydro.t_max_initial, **kw)
         self.warm = get_solver("swe", t_max=hydro.t_max, **kw)
+        if getattr(hydro, "cold_start", "cold") == "coarse":
+            from ...hydro.coarse_start import CoarseStartSWE
+
+            self.cold = CoarseStartSWE(self.cold)
         self.window = None
         if hydro.resolve == "window":
             from ...hydro.window import WindowResolver

@@ -1,0 +1,437 @@
+"""The verdict check of a closure run: other placement seeds and the next finer grid.
+
+A closure verdict computed once, at one cell size and one random placement, can hang on either: a mass
+that rolls at 8 m/s on the breach floor stays at a gap speed of 7.9 m/s and is carried away at 8.1 m/s,
+and the gap speed of a coarse grid is a few per cent below that of a finer one. ``breachflow run``
+therefore checks its answer (``[check]``, on by default; ``--no-check`` for a quick look):
+
+* ``seeds`` placement seeds at the run's cell size (the run's own seed and the next ``seeds - 1``);
+* with ``refine`` the next finer grid: the cell size halved (``grid = "uniform"``) or a nested grid of
+  half the cell size around the breach (``grid = "nested"``, ``[hydro] refine``), on which the open
+  breach is solved (its breach discharge and gap speed against the run's) and ``refine_seeds`` closures
+  are run.
+
+The extra closures are the members of an ensemble (:mod:`breachflow.ensemble`, member runner
+``closure``, design ``members``) in ``RUN/check/``: resumed member by member, run in parallel with
+``workers > 1`` (dask), each in its own run directory. The summary — P(closure) with its Wilson 95 %
+interval, the tonnage in place over seeds × grids, the open breach's flow on both grids — is written to
+``RUN/check.nc`` and to the manifest's ``metadata.check``; the statement says "closed" only when every
+run closed and the grids agree on the flow within ``tolerance``, and names the disagreement otherwise
+("grid-dependent: closed at 4 m, not closable at 2 m").
+"""
+from __future__ import annotations
+
+import json
+import math
+import time as _time
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..scenario.config import register_section
+
+GRIDS = ("uniform", "nested")
+
+
+@register_section("check")
+@dataclass
+class CheckSection:
+    """``[check]``: ``enabled`` (default true), ``seeds`` (placement seeds at the run's cell size, the
+    run's own included; default 3), ``refine`` (also the next finer grid; default true), ``grid``
+    (``uniform``: the whole domain at half the cell size; ``nested``: a nested grid of half the cell size
+    around the breach), ``refine_seeds`` (closures on the finer grid, 0: only its open-breach solve;
+    default 1), ``tolerance`` (relative difference of the open breach's discharge and gap speed between
+    the grids above which the flow is called grid-dependent; default 0.02), ``workers`` (processes for
+    the extra closures; default 1, in this process)."""
+
+    enabled: bool = True
+    seeds: int = 3
+    refine: bool = True
+    grid: str = "uniform"
+    refine_seeds: int = 1
+    tolerance: float = 0.02
+    workers: int = 1
+
+    @classmethod
+    def from_table(cls, table, ctx):
+        ctx.check_keys(table, {"enabled", "seeds", "refine", "grid", "refine_seeds", "tolerance", "workers"})
+        out = cls(enabled=ctx.raw(table, "enabled", types=(bool,), default=True),
+                  seeds=ctx.raw(table, "seeds", types=(int,), default=3),
+                  refine=ctx.raw(table, "refine", types=(bool,), default=True),
+                  grid=ctx.raw(table, "grid", default="uniform"),
+                  refine_seeds=ctx.raw(table, "refine_seeds", types=(int,), default=1),
+                  tolerance=ctx.quantity(table, "tolerance", "dimensionless", default=0.02, default_unit="",
+                                         positive=True),
+                  workers=ctx.raw(table, "workers", types=(int,), default=1))
+        if isinstance(out.seeds, bool) or out.seeds < 1:
+            raise ctx.error(f"seeds = {out.seeds!r}: needs at least 1 (the run's own)", "seeds")
+        if isinstance(out.refine_seeds, bool) or not 0 <= out.refine_seeds <= out.seeds:
+            raise ctx.error(f"refine_seeds = {out.refine_seeds!r}: needs 0 <= refine_seeds <= seeds = {out.seeds}",
+                            "refine_seeds")
+        if out.grid not in GRIDS:
+            raise ctx.error(f"grid = {out.grid!r}; use one of {list(GRIDS)}", "grid")
+        if isinstance(out.workers, bool) or out.workers < 1:
+            raise ctx.error(f"workers = {out.workers!r}: needs at least 1", "workers")
+        return out
+
+
+@dataclass
+class CheckRun:
+    """One closure of the check (or the run itself): its grid, seed and outcome."""
+
+    label: str            #: "4 m", "2 m", "2 m nested"
+    cell_size: float      #: m, the finest cell size at the breach
+    seed: int
+    closed: bool | None   #: None: only the open breach was solved
+    verdict: str = ""
+    tonnage: float = math.nan        #: placed, t
+    lost_tonnage: float = math.nan   #: carried out of the breach area, t
+    cycles: int = 0
+    discharge: float = math.nan      #: open breach's discharge, m³/s
+    gap_mean_speed: float = math.nan  #: open breach's depth-weighted mean gap speed, m/s
+    gap_max_speed: float = math.nan
+    cpu: float = math.nan            #: CPU s of the closure (or solve), NaN when unknown
+    own: bool = False                #: the checked run itself
+    error: str = ""
+
+    @property
+    def in_place(self) -> float:
+        return self.tonnage - (self.lost_tonnage if np.isfinite(self.lost_tonnage) else 0.0)
+
+    @property
+    def outcome(self) -> str:
+        if self.error:
+            return "failed"
+        if self.closed is None:
+            return "open breach only"
+        return "closed" if self.closed else ("not closable" if "not closable" in self.verdict else "not closed")
+
+
+@dataclass
+class CheckResult:
+    """The check's runs and its reading of them."""
+
+    runs: list[CheckRun]
+    tolerance: float
+    statement: str = ""
+    robust: bool = False
+    p_closure: float = math.nan
+    p_interval: tuple = (math.nan, math.nan)
+    tonnage_range: tuple = (math.nan, math.nan)   #: tonnage in place over the closed runs (t)
+    flow_difference: dict = field(default_factory=dict)  #: relative difference fine vs coarse
+    wall_time: float = 0.0
+    cpu_time: float = 0.0
+
+    def rows(self) -> list[tuple[str, str]]:
+        """Lines of the run's summary table."""
+        out = [("verdict check", self.statement)]
+        closures = [r for r in self.runs if r.closed is not None and not r.error]
+        if closures:
+            lo, hi = self.p_interval
+            out.append(("P(closure) over seeds × grids",
+                        f"{self.p_closure:.2f} ({sum(r.closed for r in closures)} of {len(closures)}; "
+                        f"95 % interval {lo:.2f}-{hi:.2f})"))
+        if np.isfinite(self.tonnage_range[0]):
+            out.append(("tonnage in place over the closed runs", f"{self.tonnage_range[0]:,.0f}-{self.tonnage_range[1]:,.0f} t"))
+        for r in self.runs:
+            what = r.outcome if not r.error else f"failed: {r.error}"
+            extra = "" if r.closed is None else f", {r.cycles} cycles, {r.in_place:,.0f} t in place"
+            who = f"{r.label}, seed {r.seed}" if r.seed >= 0 else r.label
+            out.append((f"  {who}{' (this run)' if r.own else ''}",
+                        f"{what}{extra}; open breach {r.discharge:,.0f} m³/s, gap speed {r.gap_mean_speed:.2f} mean / "
+                        f"{r.gap_max_speed:.2f} max m/s"))
+        for k, v in self.flow_difference.items():
+            out.append((f"  grid difference of the open breach's {k}", f"{100 * v:+.2f} % (tolerance {100 * self.tolerance:g} %)"))
+        return out
+
+    def summary(self) -> dict:
+        """JSON-able summary (the manifest's ``metadata.check``)."""
+        return {"statement": self.statement, "robust": self.robust, "p_closure": _f(self.p_closure),
+                "p_closure_interval": [_f(v) for v in self.p_interval],
+                "tonnage_in_place_range_t": [_f(v) for v in self.tonnage_range],
+                "flow_difference": {k: _f(v) for k, v in self.flow_difference.items()}, "tolerance": self.tolerance,
+                "runs": [{"label": r.label, "cell_size_m": r.cell_size, "seed": r.seed, "outcome": r.outcome,
+                          "verdict": r.verdict, "tonnage_t": _f(r.tonnage), "lost_tonnage_t": _f(r.lost_tonnage),
+                          "cycles": r.cycles, "open_breach_discharge_m3_s": _f(r.discharge),
+                          "open_gap_mean_speed_m_s": _f(r.gap_mean_speed), "open_gap_max_speed_m_s": _f(r.gap_max_speed),
+                          "cpu_s": _f(r.cpu), "own": r.own, "error": r.error} for r in self.runs],
+                "wall_time_s": self.wall_time, "cpu_time_s": self.cpu_time}
+
+    def dataset(self):
+        """The check as a CF Dataset along ``run`` (``check.nc``)."""
+        import xarray as xr
+
+        rs = self.runs
+        n = len(rs)
+
+        def var(vals, units, long_name, dtype=float):
+            return ("run", np.asarray(vals, dtype), {"units": units, "long_name": long_name})
+
+        ds = xr.Dataset({
+            "cell_size": var([r.cell_size for r in rs], "m", "finest cell size at the breach"),
+            "seed": var([r.seed for r in rs], "1", "placement seed ([closure] seed)", np.int64),
+            "grid": ("run", np.array([r.label for r in rs], object), {"long_name": "grid of the run"}),
+            "outcome": ("run", np.array([r.outcome for r in rs], object), {"long_name": "outcome of the run"}),
+            "verdict": ("run", np.array([r.verdict for r in rs], object), {"long_name": "why the run ended unclosed"}),
+            "closure_achieved": ("run", np.array([-1 if r.closed is None else int(r.closed) for r in rs], np.int8),
+                                 {"long_name": "closure achieved", "flag_values": np.array([-1, 0, 1], np.int8),
+                                  "flag_meanings": "not_run no yes"}),
+            "tonnage": var([r.tonnage for r in rs], "t", "tonnage placed"),
+            "lost_tonnage": var([r.lost_tonnage for r in rs], "t", "tonnage carried out of the breach area"),
+            "cycles": var([r.cycles for r in rs], "1", "closure cycles run", np.int64),
+            "open_breach_discharge": var([r.discharge for r in rs], "m3 s-1", "breach discharge of the open breach"),
+            "open_gap_mean_speed": var([r.gap_mean_speed for r in rs], "m s-1",
+                                       "depth-weighted mean speed in the gap section of the open breach"),
+            "open_gap_max_speed": var([r.gap_max_speed for r in rs], "m s-1", "largest speed in the gap section of the open breach"),
+            "this_run": ("run", np.array([int(r.own) for r in rs], np.int8), {"long_name": "the checked run itself"}),
+        }, coords={"run": np.arange(n)})
+        ds.attrs.update(title="breachflow verdict check", statement=self.statement, robust=int(self.robust),
+                        p_closure=_f(self.p_closure), p_closure_interval=f"{self.p_interval[0]:.4f} {self.p_interval[1]:.4f}",
+                        tonnage_in_place_range_t=f"{self.tonnage_range[0]:.1f} {self.tonnage_range[1]:.1f}",
+                        tolerance=self.tolerance, Conventions="CF-1.8",
+                        **{f"grid_difference_{k.replace(' ', '_')}": v for k, v in self.flow_difference.items()})
+        return ds
+
+
+def _f(v):
+    return None if v is None or not np.isfinite(v) else float(v)
+
+
+# ---------------------------------------------------------------------------------------------- planning
+def check_members(section: CheckSection, resolution: float, seed: int, *,
+                  refine_allowed: bool = True) -> tuple[list[int], list[int], dict]:
+    """The extra closures: the seeds at the run's *resolution* (m): ``seed + 1 .. seed + seeds - 1``; the
+    seeds on the finer grid (with ``refine``: the first ``refine_seeds``, the run's own first) and the
+    ``[hydro]`` keys of that grid (``resolution`` halved, or ``refine`` at half the cell size)."""
+    coarse = [seed + k for k in range(1, section.seeds)]
+    fine = [seed + k for k in range(section.refine_seeds)] if section.refine and refine_allowed else []
+    half = 0.5 * resolution
+    grid = {"resolution": f"{half:g} m"} if section.grid == "uniform" else {"refine": f"{half:g} m"}
+    return coarse, fine, grid
+
+
+def _label(res: float, refine: float | None) -> str:
+    return f"{res:g} m" if not refine else f"{refine:g} m nested"
+
+
+# ---------------------------------------------------------------------------------------------- running
+def run_check(run_dir, scenario_text: str, scenario_path=None, *, section: CheckSection | None = None,
+              console=None, fresh: bool = False) -> CheckResult:
+    """Check the closure run in *run_dir* (finished) of the scenario *scenario_text*; write ``check.nc``
+    and the manifest's ``metadata.check``; return the :class:`CheckResult`. *fresh*: forget the members
+    of an earlier check (an overwritten run)."""
+    import shutil
+
+    from ..ensemble.spec import EnsembleSpec
+    from ..output import RunDirectory
+    from ..scenario import parse_scenario
+
+    w0, c0 = _time.perf_counter(), _time.process_time()
+    run_dir = Path(run_dir)
+    sc = parse_scenario(scenario_text, path=scenario_path)
+    section = section or sc.get("check") or CheckSection()
+    hydro = sc.get("hydro")
+    res = float(hydro.resolution) if hydro is not None else 1.0
+    refine = getattr(hydro, "refine", None)
+    closure = sc.get("closure")
+    seed = int(getattr(closure, "seed", 0) or 0)
+    rd = RunDirectory(run_dir)
+    man = rd.manifest()
+    own = _run_of(man, res, refine, seed, own=True)
+    runs = [own]
+    # a nested or external-flow run has no "next finer grid" of its own solver; only seeds are checked
+    solver = getattr(hydro, "solver", "swe")
+    refine_allowed = solver == "swe" and refine is None
+    coarse, fine, grid = check_members(section, res, seed, refine_allowed=refine_allowed)
+    out_dir = run_dir / "check"
+    if fresh and out_dir.exists():
+        shutil.rmtree(out_dir)
+    base = tomllib.loads(scenario_text)
+    base.pop("check", None)
+    half = 0.5 * res
+    for name, seeds, hyd in (("seeds", coarse, {}), ("grid", fine, grid)):
+        if not seeds:
+            continue
+        table = {k: dict(v) for k, v in base.items()}
+        table["hydro"] = {**table.get("hydro", {}), **hyd}
+        spec = EnsembleSpec.from_dict({"ensemble": {"name": f"verdict check ({name})", "runner": "closure",
+                                                    "members": [{"closure": {"seed": s}} for s in seeds]}, **table},
+                                      path=Path(scenario_path) if scenario_path else None)
+        records = _execute(spec, out_dir / name, section.workers, console)
+        for s, rec in zip(seeds, records):
+            if hyd.get("refine"):
+                runs.append(_member_run(rec, res, half, s))
+            else:
+                runs.append(_member_run(rec, half if hyd else res, None, s))
+    if section.refine and refine_allowed and section.refine_seeds == 0:
+        runs.append(_open_breach_cached(out_dir / "grid" / f"open_breach_{section.grid}.json", scenario_text, sc,
+                                        scenario_path, res, section))
+    result = judge(runs, section.tolerance)
+    result.wall_time, result.cpu_time = _time.perf_counter() - w0, _time.process_time() - c0
+    ds = result.dataset()
+    tmp = run_dir / "check.nc.tmp"
+    ds.to_netcdf(tmp)
+    tmp.replace(run_dir / "check.nc")
+    rd.update_metadata(check=result.summary())
+    return result
+
+
+def _execute(spec, out_dir: Path, workers: int, console) -> list[dict]:
+    """Run the members (the ensemble machinery: member directories, result records, resume); in this
+    process with one worker, on a dask local cluster otherwise."""
+    from ..ensemble.execute import RESULT_FILE, execute_member, plan, run
+    from ..ensemble.io import read_json
+
+    if workers > 1:
+        from rich.console import Console
+
+        ds = run(spec, out=out_dir, workers=workers, progress=False, console=console or Console(stderr=True, quiet=True))
+        _, _, _, tasks = plan(spec, out_dir)
+        return [read_json(Path(t.run_dir) / RESULT_FILE) or {} for t in tasks]
+    _, _, _, tasks = plan(spec, out_dir)
+    out = []
+    for t in tasks:
+        rec = read_json(Path(t.run_dir) / RESULT_FILE)
+        if not (rec and rec.get("key") == t.scenario.key and rec.get("status") == "ok"):
+            rec = execute_member(t)
+        rec["run_dir"] = t.run_dir
+        out.append(rec)
+    return out
+
+
+def _run_of(man: dict, res: float, refine, seed: int, *, own: bool = False, cpu: float = math.nan) -> CheckRun:
+    """A :class:`CheckRun` from a closure run's manifest."""
+    cycles = man.get("cycles", [])
+    last = cycles[-1]["summary"] if cycles else {}
+    ini = man.get("metadata", {}).get("initial", {})
+    verdict = str(man.get("final", {}).get("verdict", ""))
+    return CheckRun(label=_label(res, refine), cell_size=float(refine or res), seed=seed, closed=bool(last.get("closed")),
+                    verdict=verdict, tonnage=float(last.get("tonnage", 0.0)),
+                    lost_tonnage=float(last.get("lost_tonnage", 0.0)), cycles=len(cycles),
+                    discharge=float(ini.get("breach_discharge", math.nan)),
+                    gap_mean_speed=float(ini.get("gap_mean_speed", math.nan)),
+                    gap_max_speed=float(ini.get("gap_max_speed", math.nan)), cpu=cpu, own=own)
+
+
+def _member_run(rec: dict, res: float, refine, seed: int) -> CheckRun:
+    if rec.get("status") != "ok":
+        return CheckRun(label=_label(res, refine), cell_size=float(refine or res), seed=seed, closed=None,
+                        error=f"{rec.get('error_type', '?')}: {rec.get('error_message', 'not run')}")
+    man = json.loads((Path(rec["run_dir"]) / "closure" / "manifest.json").read_text())
+    return _run_of(man, res, refine, seed, cpu=float(rec.get("cpu_time", math.nan)))
+
+
+def _open_breach_cached(path: Path, text: str, sc, scenario_path, res: float, section: CheckSection) -> CheckRun:
+    """:func:`_open_breach_on`, kept in *path* (JSON) for the same scenario text: a resumed check does not
+    solve it again."""
+    import dataclasses
+    import hashlib
+
+    from ..ensemble.io import atomic_write_json, read_json
+
+    key = hashlib.sha256(text.encode()).hexdigest()
+    rec = read_json(path)
+    if rec and rec.get("scenario_sha256") == key:
+        return CheckRun(**{k: math.nan if v is None and k != "closed" else v for k, v in rec["run"].items()})
+    run = _open_breach_on(sc, scenario_path, res, section)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    atomic_write_json(path, {"scenario_sha256": key, "run": {k: _f(v) if isinstance(v, float) else v
+                                                             for k, v in dataclasses.asdict(run).items()}})
+    return run
+
+
+def _open_breach_on(sc, scenario_path, res: float, section: CheckSection) -> CheckRun:
+    """The open breach solved on the finer grid (no closure): its discharge and gap speeds."""
+    from .config import closure_setup
+    from .criteria import gap_section_speeds, section_discharge
+
+    hydro = sc["hydro"]
+    old = (hydro.resolution, hydro.refine)
+    fine = 0.5 * res
+    try:
+        if section.grid == "uniform":
+            hydro.resolution = fine
+        else:
+            hydro.refine = fine
+        c0 = _time.process_time()
+        setup = closure_setup(sc)
+        snap = setup.solver.solve(setup.domain)
+        cpu = _time.process_time() - c0
+    finally:
+        hydro.resolution, hydro.refine = old
+    q = section_discharge(snap, setup.breach_x, setup.levee_y)
+    gmax, gmean = gap_section_speeds(snap, setup.breach_x, setup.levee_y)
+    return CheckRun(label=_label(res if section.grid == "nested" else fine, fine if section.grid == "nested" else None),
+                    cell_size=fine, seed=-1, closed=None, discharge=float(q), gap_mean_speed=float(gmean),
+                    gap_max_speed=float(gmax), cpu=cpu)
+
+
+# ---------------------------------------------------------------------------------------------- judging
+def judge(runs: list[CheckRun], tolerance: float) -> CheckResult:
+    """Read the runs: P(closure), tonnage range, grid differences of the open breach, the statement."""
+    from ..ensemble.dataset import wilson_interval
+
+    out = CheckResult(runs=runs, tolerance=tolerance)
+    done = [r for r in runs if r.closed is not None and not r.error]
+    n, k = len(done), sum(bool(r.closed) for r in done)
+    if n:
+        out.p_closure = k / n
+        lo, hi = wilson_interval(k, n)
+        out.p_interval = (float(lo), float(hi))
+    placed = [r.in_place for r in done if r.closed]
+    if placed:
+        out.tonnage_range = (float(min(placed)), float(max(placed)))
+    coarse = runs[0]
+    size = coarse.cell_size
+    fine = [r for r in runs if r.cell_size < size and not r.error and np.isfinite(r.discharge)]
+    if fine:
+        f = fine[0]
+        for name, a, b in (("breach discharge", coarse.discharge, f.discharge),
+                           ("gap mean speed", coarse.gap_mean_speed, f.gap_mean_speed),
+                           ("gap max speed", coarse.gap_max_speed, f.gap_max_speed)):
+            if np.isfinite(a) and np.isfinite(b) and a != 0:
+                out.flow_difference[name] = (b - a) / abs(a)
+    by_grid: dict[str, list[CheckRun]] = {}
+    for r in done:
+        by_grid.setdefault(r.label, []).append(r)
+    words = {g: _grid_words(rs) for g, rs in by_grid.items()}
+    failed = [r for r in runs if r.error]
+    flow_off = {k: v for k, v in out.flow_difference.items() if k != "gap max speed" and abs(v) > tolerance}
+    grid_note = ""
+    if flow_off:
+        grid_note = "; open-breach flow not grid-converged (" + ", ".join(
+            f"{k} {100 * v:+.1f} %" for k, v in flow_off.items()) + f" on the finer grid, tolerance {100 * tolerance:g} %)"
+    if failed:
+        grid_note += f"; {len(failed)} check run(s) failed"
+    if len({w for w in words.values()}) > 1 and any(all(r.closed for r in rs) for rs in by_grid.values()) \
+            and any(not any(r.closed for r in rs) for rs in by_grid.values()):
+        out.statement = "grid-dependent: " + ", ".join(f"{w} at {g}" for g, w in words.items()) + grid_note
+    elif 0 < k < n:
+        out.statement = (f"seed-dependent: closed in {k} of {n} runs (P(closure) = {k / n:.2f}; "
+                         + ", ".join(f"{w} at {g}" for g, w in words.items()) + ")" + grid_note)
+    elif n and k == n:
+        if flow_off or failed:
+            out.statement = "closed in every run, but unconfirmed" + grid_note
+        else:
+            grids = ", ".join(by_grid)
+            out.statement = f"closed in all {n} runs ({grids}; {len({r.seed for r in done})} seeds)" + grid_note
+            out.robust = True
+    elif n:
+        out.statement = f"not closed in any of {n} runs ({', '.join(f'{w} at {g}' for g, w in words.items())})" + grid_note
+        out.robust = not flow_off and not failed
+    else:
+        out.statement = "no check run completed" + grid_note
+    return out
+
+
+def _grid_words(rs: list[CheckRun]) -> str:
+    k = sum(bool(r.closed) for r in rs)
+    if k == len(rs):
+        return "closed" if len(rs) == 1 else f"closed ({k} of {k} seeds)"
+    if k == 0:
+        outs = {r.outcome for r in rs}
+        word = "not closable" if outs == {"not closable"} else "not closed"
+        return word if len(rs) == 1 else f"{word} (0 of {len(rs)} seeds)"
+    return f"closed in {k} of {len(rs)} seeds"
