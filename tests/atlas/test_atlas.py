@@ -264,3 +264,53 @@ def test_resume_reuses_records_and_a_changed_district_recomputes(atlas_runs, tmp
     assert np.all(other.closure_window_h.values < ds.closure_window_h.values)  # a smaller polder fills sooner
     rec = json.loads((out / "locations" / "0000.json").read_text())
     assert rec["result"]["status"] == "ok"
+
+
+@pytest.fixture
+def external_cluster(tmp_path):
+    """A dask scheduler and 2 workers started as separate processes on 127.0.0.1 (as on a cluster's nodes),
+    found through a scheduler file."""
+    import os
+    import subprocess
+    import time
+
+    sched_file = tmp_path / "scheduler.json"
+    env = dict(os.environ, DASK_DISTRIBUTED__WORKER__DAEMON="False")
+    procs = [subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_scheduler", "--host", "127.0.0.1",
+                               "--port", "0", "--no-dashboard", "--scheduler-file", str(sched_file)],
+                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env)]
+    try:
+        t0 = time.monotonic()
+        while not sched_file.exists() and time.monotonic() - t0 < 60:
+            time.sleep(0.2)
+        assert sched_file.exists(), "the dask scheduler did not start within 60 s"
+        for _ in range(2):
+            procs.append(subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_worker", "--scheduler-file",
+                                           str(sched_file), "--nthreads", "1", "--nworkers", "1", "--no-dashboard",
+                                           "--host", "127.0.0.1"],
+                                          stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env))
+        from distributed import Client
+
+        with Client(scheduler_file=str(sched_file), timeout=60) as c:
+            c.wait_for_workers(2, timeout=120)
+        yield sched_file
+    finally:
+        for p in reversed(procs):
+            p.terminate()
+        for p in procs:
+            try:
+                p.wait(timeout=30)
+            except subprocess.TimeoutExpired:
+                p.kill()
+
+
+def test_an_external_scheduler_gives_the_local_cluster_results(atlas_runs, external_cluster, tmp_path):
+    """The same atlas from a scheduler and workers started by hand (scheduler file, then address)."""
+    path, runs = atlas_runs
+    local = runs[2][1]
+    by_file = run_atlas(path, tmp_path / "by_file", scheduler=str(external_cluster), progress=False)
+    address = json.loads(external_cluster.read_text())["address"]
+    assert address.startswith("tcp://127.0.0.1:")
+    by_address = run_atlas(path, tmp_path / "by_address", scheduler=address, progress=False)
+    for ds in (by_file, by_address):
+        xr.testing.assert_identical(ds.drop_vars("solve_cpu_s"), local.drop_vars("solve_cpu_s"))
