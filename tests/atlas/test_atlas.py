@@ -314,3 +314,40 @@ def test_an_external_scheduler_gives_the_local_cluster_results(atlas_runs, exter
     by_address = run_atlas(path, tmp_path / "by_address", scheduler=address, progress=False)
     for ds in (by_file, by_address):
         xr.testing.assert_identical(ds.drop_vars("solve_cpu_s"), local.drop_vars("solve_cpu_s"))
+
+
+def test_a_lost_workers_locations_are_run_again(small_district, external_cluster, tmp_path):
+    """Kill a worker (SIGKILL) while it screens a location: the scheduler runs its tasks again elsewhere and the
+    atlas completes with every location, equal to a run without the loss."""
+    import os
+    import signal
+    import threading
+    import time
+
+    from distributed import Client
+
+    path = _district(small_district, flow="swe", spacing="150 m")
+    with Client(scheduler_file=str(external_cluster), timeout=60) as client:
+        reference = run_atlas(path, tmp_path / "reference", client=client, progress=False)
+        pids = client.run(os.getpid)
+        result, killed = {}, {}
+
+        def run():
+            result["ds"] = run_atlas(path, tmp_path / "lossy", client=client, progress=False)
+
+        th = threading.Thread(target=run)
+        th.start()
+        t0 = time.monotonic()
+        while not killed and th.is_alive() and time.monotonic() - t0 < 120:
+            busy = {w: ts for w, ts in client.processing().items() if any(str(t).startswith("atlas-screen") for t in ts)}
+            if busy:
+                victim = sorted(busy)[0]
+                os.kill(pids[victim], signal.SIGKILL)
+                killed[victim] = list(busy[victim])
+            time.sleep(0.05)
+        th.join(timeout=600)
+    assert killed, "no worker was caught screening a location"
+    ds = result["ds"]
+    assert ds.sizes["location"] == reference.sizes["location"] >= 8
+    assert all(json.loads(p.read_text())["result"]["status"] == "ok" for p in (tmp_path / "lossy" / "locations").iterdir())
+    xr.testing.assert_identical(ds.drop_vars("solve_cpu_s"), reference.drop_vars("solve_cpu_s"))
