@@ -351,3 +351,61 @@ def test_a_lost_workers_locations_are_run_again(small_district, external_cluster
     assert ds.sizes["location"] == reference.sizes["location"] >= 8
     assert all(json.loads(p.read_text())["result"]["status"] == "ok" for p in (tmp_path / "lossy" / "locations").iterdir())
     xr.testing.assert_identical(ds.drop_vars("solve_cpu_s"), reference.drop_vars("solve_cpu_s"))
+
+
+# ------------------------------------------------------------------------------------------ detailed tier
+def test_detailed_tier_spec_takes_the_worst_locations_with_their_screening_figures(atlas_runs):
+    from breachflow.atlas.detailed import choose, ensemble_table
+    from breachflow.atlas.execute import plan
+    from breachflow.ensemble.spec import parse_spec
+    from breachflow.scenario import parse_scenario
+    from breachflow.scenario.toml import dump_toml
+
+    path, runs = atlas_runs
+    ds = runs[2][1]
+    district, locations = plan(path)
+    chosen = choose(ds, 2)
+    margins = ds.margin_h.values
+    assert list(chosen) == list(np.argsort(margins, kind="stable")[:2])
+    assert choose(ds, "all") == list(np.argsort(margins, kind="stable"))
+    template = {"hydro": {"resolution": "8 m"}, "criteria": {"max_cycles": 2}}
+    spec = parse_spec(dump_toml(ensemble_table(district, ds, locations, chosen, replicates=3, template=template)),
+                      path=path.parent / "detailed.toml")
+    members = spec.members()
+    assert len(members) == 2 * 3 and spec.replicates == 3
+    by_dim = {p.dotted: p.name for p in spec.parameters}
+    for k, i in enumerate(chosen):
+        m = members[3 * k]
+        assert float(m.values[by_dim["site.breach_at"]].split()[0]) == pytest.approx(locations[i].chainage, abs=0.01)
+        assert float(m.values[by_dim["placement.diameter"]].split()[0]) == pytest.approx(float(ds.stone_size_m[i]),
+                                                                                         abs=0.006)
+        assert float(m.values[by_dim["breach.discharge"]].split()[0]) == pytest.approx(
+            float(ds.open_discharge_m3s[i]), abs=0.06)
+    from breachflow.scenario.toml import dump_toml as dump
+
+    scenario = parse_scenario(dump(spec.member_table(members[0])), path=path.parent / "member.toml")
+    assert {"site", "hydro", "criteria", "flood", "polder", "breach"} <= set(scenario.sections)
+    with pytest.raises(BreachflowError, match="must not set \\[site\\]"):
+        ensemble_table(district, ds, locations, chosen, replicates=3, template={"site": {}})
+
+
+@pytest.mark.slow
+def test_detailed_tier_runs_the_closure_at_the_worst_location(small_district, tmp_path):
+    """The whole atlas with a [detailed] table: P(closure) and the tonnage range land in the layer."""
+    import pyogrio
+
+    template = tmp_path / "closure.toml"
+    template.write_text('[hydro]\nresolution = "8 m"\ntolerance = "2e-3 1/s"\n\n[placement]\nbatch = 20\n\n'
+                        '[criteria]\nmax_cycles = 3\n')
+    path = _district(small_district, flow="swe", spacing="400 m")
+    text = path.read_text() + f'\n[detailed]\nworst = 1\nreplicates = 2\nscenario = "{template}"\n'
+    path = tmp_path / "district.toml"
+    path.write_text(text)
+    ds = run_atlas(path, tmp_path / "out", workers=2, progress=False)
+    worst = int(np.nanargmin(np.where(np.isfinite(ds.margin_h.values), ds.margin_h.values, np.inf)))
+    p = ds.p_closure.values
+    assert np.isfinite(p[worst]) and 0.0 <= p[worst] <= 1.0
+    assert np.isnan(np.delete(p, worst)).all()
+    assert ds.tonnage_detailed_t_median.values[worst] > 0
+    info = pyogrio.read_info(tmp_path / "out" / "atlas.gpkg", layer="breach_atlas")
+    assert "p_closure" in info["fields"]

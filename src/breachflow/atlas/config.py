@@ -55,7 +55,8 @@ POLDER_KEYS = {"area", "inundation_depth", "pump_capacity"}
 BREACH_KEYS = {"growth", "max_length", "development_time", "flow", "resolution", "manning_n", "t_max", "tolerance"}
 ROCK_KEYS = {"density", "porosity", "side_slope"}
 METHOD_KEYS = {"capacity", "working_hours", "mobilisation", "description"}
-TOP_LEVEL = {"district", "flood", "polder", "breach", "rock", "methods"}
+DETAILED_KEYS = {"worst", "replicates", "scenario"}
+TOP_LEVEL = {"district", "flood", "polder", "breach", "rock", "methods", "detailed"}
 FLOW_MODELS = ("swe", "weir")
 
 
@@ -110,6 +111,8 @@ class District:
     porosity: float
     side_slope: float
     methods: tuple[ClosureMethod, ...] = field(default_factory=tuple)
+    #: the ``[detailed]`` table (worst, replicates, scenario path), or None: screening only
+    detailed: dict | None = None
 
 
 def load_district(path) -> District:
@@ -200,6 +203,18 @@ def parse_district(text: str, path: Path | None = None) -> District:
             raise cm.error(f"working_hours is per day: at most 24 h, got {methods[-1].working_hours / 3600:g} h",
                            "working_hours")
 
+    detailed = None
+    if "detailed" in table:
+        t, ct = table["detailed"], ctx("detailed")
+        ct.check_keys(t, DETAILED_KEYS)
+        worst = t.get("worst", 5)
+        if not (worst == "all" or (isinstance(worst, int) and not isinstance(worst, bool) and worst >= 1)):
+            raise ct.error(f"expected a positive integer or \"all\", got {worst!r}", "worst")
+        reps = t.get("replicates", 4)
+        if not (isinstance(reps, int) and not isinstance(reps, bool) and reps >= 1):
+            raise ct.error(f"expected a positive integer, got {reps!r}", "replicates")
+        detailed = {"worst": worst, "replicates": reps, "scenario": ct.file(t, "scenario")}
+
     base = path.parent if path is not None else Path.cwd()
     return District(
         path=path, name=c.raw(d, "name", default=path.stem if path else "district"),
@@ -220,5 +235,5 @@ def parse_district(text: str, path: Path | None = None) -> District:
         tolerance=cb.quantity(b, "tolerance", "1/s", default="2e-3 1/s", default_unit="1/s", positive=True),
         rock_density=cr.quantity(r, "density", "density", default="2650 kg/m^3", positive=True),
         porosity=porosity, side_slope=float(cr.raw(r, "side_slope", types=(int, float), default=1.5)),
-        methods=tuple(methods),
+        methods=tuple(methods), detailed=detailed,
     )

@@ -82,13 +82,15 @@ def screen_location(district: District, loc: Location, record_path: str, key: st
 
 
 def run_atlas(district, out, *, scheduler: str | None = None, workers: int | None = None, client=None,
-              resume: bool = True, progress: bool = True, console=None, write: bool = True):
+              resume: bool = True, progress: bool = True, console=None, write: bool = True,
+              detailed: bool | None = None):
     """Screen every candidate location of a district and write the atlas; returns its Dataset.
 
     *district*: a path or a :class:`~breachflow.atlas.config.District`. *out*: the output directory.
     Execution: an existing dask *client*, a *scheduler* address (``tcp://host:8786``) or scheduler file
     (``*.json``), or a local cluster of *workers* processes (default: one per core). *resume*: reuse the
-    records of an earlier run into *out* whose inputs are unchanged.
+    records of an earlier run into *out* whose inputs are unchanged. *detailed*: run the detailed tier
+    (:mod:`breachflow.atlas.detailed`; default: when the district file has a ``[detailed]`` table).
     """
     from rich.console import Console
 
@@ -122,6 +124,16 @@ def run_atlas(district, out, *, scheduler: str | None = None, workers: int | Non
         _execute(district, locations, keys, paths, pending, records, scheduler=scheduler, workers=workers,
                  client=client, progress=progress, console=console)
     ds = build_dataset(district, locations, records)
+    if detailed is None:
+        detailed = district.detailed is not None
+    if detailed:
+        from .detailed import run_detailed
+
+        if district.detailed is None:
+            raise InputError("the detailed tier needs a [detailed] table in the district file (worst, replicates, "
+                             "scenario)")
+        ds = run_detailed(district, ds, locations, out, client=client, scheduler=scheduler, workers=workers,
+                          progress=progress, console=console)
     if write:
         for p in write_outputs(ds, district, locations, out):
             console.print(f"wrote {p}", highlight=False)

@@ -124,8 +124,10 @@ def write_geopackage(ds: xr.Dataset, lines: list, path: Path, crs_wkt: str | Non
     values += [np.array([names[int(k)] for k in ds["feasibility"].values], object),
                np.array([m.decode() if isinstance(m, bytes) else str(m) for m in ds["method"].values], object),
                np.array([m.decode() if isinstance(m, bytes) else str(m) for m in ds["message"].values], object)]
-    fields += ["p_closure"]
-    values += [np.full(ds.sizes["location"], np.nan)]  # the detailed tier fills it
+    for name in ("p_closure", "p_closure_lower", "p_closure_upper", "tonnage_detailed_t_median",
+                 "duration_detailed_h_median"):
+        fields.append(name)  # NaN (null) where the detailed tier did not run
+        values.append(ds[name].values.astype(float) if name in ds else np.full(ds.sizes["location"], np.nan))
     geoms = shapely.to_wkb(np.array(lines, dtype=object))
     with atomic_path(path) as tmp:
         pyogrio.raw.write(str(tmp), geoms, values, fields, layer=LAYER, driver="GPKG", geometry_type="LineString",

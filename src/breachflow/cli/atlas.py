@@ -21,6 +21,9 @@ def register(app: typer.Typer) -> None:
         resume: bool = typer.Option(True, help="Reuse the locations an earlier run into --out computed with the same "
                                                "inputs."),
         progress: bool = typer.Option(True, help="Show progress over locations."),
+        detailed: Optional[bool] = typer.Option(None, "--detailed/--screening-only",
+                                                help="Run the closure simulation at the worst locations (default: when "
+                                                     "the district file has a [detailed] table)."),
     ) -> None:
         """Screen every candidate breach along a district's levee: breach growth, open-breach flow, closure
         window, stone size, tonnage and the closure methods that fit; write a NetCDF along `location`, a
@@ -30,7 +33,7 @@ def register(app: typer.Typer) -> None:
 
         console = _console()
         ds = run_atlas(district, out, scheduler=scheduler, workers=workers, resume=resume, progress=progress,
-                       console=console)
+                       console=console, detailed=detailed)
         console.print(summary(ds))
 
 
