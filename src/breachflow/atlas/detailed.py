@@ -62,7 +62,10 @@ def ensemble_table(district: District, ds: xr.Dataset, locations: list[Location]
         m = {"site.breach_at": f"{loc.chainage:.2f} m", "site.breach_length": f"{float(ds.breach_length_m[i]):.2f} m",
              "site.breach_bottom": f"{loc.protected_ground:.3f} m",
              "flood.surge_height": f"{float(ds.head_m[i]):.3f} m",
-             "breach.discharge": f"{float(ds.open_discharge_m3s[i]):.1f} m^3/s"}
+             # the window's Q_D = h_W B v is the screening's open-breach discharge (a varied breach.discharge
+             # would be named like the window runner's result breach_discharge)
+             "breach.length": f"{float(ds.breach_length_m[i]):.2f} m",
+             "breach.mean_velocity": f"{_mean_velocity(ds, i):.4f} m/s"}
         if "diameter" not in template.get("placement", {}):
             m["placement.diameter"] = f"{float(ds.stone_size_m[i]):.2f} m"
         members.append(m)
@@ -134,3 +137,9 @@ def merge(ds: xr.Dataset, res: xr.Dataset, chosen: list[int]) -> xr.Dataset:
     ds.attrs["detailed_tier"] = "closure simulation with placement replicates (breachflow ensemble, runner closure)"
     return ds
 
+
+
+def _mean_velocity(ds: xr.Dataset, i: int) -> float:
+    """``v = Q / (h_W B)``: the mean velocity that makes the closure window's ``Q_D = h_W B v`` the screening's
+    open-breach discharge."""
+    return float(ds.open_discharge_m3s[i]) / (float(ds.head_m[i]) * float(ds.breach_length_m[i]))
