@@ -117,22 +117,28 @@ class Site:
         return d
 
 
-def build_site(spec: SiteSpec, resolution: float, *, align: bool = True) -> Site:
+def build_site(spec: SiteSpec, resolution: float, *, align: bool = True, terrain: Terrain | None = None,
+               levee: LeveeLine | None = None) -> Site:
     """Terrain + levee + breach → :class:`Site` (errors name the file and the value; nothing is written).
 
     *align*: build the grid along the levee at the breach (any direction); False: along the CRS axes
-    (the levee must then run within :data:`~breachflow.site.domain.MAX_SKEW_DEG` of the x axis)."""
+    (the levee must then run within :data:`~breachflow.site.domain.MAX_SKEW_DEG` of the x axis).
+    *terrain*, *levee*: already loaded from the spec's files (a breach atlas builds many sites on one
+    terrain); read from the spec when not given."""
     if not resolution > 0:
         raise InputError(f"[hydro] resolution must be > 0 m, got {resolution}")
-    terrain = load_terrain(spec.terrain, crs=spec.crs, vertical_units=spec.terrain_units, variable=spec.terrain_variable)
+    if terrain is None:
+        terrain = load_terrain(spec.terrain, crs=spec.crs, vertical_units=spec.terrain_units,
+                               variable=spec.terrain_variable)
     if terrain.crs_wkt is None:  # never assumed: the levee, the breach and every output are placed in it
         raise InputError(f"{spec.terrain}: the terrain has no CRS (none in the file, no .prj beside it); state the CRS "
                          f"of its coordinates with [site] crs = \"EPSG:nnnn\" (the levee, the breach and the outputs "
                          f"are placed in it)")
-    levee = load_levee(spec.levee, coords=spec.levee_coords, crs=terrain.crs_wkt if spec.levee is None else None,
-                       source=_w(spec, "levee_coords"))
-    _check_crs(terrain, levee)
-    _check_crosses(terrain, levee)
+    if levee is None:
+        levee = load_levee(spec.levee, coords=spec.levee_coords, crs=terrain.crs_wkt if spec.levee is None else None,
+                           source=_w(spec, "levee_coords"))
+        _check_crs(terrain, levee)
+        _check_crosses(terrain, levee)
     stage = None
     if spec.flood_stage is not None:
         from ..scenario.hydrograph import read_series_csv

@@ -1,0 +1,180 @@
+"""The atlas outputs: a CF NetCDF along ``location``, a GeoPackage of levee reaches and a feasibility map.
+
+All three carry the CRS of the district's terrain. The GeoPackage is written with pyogrio (GDAL's OGR, the
+library GIS programs read it with), one LineString feature per location: the levee reach from halfway to
+the previous location to halfway to the next.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+from ..output.atomic import atomic_path, atomic_write, atomic_write_netcdf
+from .config import District
+from .locations import Location
+from .screening import FIELDS, feasibility_class
+
+#: feasibility classes and their map colours
+CLASSES = {"feasible": "#1a9850", "tight": "#fee08b", "not feasible": "#d73027", "not at risk": "#9e9e9e",
+           "failed": "#000000"}
+LAYER = "breach_atlas"
+
+
+def build_dataset(district: District, locations: list[Location], records: list[dict]) -> xr.Dataset:
+    """Every location's figures along ``location`` (CF: units, long names, the CRS as a grid mapping)."""
+    n = len(locations)
+    res = [r["result"] for r in records]
+    data = {}
+    for name, (units, long_name) in FIELDS.items():
+        vals = np.array([float(r.get(name, np.nan)) for r in res], float)
+        data[name] = ("location", vals, {"units": units, "long_name": long_name, "grid_mapping": "crs"})
+    data["breach_chainage"] = ("location", np.array([loc.chainage for loc in locations]),
+                               {"units": "m", "long_name": FIELDS["breach_chainage"][1]})
+    for m in district.methods:
+        data[f"duration_h_{m.name}"] = ("location", np.array([float(r.get(f"duration_h_{m.name}", np.nan)) for r in res]),
+                                        {"units": "h", "long_name": f"closure duration by {m.name} "
+                                                                     f"({m.capacity * 3.6:g} t/h)"})
+        data[f"feasible_{m.name}"] = ("location", np.array([int(bool(r.get(f"feasible_{m.name}", False))) for r in res],
+                                                           "i1"),
+                                      {"long_name": f"closure by {m.name} ends within the closure window",
+                                       "flag_values": np.array([0, 1], "i1"), "flag_meanings": "no yes"})
+    classes = [feasibility_class(r) for r in res]
+    names = list(CLASSES)
+    data["feasibility"] = ("location", np.array([names.index(c) if c in names else names.index("failed")
+                                                 for c in classes], "i1"),
+                           {"long_name": "closure feasibility", "flag_values": np.arange(len(names), dtype="i1"),
+                            "flag_meanings": " ".join(c.replace(" ", "_") for c in names)})
+    best = [r.get("method", "") for r in res]
+    data["method"] = ("location", np.array(best, dtype="S"), {"long_name": "fastest closure method that fits the "
+                                                                          "window (else the fastest)"})
+    data["message"] = ("location", np.array([r.get("message", "") or "" for r in res], dtype="S"),
+                       {"long_name": "why a location is not screened or the caveat of its figures"})
+    ds = xr.Dataset(data, coords={
+        "location": ("location", np.arange(n, dtype="i4"), {"long_name": "candidate breach index", "units": "1"}),
+        "x": ("location", np.array([loc.x for loc in locations]), {"units": "m", "standard_name": "projection_x_coordinate",
+                                                                    "long_name": "easting of the breach centre"}),
+        "y": ("location", np.array([loc.y for loc in locations]), {"units": "m", "standard_name": "projection_y_coordinate",
+                                                                    "long_name": "northing of the breach centre"}),
+    })
+    from ..site.terrain import load_terrain
+
+    wkt = load_terrain(district.terrain, crs=district.crs, vertical_units=district.terrain_units).crs_wkt
+    ds["crs"] = xr.DataArray(np.int32(0), attrs=_grid_mapping(wkt))
+    for v in ds.data_vars:
+        if v != "crs" and "location" in ds[v].dims and ds[v].dtype.kind == "f":
+            ds[v].attrs.setdefault("grid_mapping", "crs")
+            ds[v].attrs["coordinates"] = "x y"
+    ds.attrs = {"Conventions": "CF-1.8", "featureType": "point", "title": f"breach atlas: {district.name}",
+                "summary": district.description, "source": "breachflow atlas (screening tier)",
+                "flood_level_m": district.flood_level, "spacing_m": district.spacing,
+                "methods": ", ".join(m.name for m in district.methods)}
+    return ds
+
+
+def _grid_mapping(wkt: str | None) -> dict:
+    if not wkt:
+        return {"grid_mapping_name": "unknown"}
+    from pyproj import CRS
+
+    attrs = CRS.from_wkt(wkt).to_cf()
+    attrs["crs_wkt"] = wkt
+    attrs["spatial_ref"] = wkt
+    return attrs
+
+
+def reach_lines(locations: list[Location], levee) -> list:
+    """One LineString per location: the levee from halfway to its neighbours (the line's ends at the ends)."""
+    import shapely
+    from shapely.ops import substring
+
+    s = np.array([loc.chainage for loc in locations])
+    edges = np.concatenate([[0.0], 0.5 * (s[1:] + s[:-1]), [levee.length]])
+    line = shapely.LineString(levee.coords)
+    return [substring(line, float(a), float(b)) for a, b in zip(edges[:-1], edges[1:])]
+
+
+def write_outputs(ds: xr.Dataset, district: District, locations: list[Location], out: Path) -> list[Path]:
+    from .execute import _inputs
+
+    terrain, levee = _inputs(str(district.terrain), str(district.levee), district.crs, district.terrain_units)
+    paths = [atomic_write_netcdf(ds, out / "atlas.nc")]
+    paths.append(write_geopackage(ds, reach_lines(locations, levee), out / "atlas.gpkg", terrain.crs_wkt))
+    paths.append(plot_map(ds, terrain, levee, reach_lines(locations, levee), out / "atlas.png",
+                          title=f"{district.name}: closure feasibility"))
+    return paths
+
+
+def write_geopackage(ds: xr.Dataset, lines: list, path: Path, crs_wkt: str | None) -> Path:
+    """The atlas as a GeoPackage layer :data:`LAYER` of levee reaches (pyogrio)."""
+    import pyogrio.raw
+    import shapely
+
+    fields, values = [], []
+    for name in ["breach_chainage", *FIELDS.keys() - {"breach_chainage"}]:
+        fields.append(name)
+        values.append(ds[name].values.astype(float))
+    for v in ds.data_vars:
+        if v.startswith(("duration_h_", "feasible_")):
+            fields.append(v)
+            values.append(ds[v].values.astype(float if v.startswith("duration") else int))
+    names = list(CLASSES)
+    fields += ["feasibility", "method", "message"]
+    values += [np.array([names[int(k)] for k in ds["feasibility"].values], object),
+               np.array([m.decode() if isinstance(m, bytes) else str(m) for m in ds["method"].values], object),
+               np.array([m.decode() if isinstance(m, bytes) else str(m) for m in ds["message"].values], object)]
+    for name in ("p_closure", "p_closure_lower", "p_closure_upper", "tonnage_detailed_t_median",
+                 "duration_detailed_h_median"):
+        fields.append(name)  # NaN (null) where the detailed tier did not run
+        values.append(ds[name].values.astype(float) if name in ds else np.full(ds.sizes["location"], np.nan))
+    geoms = shapely.to_wkb(np.array(lines, dtype=object))
+    with atomic_path(path) as tmp:
+        pyogrio.raw.write(str(tmp), geoms, values, fields, layer=LAYER, driver="GPKG", geometry_type="LineString",
+                          crs=crs_wkt)
+    return path
+
+
+def plot_map(ds: xr.Dataset, terrain, levee, lines: list, path: Path, *, title: str = "") -> Path:
+    """The levee coloured by feasibility over a shaded terrain, in map coordinates (PNG)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.colors import LightSource
+    from matplotlib.lines import Line2D
+    from matplotlib.ticker import FuncFormatter
+
+    names = list(CLASSES)
+    x0, x1, y0, y1 = terrain.bounds
+    pad = 0.03 * max(x1 - x0, y1 - y0)
+    fig, ax = plt.subplots(figsize=(11, 8), dpi=110, layout="constrained")
+    z = np.ma.masked_invalid(terrain.z)
+    shade = LightSource(azdeg=315, altdeg=45).hillshade(np.nan_to_num(terrain.z, nan=float(np.nanmin(terrain.z))),
+                                                       vert_exag=20.0, dx=abs(terrain.x[1] - terrain.x[0]),
+                                                       dy=abs(terrain.y[1] - terrain.y[0]))
+    ax.imshow(shade, extent=(x0, x1, y0, y1), origin="lower", cmap="gray", alpha=0.6)
+    im = ax.imshow(z, extent=(x0, x1, y0, y1), origin="lower", cmap="terrain", alpha=0.45)
+    for line, k in zip(lines, ds["feasibility"].values):
+        xs, ys = line.xy
+        ax.plot(xs, ys, color=CLASSES[names[int(k)]], lw=5, solid_capstyle="butt")
+    ax.plot(ds.x.values, ds.y.values, "k.", ms=3)
+    for i in range(0, ds.sizes["location"], max(1, ds.sizes["location"] // 10)):
+        ax.annotate(f"{ds.breach_chainage.values[i] / 1000:.1f} km", (ds.x.values[i], ds.y.values[i]),
+                    xytext=(6, 6), textcoords="offset points", fontsize=8)
+    handles = [Line2D([], [], color=c, lw=5, label=f"{n} ({int(np.sum(ds.feasibility.values == i))})")
+               for i, (n, c) in enumerate(CLASSES.items())]
+    ax.legend(handles=handles, loc="best", title="closure feasibility")
+    fmt = FuncFormatter(lambda v, _: f"{v:,.0f}")
+    ax.xaxis.set_major_formatter(fmt)
+    ax.yaxis.set_major_formatter(fmt)
+    ax.set_xlim(x0 - pad, x1 + pad)
+    ax.set_ylim(y0 - pad, y1 + pad)
+    ax.set_aspect("equal")
+    ax.set_xlabel("easting (m)")
+    ax.set_ylabel("northing (m)")
+    ax.set_title(title, fontsize=11)
+    fig.colorbar(im, ax=ax, label="ground elevation (m)", shrink=0.6)
+    atomic_write(path, lambda tmp: fig.savefig(tmp, format="png"))
+    plt.close(fig)
+    return path
