@@ -410,3 +410,31 @@ def test_detailed_tier_runs_the_closure_at_the_worst_location(small_district, tm
     assert ds.tonnage_detailed_t_median.values[worst] > 0
     info = pyogrio.read_info(tmp_path / "out" / "atlas.gpkg", layer="breach_atlas")
     assert "p_closure" in info["fields"]
+
+
+def test_cli_atlas_follows_the_run_conventions(small_district, tmp_path):
+    """`breachflow atlas`: writes its three outputs; a second run into the same --out is refused unless
+    --resume (keeps the records) or --overwrite (computes again); errors name the district file's key."""
+    import subprocess
+
+    path = _district(small_district, flow="weir", spacing="400 m")
+    out = tmp_path / "atlas"
+    cmd = [sys.executable, "-m", "breachflow", "atlas", str(path), "--out", str(out), "--workers", "1"]
+    first = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
+    assert first.returncode == 0, first.stderr
+    assert {"atlas.nc", "atlas.gpkg", "atlas.png"} <= {p.name for p in out.iterdir()}
+    assert "screening locations" in first.stdout + first.stderr
+    again = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
+    assert again.returncode != 0 and "holds an atlas already" in again.stdout + again.stderr
+    stamps = {p.name: p.stat().st_mtime_ns for p in (out / "locations").iterdir()}
+    resumed = subprocess.run(cmd + ["--resume"], capture_output=True, text=True, timeout=600)
+    assert resumed.returncode == 0 and "done earlier (resume)" in resumed.stdout + resumed.stderr
+    assert {p.name: p.stat().st_mtime_ns for p in (out / "locations").iterdir()} == stamps
+    redone = subprocess.run(cmd + ["--overwrite"], capture_output=True, text=True, timeout=600)
+    assert redone.returncode == 0
+    assert all(p.stat().st_mtime_ns > stamps[p.name] for p in (out / "locations").iterdir())
+    bad = tmp_path / "bad.toml"
+    bad.write_text(path.read_text().replace('spacing = "400 m"', 'spacing = "400 kg"'))
+    err = subprocess.run(cmd[:3] + [str(bad), "--out", str(tmp_path / "x")], capture_output=True, text=True, timeout=600)
+    assert err.returncode != 0 and "bad.toml" in err.stdout + err.stderr and "spacing" in err.stdout + err.stderr
+    assert not (tmp_path / "x").exists()

@@ -164,6 +164,7 @@ def _execute(district, locations, keys, paths, pending, records, *, scheduler, w
     from distributed import as_completed
 
     from ..ensemble.execute import _quiet_distributed
+    from ..output.progress import Progress
 
     own_client = own_cluster = None
     try:
@@ -176,7 +177,9 @@ def _execute(district, locations, keys, paths, pending, records, *, scheduler, w
                              [str(paths[i]) for i in pending], [keys[i] for i in pending],
                              key=[f"atlas-screen-{keys[i]}" for i in pending], pure=False, retries=1)
         index = dict(zip(futures, pending))
-        with _Progress(console, len(pending), progress) as advance:
+        failed = 0
+        with Progress("screening locations", total=len(pending), console=console, unit="locations",
+                      quiet=not progress) as bar:
             for fut in as_completed(futures):
                 i = index.pop(fut)
                 try:
@@ -186,49 +189,11 @@ def _execute(district, locations, keys, paths, pending, records, *, scheduler, w
                            "result": {"status": "failed", "message": f"{type(exc).__name__}: {exc}"}}
                 fut.release()
                 records[i] = rec
-                advance(rec["result"].get("status") != "failed")
+                failed += rec["result"].get("status") == "failed"
+                bar.update(advance=1, note=f"{failed} failed" if failed else "")
     finally:
         with _quiet_distributed():
             if own_client is not None:
                 own_client.close()
             if own_cluster is not None:
                 own_cluster.close()
-
-
-class _Progress:
-    """A bar on a terminal, a line every 10 % when piped; counts failed locations."""
-
-    def __init__(self, console, total: int, enabled: bool):
-        self.console, self.total, self.enabled = console, total, enabled
-        self.done = self.failed = 0
-        self.next_line = 0.1
-
-    def __enter__(self):
-        if self.enabled and self.console.is_terminal:
-            from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
-
-            self.bar = Progress(TextColumn("locations"), BarColumn(), MofNCompleteColumn(),
-                                TextColumn("[red]{task.fields[failed]} failed[/]"), TimeElapsedColumn(),
-                                console=self.console)
-            self.bar.start()
-            self.task = self.bar.add_task("locations", total=self.total, failed=0)
-        else:
-            self.bar = None
-        self.t0 = time.perf_counter()
-        return self.advance
-
-    def advance(self, ok: bool) -> None:
-        self.done += 1
-        self.failed += not ok
-        if self.bar is not None:
-            self.bar.update(self.task, advance=1, failed=self.failed)
-        elif self.enabled and (self.done / self.total >= self.next_line or self.done == self.total):
-            self.console.print(f"locations {self.done}/{self.total} ({self.failed} failed, "
-                               f"{time.perf_counter() - self.t0:.0f} s)", highlight=False)
-            while self.next_line <= self.done / self.total:
-                self.next_line += 0.1
-
-    def __exit__(self, *exc):
-        if self.bar is not None:
-            self.bar.stop()
-        return False

@@ -18,8 +18,10 @@ def register(app: typer.Typer) -> None:
                                                 "a scheduler file (*.json). Default: a local cluster."),
         workers: Optional[int] = typer.Option(None, help="Worker processes of the local cluster (default: one per "
                                               "core)."),
-        resume: bool = typer.Option(True, help="Reuse the locations an earlier run into --out computed with the same "
-                                               "inputs."),
+        resume: bool = typer.Option(False, "--resume", help="Continue an atlas in --out: keep the locations an "
+                                    "earlier run computed with the same inputs (as `run --resume`)."),
+        overwrite: bool = typer.Option(False, "--overwrite", help="Compute every location again in an --out that "
+                                       "holds an atlas."),
         progress: bool = typer.Option(True, help="Show progress over locations."),
         detailed: Optional[bool] = typer.Option(None, "--detailed/--screening-only",
                                                 help="Run the closure simulation at the worst locations (default: when "
@@ -32,9 +34,29 @@ def register(app: typer.Typer) -> None:
         from ._common import console as _console
 
         console = _console()
+        check_atlas_target(out, resume, overwrite)
+        if overwrite:
+            import shutil
+
+            shutil.rmtree(out / "locations", ignore_errors=True)
         ds = run_atlas(district, out, scheduler=scheduler, workers=workers, resume=resume, progress=progress,
                        console=console, detailed=detailed)
         console.print(summary(ds))
+
+
+def check_atlas_target(out: Path, resume: bool, overwrite: bool) -> None:
+    """The convention of ``breachflow run`` (docs/cli.md): an --out holding an atlas is continued only with
+    ``--resume`` and computed again only with ``--overwrite``; otherwise refused, naming both."""
+    from ..errors import InputError
+
+    if resume and overwrite:
+        raise InputError("--resume continues an atlas and --overwrite computes it again: give one of them")
+    held = (out / "atlas.nc").exists() or any((out / "locations").glob("*.json"))
+    if resume and not held:
+        raise InputError(f"{out}: nothing to resume (no atlas there); start it without --resume")
+    if held and not (resume or overwrite):
+        raise InputError(f"{out} holds an atlas already; refusing to compute it again. Use --resume to continue it "
+                         f"(locations done are kept), --overwrite to compute every location again, or another --out")
 
 
 def summary(ds):
