@@ -182,6 +182,11 @@ def run_closure_cli(scenario: Path | None, out: Path, resume: bool, overwrite: b
         res = run_closure(scenario, out, resume=resume, overwrite=overwrite, progress=progress, plots=plots,
                           on_start=on_start)
         console.print(summary_table(res.table_rows()))
+        if res.plan is not None:
+            from ..cycle.plan import plan_lines
+
+            for line in plan_lines(res.plan):
+                console.print(line, highlight=False, markup=False)
         for p in res.plots:
             console.print(f"wrote {p}", highlight=False)
     except BaseException as exc:

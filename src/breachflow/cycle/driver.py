@@ -123,6 +123,9 @@ class ClosureSetup:
     #: grid ↔ map coordinates of a site whose grid runs along its levee (:class:`breachflow.site.frame.GridFrame`):
     #: everything above is in grid coordinates; the cycle files get the map coordinates (None: grid = map)
     frame: object = None
+    #: the closure in time (:class:`~breachflow.cycle.timeline.Timeline`, ``[closure] method``): operation
+    #: time from the tonnes delivered, flood stage and polder level per cycle (None: ``[placement] rate``)
+    timeline: object = None
 
 
 @dataclass
@@ -169,6 +172,11 @@ class CycleReport:
     #: largest, and depth-weighted mean (:func:`~breachflow.cycle.criteria.gap_section_speeds`), m/s
     gap_max_speed: float = 0.0
     gap_mean_speed: float = 0.0
+    #: flood-side and polder water levels of the cycle's solve (m, datum of the bed; polder NaN without a timeline)
+    flood_level: float = float("nan")
+    polder_level: float = float("nan")
+    #: the timeline's state after the cycle (:meth:`~breachflow.cycle.timeline.Timeline.state`; {} without one)
+    timeline: dict = field(default_factory=dict)
 
     def as_dict(self) -> dict:
         d = dict(self.__dict__)
@@ -215,12 +223,16 @@ class ClosureRun(CycleDem):
             self._q_open = float(self.rundir.manifest().get("metadata", {}).get("initial", {}).get(
                 "breach_discharge", float("nan")))
             closed = bool(self.rundir.manifest()["cycles"][-1]["summary"].get("closed"))
+            if s.timeline is not None:  # the clock and the polder where the last complete cycle left them
+                s.timeline.restore(self.rundir.manifest()["cycles"][-1]["summary"]["timeline"])
             if closed or self.rundir.manifest().get("finished"):
                 return self.reports
         else:
             g0 = 0
             rec = self._initial_record()
             t0, c0 = _time.perf_counter(), _time.process_time()
+            if s.timeline is not None:  # the breach grows and the polder fills until the start of the closure
+                s.timeline.begin()
             snapshot = s.solver.solve(s.domain)
             self.initial_solve_time = _time.perf_counter() - t0
             initial_solve_cpu = _time.process_time() - c0
@@ -229,6 +241,10 @@ class ClosureRun(CycleDem):
             ctx0 = CycleContext(cycle=0, snapshot=snapshot, breach_x=s.breach_x, levee_y=s.levee_y)
             self._q_open = section_discharge(snapshot, s.breach_x, s.levee_y)
             gmax, gmean = gap_section_speeds(snapshot, s.breach_x, s.levee_y)
+            if s.timeline is not None:
+                s.timeline.record(self._q_open, "start")
+                self.rundir.update_metadata(timeline_start={**s.timeline.state(),
+                                                            "prestart": list(s.timeline.history)})
             self.rundir.update_metadata(initial={
                 "max_speed": MaxSpeed("0 m/s", region="domain").value(ctx0),
                 "discharge_proxy": DischargeProxy("0 m^3/s").value(ctx0),
@@ -278,6 +294,8 @@ class ClosureRun(CycleDem):
         rel = s.placement.release(g, s.seed, surface_at, pile=sill)
         new_ids = self._add(sim, rel.pos, rel.radius, rel.density)
         placed_cycle = np.concatenate([rec["placed_cycle"], np.full(len(new_ids), g, np.int32)])
+        if s.timeline is not None:  # the operation time after delivering every mass placed so far
+            s.timeline.advance(float(sim.state.mass[:sim.state.n].sum()))
         # 3. settle in the frozen field, recording the moving masses
         steps0, ps0 = sim.steps, sim.particle_steps
         moving = np.flatnonzero(sim.state.awake & sim.state.active)
@@ -298,7 +316,7 @@ class ClosureRun(CycleDem):
         # emergent (blocked) where the pile reaches the flood-side level, the highest level a steady flow fed
         # from there can back up to: not the previous surface, which the pile itself raised (and which is
         # the old top in the cells it blocked), so a blocked cell stayed blocked only by chance (issue 16)
-        flood = np.full(dom.shape, float(s.flood_level))
+        flood = np.full(dom.shape, float(s.flood_level if s.timeline is None else s.timeline.flood_level))
         if s.pile_sampling == "cell_average":
             obstacle, bed = remap_cells(self._pile.lift, self._pile.level, dom.bed, flood, s.remap_mode)
         else:
@@ -352,6 +370,8 @@ class ClosureRun(CycleDem):
         max_speed = MaxSpeed("0 m/s", region="domain").value(ctx)
         proxy = DischargeProxy("0 m^3/s").value(ctx)
         q_breach = section_discharge(new_snapshot, s.breach_x, s.levee_y)
+        if s.timeline is not None:
+            s.timeline.record(q_breach)
         gap_max, gap_mean = gap_section_speeds(new_snapshot, s.breach_x, s.levee_y)
         # 6. write the cycle
         masses = int(st.n)
@@ -373,6 +393,11 @@ class ClosureRun(CycleDem):
                           seepage_discharge=ctx.seepage_discharge,
                           not_at_rest=int((st.active[:st.n] & ~resting[:st.n]).sum()),
                           gap_max_speed=gap_max, gap_mean_speed=gap_mean)
+        if s.timeline is not None:
+            rep.operation_time, rep.timeline = s.timeline.time, s.timeline.state()
+            rep.flood_level, rep.polder_level = s.timeline.flood_level, s.timeline.polder_level
+        else:
+            rep.flood_level = float(s.flood_level)
         t_out = _time.perf_counter()
         field_ds = validate(self._field_dataset(new_snapshot, st, placed_cycle, resting, rep), "closure_cycle")
         traj = None
@@ -474,6 +499,9 @@ class ClosureRun(CycleDem):
                         placement_strategy=self.setup.placement.positions)
         for r in rep.criteria:
             ds.attrs[f"criterion_{r.name}"] = f"{r.value:.6g} {r.units} (threshold {r.threshold:.6g}, {'met' if r.satisfied else 'not met'})"
+        from .timeline import cycle_variables
+
+        ds = ds.assign(cycle_variables(rep, self.setup.timeline))
         if self.setup.frame is not None:
             ds = self.setup.frame.georeference(ds)
         return with_cycle_dimension(ds, rep.cycle)
