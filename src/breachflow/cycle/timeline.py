@@ -106,6 +106,9 @@ class Timeline:
     breach_date: object = None
     ground: float | None = None  #: protected-side ground (m): a tailwater above it is imposed
     weir_coefficient: str = "3.1 ft**0.5/s"
+    #: a constant breach discharge before the start (m³/s; the report's linear model ``Q_D``, §2.4) instead
+    #: of the weir: it flows until the polder meets the flood level
+    prestart_discharge: float | None = None
     prestart_step: float = 600.0
     # state
     time: float = 0.0
@@ -162,6 +165,8 @@ class Timeline:
         tail = max(polder_level - self.bottom, 0.0)
         if tail >= head:
             return 0.0
+        if self.prestart_discharge is not None:
+            return float(self.prestart_discharge)
         b = self.breach_length_at(t)
         if b <= 0:
             return 0.0

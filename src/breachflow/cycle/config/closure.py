@@ -125,6 +125,11 @@ class ClosureSection:
     timeline: TimelineKeys = field(default_factory=TimelineKeys)
 
     @classmethod
+    def extra_schema_keys(cls) -> dict:
+        """The time-coupling keys (:meth:`~breachflow.cycle.config.timeline.TimelineKeys.schema_keys`)."""
+        return TimelineKeys.schema_keys()
+
+    @classmethod
     def from_table(cls, table, ctx):
         ctx.check_keys(table, {"remap", "seed", "area", "loss_limit", "porous_law", "pile_sampling", *TIMELINE_KEYS})
         area = None
