@@ -117,6 +117,7 @@ def run_member(out: Path, method: str, start_h: float, capacity_factor: float, m
     return {"method": method, "start_h": start_h, "closed": plan["closed"], "fits": w["fits"],
             "placed_t": plan["placed_t"], "finish_h": plan["finish_s"] / 3600.0,
             "duration_h": plan["duration_s"] / 3600.0, "window_h": None if w["window_s"] is None else w["window_s"] / 3600.0,
+            "report_window_h": None if w["report_closure_window_s"] is None else w["report_closure_window_s"] / 3600.0,
             "leakage_m3_s": plan["leakage_end"]["breach_discharge_m3_s"], "verdict": plan["verdict"]}
 
 
@@ -143,8 +144,11 @@ def figure(rows, path: Path) -> Path:
                 ax[0].plot(r["start_h"], r["placed_t"], "o", mfc="white", color=line.get_color())
                 ax[1].plot(r["start_h"], r["finish_h"], "o", mfc="white", color=line.get_color())
     windows = [r["window_h"] for r in rows if r["window_h"] is not None]
-    if windows:
-        ax[1].axhline(min(windows), color="red", lw=0.8, ls="--", label="end of the window")
+    if windows:  # reached in a run: the breach balance or the inundation limit of the simulated polder
+        ax[1].axhline(min(windows), color="red", lw=0.8, ls="--", label="end of the window (simulated polder)")
+    report = [r["report_window_h"] for r in rows if r.get("report_window_h") is not None]
+    if report:
+        ax[1].axhline(report[0], color="grey", lw=0.8, ls=":", label="report's linear closure window")
     ax[0].set_xlabel("start of the closure after the breach (h)")
     ax[0].set_ylabel("placed (t)")
     ax[1].set_xlabel("start of the closure after the breach (h)")

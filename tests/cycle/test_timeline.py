@@ -265,3 +265,32 @@ def test_cycle_variables_carry_cf_units_and_the_breach_date():
     assert cycle_variables(Rep, None)["operation_time"].attrs["units"] == "s"
     tl.time = 2 * DAY + 3 * HOUR
     assert str(tl.datetime) == "2004-06-05T10:50:00"
+
+
+def test_cold_start_with_a_filled_polder_starts_its_dry_cells_at_the_polder_level():
+    from breachflow.hydro.terrain import BoundaryCondition, uniform_grid
+
+    dom = uniform_grid(0.0, 4.0, -2.0, 2.0, 1.0)
+    Y = np.meshgrid(dom.x, dom.y)[1]
+    dom.bed = np.where(Y < 0, 0.0, 1.0)
+    dom.bed[2, :] = 6.0  # a levee row
+    dom.initial_surface = np.where(Y < 0, 5.0, np.nan)
+    dom.boundaries = {"south": [BoundaryCondition.water_level(5.0)], "north": [BoundaryCondition.outflow()]}
+
+    class Capture:
+        def solve(self, domain, obstacles=None, initial=None):
+            self.domain = domain
+            return None
+
+    tl = Timeline(stage=FloodStage.constant(5.0), polder=Polder(area=1e6, initial_level=1.0),
+                  method=delivery_method("split_barge"))
+    tl.polder_level = 3.0
+    inner = Capture()
+    TimelineSolver(inner, tl, lambda level: dom.boundaries).solve(dom)
+    init = inner.domain.initial_surface
+    assert np.all(init[Y < 0] == 5.0) and np.all(np.isnan(init[2, :]))  # flood side as it was, levee dry
+    assert np.all(init[(Y > 0.5)] == 3.0)  # polder cells at the polder level
+    assert inner.domain.boundaries["north"][0].kind == "level"
+    TimelineSolver(inner, tl, lambda level: dom.boundaries).solve(dom, initial=object())  # a warm start: untouched
+    assert inner.domain.initial_surface is dom.initial_surface or np.array_equal(
+        inner.domain.initial_surface, dom.initial_surface, equal_nan=True)

@@ -289,6 +289,13 @@ class TimelineSolver:
         from ..hydro.terrain import _copy_spacing
 
         d = replace(domain, boundaries=self.boundaries())
+        tail = self.timeline.tailwater
+        if initial is None and tail is not None and domain.initial_surface is not None:
+            # a cold start with the polder already filled: its dry cells start at the polder level, not empty
+            # (filling them from the polder edges would be a long transient of no interest)
+            init = np.asarray(domain.initial_surface, float)
+            dry = ~(init > domain.bed)
+            d.initial_surface = np.where(dry & (domain.bed < tail) & ~np.asarray(domain.obstacle, bool), tail, init)
         _copy_spacing(domain, d)
         return self.inner.solve(d, obstacles=obstacles, initial=initial)
 
