@@ -294,3 +294,18 @@ def test_cold_start_with_a_filled_polder_starts_its_dry_cells_at_the_polder_leve
     TimelineSolver(inner, tl, lambda level: dom.boundaries).solve(dom, initial=object())  # a warm start: untouched
     assert inner.domain.initial_surface is dom.initial_surface or np.array_equal(
         inner.domain.initial_surface, dom.initial_surface, equal_nan=True)
+
+
+def test_open_breach_weir_is_freads_weir_and_its_window_is_the_balance():
+    from breachflow.scenario.discharge import weir_discharge
+
+    tl = Timeline(stage=FloodStage.constant(7.6), polder=Polder(area=4.9e7, initial_level=0.0),
+                  method=delivery_method("split_barge"), bottom=0.0, length=61.0, wall_slope=0.5)
+    for zp in (0.0, 3.0, 6.5):
+        ref = weir_discharge("7.6 m", bottom_width="61 m", wall_slope=0.5, tailwater=f"{zp} m" if zp else None)
+        assert tl.weir(0.0, zp) == pytest.approx(ref, rel=1e-9)
+    # a constant discharge over a flat polder: balance at h / r_P (independent arithmetic)
+    tl.prestart_discharge = 1000.0
+    assert tl.open_breach_window() == pytest.approx(7.6 * 4.9e7 / 1000.0, rel=1e-3)
+    assert tl.open_breach_window(inundation_depth=2.0) == pytest.approx(2.0 * 4.9e7 / 1000.0, rel=1e-3)
+    assert tl.time == 0.0 and tl.polder_level == 0.0  # the state is left as it was

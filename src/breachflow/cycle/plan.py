@@ -90,7 +90,10 @@ def closure_plan(rundir, setup, scenario=None) -> dict | None:
         d_i = float(scenario["polder"].inundation_depth)
         deep = [r for r in rows if r["polder_level_m"] - pol.initial_level >= d_i]
         inundation = float(deep[0]["time_s"]) if deep else None
-    limits = [v for v in (balance, inundation) if v is not None]
+    # the closure window of the breach left open (weir of the growing breach, the same flood and polder):
+    # the deadline; the balance or inundation reached during the run (the pile slows the filling) come later
+    open_window = tl.open_breach_window(d_i)
+    limits = [v for v in (balance, inundation, open_window) if v is not None and np.isfinite(v)]
     window_sim = min(limits) if limits else None
     report_window = None
     if scenario is not None and all(k in scenario for k in ("flood", "polder", "breach")) and d_i is not None:
@@ -123,7 +126,8 @@ def closure_plan(rundir, setup, scenario=None) -> dict | None:
                         "polder_rise_m_per_day": pol.rise_per_day(q_end) if np.isfinite(q_end) else None,
                         "pump_capacity_m3_s": pol.pump_capacity,
                         "within_pumps": bool(np.isfinite(q_end) and q_end <= pol.pump_capacity)},
-        "window": {"balance_time_s": balance, "inundation_time_s": inundation, "window_s": window_sim,
+        "window": {"open_breach_window_s": open_window if np.isfinite(open_window) else None,
+                   "balance_time_s": balance, "inundation_time_s": inundation, "window_s": window_sim,
                    "window_date": _date(tl, window_sim), "report_closure_window_s": report_window,
                    "fits": bool(fits)},
         "timeline": rows,
@@ -156,10 +160,13 @@ def plan_lines(plan: dict) -> list[str]:
                  + (f"polder rise {rise * 100:.1f} cm/day, " if rise is not None else "")
                  + f"pumps {leak['pump_capacity_m3_s']:g} m³/s ({'within' if leak['within_pumps'] else 'beyond'} them)")
     parts = []
+    if w["open_breach_window_s"] is not None:
+        parts.append(f"the breach left open would reach the balance or the inundation limit at "
+                     f"{w['open_breach_window_s'] / HOUR:,.1f} h")
     if w["balance_time_s"] is not None:
-        parts.append(f"breach balance at {w['balance_time_s'] / HOUR:,.1f} h")
+        parts.append(f"balance reached in the run at {w['balance_time_s'] / HOUR:,.1f} h")
     if w["inundation_time_s"] is not None:
-        parts.append(f"inundation limit at {w['inundation_time_s'] / HOUR:,.1f} h")
+        parts.append(f"inundation limit reached in the run at {w['inundation_time_s'] / HOUR:,.1f} h")
     if w["report_closure_window_s"] is not None:
         parts.append(f"report's linear window {w['report_closure_window_s'] / HOUR:,.1f} h")
     lines.append("  window  " + ("; ".join(parts) if parts else "no balance or inundation limit reached")

@@ -105,7 +105,8 @@ class Timeline:
     wind: tuple | None = None
     breach_date: object = None
     ground: float | None = None  #: protected-side ground (m): a tailwater above it is imposed
-    weir_coefficient: str = "3.1 ft**0.5/s"
+    #: weir coefficient C (m^0.5/s): the report's 3.1 ft^0.5/s (Fread 1996)
+    weir_coefficient: float = 3.1 * 0.3048 ** 0.5
     #: a constant breach discharge before the start (m³/s; the report's linear model ``Q_D``, §2.4) instead
     #: of the weir: it flows until the polder meets the flood level
     prestart_discharge: float | None = None
@@ -156,8 +157,10 @@ class Timeline:
         return float(min(max(float(self.growth(t)), 0.0), self.length))
 
     def weir(self, t: float, polder_level: float) -> float:
-        """Breach discharge (m³/s) before the start: broad-crested weir over the breach of length B(t)."""
-        from ..scenario.discharge import weir_discharge
+        """Breach discharge (m³/s) before the start: broad-crested weir over the breach of length B(t),
+        ``k_s C (b H^1.5 + (2.45/3.1) m H^2.5)`` (:func:`~breachflow.scenario.discharge.weir_discharge`,
+        Fread's form, submerged by the polder's tailwater)."""
+        from ..scenario.discharge import SIDE_TO_BOTTOM_COEFFICIENT, submergence_factor
 
         head = self.stage(t) - self.bottom
         if head <= 0:
@@ -170,40 +173,63 @@ class Timeline:
         b = self.breach_length_at(t)
         if b <= 0:
             return 0.0
-        import warnings
-
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            return float(weir_discharge(f"{head!r} m", bottom_width=f"{b!r} m", wall_slope=self.wall_slope,
-                                        coefficient=self.weir_coefficient,
-                                        tailwater=f"{tail!r} m" if tail > 0 else None))
+        q = self.weir_coefficient * (b * head ** 1.5 + SIDE_TO_BOTTOM_COEFFICIENT * self.wall_slope * head ** 2.5)
+        return float(q * (submergence_factor(head, tail) if tail > 0 else 1.0))
 
     def begin(self) -> None:
         """Integrate the polder from the breach to the start of the closure (weir discharge of the growing
         breach), leaving the clock at ``start``."""
-        self.time, self.polder_level = 0.0, self.polder.initial_level
         self.history = []
-        q = self.weir(0.0, self.polder_level)
-        self._log("growth", q)
-        t0 = 0.0
-        while t0 < self.start - 1e-9:
+        self.balance_time = None
+        z, q, t, bal = self._open_breach(self.start, log=True)
+        self.polder_level, self.discharge, self.time, self.balance_time = z, q, self.start, bal
+
+    def _open_breach(self, t_end: float, *, log: bool = False, inundation: float | None = None):
+        """The open breach from the breach to *t_end* (or to the balance / the polder *inundation* depth
+        above its initial level, whichever first when *inundation* is given): returns ``(polder level,
+        discharge, time reached, balance time or None)``."""
+        z = self.polder.initial_level
+        self.time, self.polder_level = 0.0, z
+        q = self.weir(0.0, z)
+        if log:
+            self._log("growth", q)
+        t0, bal = 0.0, None
+        while t0 < t_end - 1e-9:
             # steps of at most prestart_step, and short enough that the polder rises by at most 2 % of the head
-            head = max(self.stage(t0) - max(self.polder_level, self.bottom), 0.01)
-            fill = 0.02 * head * self.polder.plan_area(self.polder_level) / max(q, 1e-9)
-            t1 = min(self.start, t0 + max(min(self.prestart_step, fill), 1.0))
+            head = max(self.stage(t0) - max(z, self.bottom), 0.01)
+            fill = 0.02 * head * self.polder.plan_area(z) / max(q, 1e-9)
+            t1 = min(t_end, t0 + max(min(self.prestart_step, fill), 1.0))
             # midpoint discharge (second order): the weir at the half-step level
-            zh, _ = self.polder.step(self.polder_level, 0.5 * (t1 - t0), q, (self.stage(t0), self.stage(0.5 * (t0 + t1))))
-            qm = self.weir(0.5 * (t0 + t1), zh)
-            z1, cross = self.polder.step(self.polder_level, t1 - t0, qm, (self.stage(t0), self.stage(t1)))
-            if cross is not None and self.balance_time is None:
-                self.balance_time = t0 + cross
-            self.time, self.polder_level = t1, z1
+            zh, half_cross = self.polder.step(z, 0.5 * (t1 - t0), q, (self.stage(t0), self.stage(0.5 * (t0 + t1))))
+            qm = self.weir(0.5 * (t0 + t1), zh) if half_cross is None else q  # balance within the half step
+            z1, cross = self.polder.step(z, t1 - t0, qm, (self.stage(t0), self.stage(t1)))
+            if cross is not None and bal is None:
+                bal = t0 + cross
+            if inundation is not None and (bal is not None or z1 - self.polder.initial_level >= inundation):
+                if bal is None:  # the time the polder reached the depth, within the step (linear)
+                    frac = (self.polder.initial_level + inundation - z) / max(z1 - z, 1e-12)
+                    return z1, qm, t0 + frac * (t1 - t0), None
+                return z1, qm, bal, bal
+            z, t0 = z1, t1
             q = self.weir(t1, z1)
-            if len(self.history) < 2 or t1 - self.history[-1]["time"] >= self.prestart_step or t1 >= self.start:
+            self.time, self.polder_level = t1, z1
+            if log and (len(self.history) < 2 or t1 - self.history[-1]["time"] >= self.prestart_step or t1 >= t_end):
                 self._log("growth", q)
-            t0 = t1
-        self.discharge = q
-        self.time = self.start
+            if inundation is not None and q <= self.polder.pump_capacity and self.stage(t1) <= self.stage(t0):
+                return z, q, float("inf"), None  # the pumps keep up with a falling flood: no window end
+        return z, q, t0, bal
+
+    def open_breach_window(self, inundation_depth: float | None = None, horizon: float = 60 * 86400.0):
+        """The closure window of the breach left open (s since the breach): the first of the breach balance
+        and the polder reaching *inundation_depth* (m above its initial level), with the weir discharge of
+        the growing breach as before the start; inf when neither happens within *horizon*. The timeline's
+        state is left as it was."""
+        saved = (self.time, self.polder_level, self.discharge, list(self.history), self.balance_time)
+        try:
+            _, _, t, _ = self._open_breach(horizon, inundation=inundation_depth if inundation_depth else 1e9)
+        finally:
+            self.time, self.polder_level, self.discharge, self.history, self.balance_time = saved
+        return float(t) if t < horizon else float("inf")
 
     # ------------------------------------------------------------------ during the closure
     def advance(self, delivered: float) -> float:
