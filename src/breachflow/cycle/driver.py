@@ -360,7 +360,8 @@ class ClosureRun(CycleDem):
             stab = self._stability(new_rec, resting, new_snapshot)
             stability = f"re-run {d.stability_time:g} s: max displacement {stab:.3g} m"
         ctx = CycleContext(cycle=g, snapshot=new_snapshot, previous=snapshot, pos=st.pos, radius=st.radius,
-                           resting=resting, breach_x=s.breach_x, levee_y=s.levee_y, flood_level=s.flood_level,
+                           resting=resting, breach_x=s.breach_x, levee_y=s.levee_y,
+                           flood_level=s.flood_level if s.timeline is None else s.timeline.flood_level,
                            bottom=s.bottom, stability_displacement=stab,
                            seepage_discharge=self._seepage(new_snapshot, pile), area=s.area,
                            open_breach_discharge=self._q_open)
@@ -444,7 +445,7 @@ class ClosureRun(CycleDem):
         top = self._pile.update(st.pos, st.radius, resting)  # a no-op when the last cycle's update is current
         dom = s.domain
         return PileView.from_grid(dom.x, dom.y, dom.bed, top, p.start, p.stop, band=strategy_band(p),
-                                  level=float(s.flood_level))
+                                  level=float(s.flood_level if s.timeline is None else s.timeline.flood_level))
 
     def _stability(self, rec, resting, snapshot) -> float:
         """Criterion 5: the assembly, every mass awake, re-run in the new flow for ``stability_time``;
