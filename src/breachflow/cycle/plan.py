@@ -135,6 +135,10 @@ def closure_plan(rundir, setup, scenario=None) -> dict | None:
     return plan
 
 
+def _num(x: float) -> str:
+    return f"{x:,.0f}" if abs(x) >= 10 else f"{x:.2g}"
+
+
 def plan_lines(plan: dict) -> list[str]:
     """The closure plan as printed lines."""
     def when(s, d):
@@ -145,7 +149,7 @@ def plan_lines(plan: dict) -> list[str]:
              f"  start   {when(plan['start_s'], plan['start_date'])}",
              f"  finish  {when(plan['finish_s'], plan['finish_date'])}: {plan['duration_days']:.2f} days of operation, "
              f"{'closed' if plan['closed'] else 'NOT closed'}" + (f" ({plan['verdict']})" if plan["verdict"] else ""),
-             f"  tonnage {plan['placed_t']:,.0f} t placed ({plan['placed_t_per_m']:,.0f} t per m of breach), "
+             f"  tonnage {plan['placed_t']:,.0f} t placed ({_num(plan['placed_t_per_m'])} t per m of breach), "
              f"{plan['in_place_t']:,.0f} t in place, {plan['lost_t']:,.0f} t carried away; average "
              f"{plan['average_rate_t_h']:,.0f} t/h"]
     for m in plan["materials"]:
