@@ -200,6 +200,11 @@ def run_closure_cli(scenario: Path | None, out: Path, resume: bool, overwrite: b
             rows += checked.rows() + [("check wall / CPU time", f"{checked.wall_time:.1f} s / {checked.cpu_time:.1f} s"),
                                       ("check results", str(Path(out) / "check.nc"))]
         console.print(summary_table(rows))
+        if res.plan is not None:
+            from ..cycle.plan import plan_lines
+
+            for line in plan_lines(res.plan):
+                console.print(line, highlight=False, markup=False)
         for p in res.plots:
             console.print(f"wrote {p}", highlight=False)
     except BaseException as exc:

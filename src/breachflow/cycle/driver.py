@@ -124,6 +124,9 @@ class ClosureSetup:
     #: grid ↔ map coordinates of a site whose grid runs along its levee (:class:`breachflow.site.frame.GridFrame`):
     #: everything above is in grid coordinates; the cycle files get the map coordinates (None: grid = map)
     frame: object = None
+    #: the closure in time (:class:`~breachflow.cycle.timeline.Timeline`, ``[closure] method``): operation
+    #: time from the tonnes delivered, flood stage and polder level per cycle (None: ``[placement] rate``)
+    timeline: object = None
 
 
 @dataclass
@@ -170,6 +173,11 @@ class CycleReport:
     #: largest, and depth-weighted mean (:func:`~breachflow.cycle.criteria.gap_section_speeds`), m/s
     gap_max_speed: float = 0.0
     gap_mean_speed: float = 0.0
+    #: flood-side and polder water levels of the cycle's solve (m, datum of the bed; polder NaN without a timeline)
+    flood_level: float = float("nan")
+    polder_level: float = float("nan")
+    #: the timeline's state after the cycle (:meth:`~breachflow.cycle.timeline.Timeline.state`; {} without one)
+    timeline: dict = field(default_factory=dict)
 
     def as_dict(self) -> dict:
         d = dict(self.__dict__)
@@ -223,12 +231,16 @@ class ClosureRun(CycleDem):
             self._q_open = float(self.rundir.manifest().get("metadata", {}).get("initial", {}).get(
                 "breach_discharge", float("nan")))
             closed = bool(self.rundir.manifest()["cycles"][-1]["summary"].get("closed"))
+            if s.timeline is not None:  # the clock and the polder where the last complete cycle left them
+                s.timeline.restore(self.rundir.manifest()["cycles"][-1]["summary"]["timeline"])
             if closed or self.rundir.manifest().get("finished"):
                 return self.reports
         else:
             g0 = 0
             rec = self._initial_record()
             t0, c0 = _time.perf_counter(), _time.process_time()
+            if s.timeline is not None:  # the breach grows and the polder fills until the start of the closure
+                s.timeline.begin()
             snapshot = s.solver.solve(s.domain)
             self.initial_solve_time = _time.perf_counter() - t0
             initial_solve_cpu = _time.process_time() - c0
@@ -237,6 +249,10 @@ class ClosureRun(CycleDem):
             ctx0 = CycleContext(cycle=0, snapshot=snapshot, breach_x=s.breach_x, levee_y=s.levee_y)
             self._q_open = section_discharge(snapshot, s.breach_x, s.levee_y)
             gmax, gmean = gap_section_speeds(snapshot, s.breach_x, s.levee_y)
+            if s.timeline is not None:
+                s.timeline.record(self._q_open, "start")
+                self.rundir.update_metadata(timeline_start={**s.timeline.state(),
+                                                            "prestart": list(s.timeline.history)})
             self.rundir.update_metadata(initial={
                 "max_speed": MaxSpeed("0 m/s", region="domain").value(ctx0),
                 "discharge_proxy": DischargeProxy("0 m^3/s").value(ctx0),
@@ -286,6 +302,8 @@ class ClosureRun(CycleDem):
         rel = s.placement.release(g, s.seed, surface_at, pile=sill)
         new_ids = self._add(sim, rel.pos, rel.radius, rel.density)
         placed_cycle = np.concatenate([rec["placed_cycle"], np.full(len(new_ids), g, np.int32)])
+        if s.timeline is not None:  # the operation time after delivering every mass placed so far
+            s.timeline.advance(float(sim.state.mass[:sim.state.n].sum()))
         # 3. settle in the frozen field, recording the moving masses
         steps0, ps0 = sim.steps, sim.particle_steps
         moving = np.flatnonzero(sim.state.awake & sim.state.active)
@@ -306,7 +324,7 @@ class ClosureRun(CycleDem):
         # emergent (blocked) where the pile reaches the flood-side level, the highest level a steady flow fed
         # from there can back up to: not the previous surface, which the pile itself raised (and which is
         # the old top in the cells it blocked), so a blocked cell stayed blocked only by chance (issue 16)
-        flood = np.full(dom.shape, float(s.flood_level))
+        flood = np.full(dom.shape, float(s.flood_level if s.timeline is None else s.timeline.flood_level))
         if s.pile_sampling == "cell_average":
             obstacle, bed = remap_cells(self._pile.lift, self._pile.level, dom.bed, flood, s.remap_mode)
         else:
@@ -350,7 +368,8 @@ class ClosureRun(CycleDem):
             stab = self._stability(new_rec, resting, new_snapshot)
             stability = f"re-run {d.stability_time:g} s: max displacement {stab:.3g} m"
         ctx = CycleContext(cycle=g, snapshot=new_snapshot, previous=snapshot, pos=st.pos, radius=st.radius,
-                           resting=resting, breach_x=s.breach_x, levee_y=s.levee_y, flood_level=s.flood_level,
+                           resting=resting, breach_x=s.breach_x, levee_y=s.levee_y,
+                           flood_level=s.flood_level if s.timeline is None else s.timeline.flood_level,
                            bottom=s.bottom, stability_displacement=stab,
                            seepage_discharge=self._seepage(new_snapshot, pile), area=s.area,
                            open_breach_discharge=self._q_open)
@@ -360,6 +379,8 @@ class ClosureRun(CycleDem):
         max_speed = MaxSpeed("0 m/s", region="domain").value(ctx)
         proxy = DischargeProxy("0 m^3/s").value(ctx)
         q_breach = section_discharge(new_snapshot, s.breach_x, s.levee_y)
+        if s.timeline is not None:
+            s.timeline.record(q_breach)
         gap_max, gap_mean = gap_section_speeds(new_snapshot, s.breach_x, s.levee_y)
         # 6. write the cycle
         masses = int(st.n)
@@ -381,6 +402,11 @@ class ClosureRun(CycleDem):
                           seepage_discharge=ctx.seepage_discharge,
                           not_at_rest=int((st.active[:st.n] & ~resting[:st.n]).sum()),
                           gap_max_speed=gap_max, gap_mean_speed=gap_mean)
+        if s.timeline is not None:
+            rep.operation_time, rep.timeline = s.timeline.time, s.timeline.state()
+            rep.flood_level, rep.polder_level = s.timeline.flood_level, s.timeline.polder_level
+        else:
+            rep.flood_level = float(s.flood_level)
         t_out = _time.perf_counter()
         field_ds = validate(self._field_dataset(new_snapshot, st, placed_cycle, resting, rep), "closure_cycle")
         traj = None
@@ -427,7 +453,7 @@ class ClosureRun(CycleDem):
         top = self._pile.update(st.pos, st.radius, resting)  # a no-op when the last cycle's update is current
         dom = s.domain
         return PileView.from_grid(dom.x, dom.y, dom.bed, top, p.start, p.stop, band=strategy_band(p),
-                                  level=float(s.flood_level))
+                                  level=float(s.flood_level if s.timeline is None else s.timeline.flood_level))
 
     def _stability(self, rec, resting, snapshot) -> float:
         """Criterion 5: the assembly, every mass awake, re-run in the new flow for ``stability_time``;
@@ -476,6 +502,11 @@ class ClosureRun(CycleDem):
         ds.attrs.update(title=f"breachflow closure run {self.setup.name!r}",
                         placement_strategy=self.setup.placement.positions,
                         breach_section=f"{bx[0]:.3f} {bx[1]:.3f} {self.setup.levee_y:.3f}")
+        from .timeline import cycle_variables as timeline_variables
+
+        # flood and polder levels and the operation time of the closure in time (breach_discharge is in the
+        # per-cycle table of output.cycle_variables)
+        ds = ds.assign({k: v for k, v in timeline_variables(rep, self.setup.timeline).items() if k != "breach_discharge"})
         if self.setup.frame is not None:
             ds = self.setup.frame.georeference(ds)
         return with_cycle_dimension(ds, rep.cycle).assign(cycle_variables(rep))

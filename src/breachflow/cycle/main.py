@@ -59,6 +59,8 @@ class ClosureResult:
     #: :func:`~breachflow.cycle.criteria.gap_section_speeds`), m/s; the open breach's are in the manifest
     peak_gap_mean_speed: float = float("nan")
     peak_gap_max_speed: float = float("nan")
+    #: the closure plan of a run in time (``[closure] method``; :func:`~breachflow.cycle.plan.closure_plan`)
+    plan: dict | None = None
 
     @property
     def statement(self) -> str:
@@ -158,7 +160,7 @@ def _run_closure_locked(scenario, out, *, resume, overwrite, progress, plots, on
     last = cycles[-1]["summary"] if cycles else {}
     window = None
     feasible = None
-    if all(k in sc for k in ("flood", "polder", "breach")):
+    if all(k in sc for k in ("flood", "polder", "breach")) and sc["polder"].inundation_depth is not None:
         from ..scenario import closure_window
 
         w = closure_window(**sc.window_kwargs())
@@ -185,11 +187,19 @@ def _run_closure_locked(scenario, out, *, resume, overwrite, progress, plots, on
         int(last.get("left_domain", 0)), int(last.get("not_at_rest", 0)), res.masses,
         float(np.mean(setup.placement.diameter)),
         res.estimate.d_izbash_exposed if res.estimate is not None else None)
+    if setup.timeline is not None:  # the closure in time: its plan (closure_plan.json, closure_plan.png)
+        from .plan import write_closure_plan
+
+        res.plan = write_closure_plan(run.rundir, setup, sc, plot=plots)
+        if res.plan is not None:  # judged against the simulated polder and flood, not the linear model
+            res.feasible = bool(res.plan["window"]["fits"])
+        if res.plan is not None and res.plan.get("plot"):
+            res.plots.append(Path(res.plan["plot"]))
     if plots and cycles:
         from .plots import plot_closure_progress, plot_plan_view
 
         res.plots = [plot_plan_view(run.rundir, Path(out) / "plan_view.png"),
-                     plot_closure_progress(run.rundir, Path(out) / "closure_progress.png")]
+                     plot_closure_progress(run.rundir, Path(out) / "closure_progress.png")] + res.plots
     return res
 
 

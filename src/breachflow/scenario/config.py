@@ -206,23 +206,6 @@ class FloodSection:
         return kw
 
 
-@register_section("polder")
-@dataclass
-class PolderSection:
-    """``[polder]``: ``area``, ``inundation_depth``, ``pump_capacity``."""
-
-    area: Any
-    inundation_depth: Any
-    pump_capacity: Any = 0.0
-
-    @classmethod
-    def from_table(cls, table, ctx):
-        ctx.check_keys(table, {"area", "inundation_depth", "pump_capacity"})
-        return cls(ctx.quantity(table, "area", "area", required=True, positive=True, dim="polder_area"),
-                   ctx.quantity(table, "inundation_depth", "length", required=True, positive=True),
-                   ctx.quantity(table, "pump_capacity", "discharge", default="0 m^3/s", nonnegative=True))
-
-
 @register_section("breach")
 @dataclass
 class BreachSection:
@@ -372,6 +355,9 @@ class Scenario:
             if need not in self.sections:
                 raise ParseError(f"closure window needs a [{need}] section", path=self.path)
         flood, polder, breach = self["flood"], self["polder"], self["breach"]
+        if polder.inundation_depth is None:
+            raise ParseError("[polder]: the closure window needs inundation_depth (the permissible mean depth d_I)",
+                             path=self.path, line=_line_of(_read(self.path), "polder", None))
         kw = flood.window_kwargs()
         kw.update(polder_area=_si_back(polder.area, "m^2"), inundation_depth=_si_back(polder.inundation_depth, "m"),
                   pump_capacity=_si_back(polder.pump_capacity, "m^3/s"))
@@ -473,3 +459,8 @@ def _read(path) -> str:
         return Path(path).read_text() if path else ""
     except OSError:
         return ""
+
+
+# the [polder] section lives with the polder's water balance; imported here so that it is registered
+# with the built-in sections and stays importable from this module
+from .polder import PolderSection  # noqa: E402,F401

@@ -106,6 +106,8 @@ def section_schema(name: str) -> dict:
                 cls.from_table(table, probe)
             except Exception:  # a probe value that the section's own checks refuse: what was asked is recorded
                 pass
+    if hasattr(cls, "extra_schema_keys"):  # keys a section reads through a helper, described by it
+        probe.keys.update(cls.extra_schema_keys())
     props = {k: probe.keys.get(k, {"description": "see the section description"}) for k in sorted(probe.allowed)}
     if hasattr(cls, "schema_defaults"):  # sections whose defaults live where the values are used
         for k, v in cls.schema_defaults().items():

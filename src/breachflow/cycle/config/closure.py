@@ -2,12 +2,13 @@
 the closure ends, and how the pile enters the flow model (docs/theory.md, *The closure cycle*)."""
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from ...errors import BreachflowError
 from ...scenario.config import register_section
 from ..criteria import EndCriteria
 from ..placement import POSITION_MODES, PlacementPlan
+from .timeline import TIMELINE_KEYS, TimelineKeys
 
 
 @register_section("placement")
@@ -65,6 +66,13 @@ class PlacementSection:
     @classmethod
     def from_table(cls, table, ctx):
         ctx.check_keys(table, PlacementPlan.__dataclass_fields__)  # a misspelt key is named at its own line
+        if "rate" in table:
+            import warnings
+
+            warnings.warn(f"{ctx.path or 'scenario'}, [placement] rate: deprecated; the operation time follows from "
+                          "the tonnes delivered with [closure] method (a delivery method with its capacity in t/h, "
+                          "e.g. method = \"split_barge\"); without a method, rate still sets masses per hour",
+                          DeprecationWarning, stacklevel=2)
         try:
             return cls(PlacementPlan.from_config(table))
         except (BreachflowError, TypeError, ValueError) as exc:
@@ -119,7 +127,10 @@ class ClosureSection:
     leave — in a flow faster than the masses withstand ends the run with a "not closable" verdict; also
     the fraction of all placed tonnage above which the losses are flagged; default 0.5), ``pile_sampling`` (how the pile enters ``raised_bed`` / ``no_flow``:
     ``centre``, the default: the sphere top above each cell centre | ``cell_average``: the cell average of
-    the pile top, blocked where it stands above the water over half the cell, :mod:`~breachflow.cycle.remap`)."""
+    the pile top, blocked where it stands above the water over half the cell, :mod:`~breachflow.cycle.remap`).
+    The closure in time: ``method`` (a delivery method, :mod:`~breachflow.cycle.delivery`), ``start`` (after
+    the breach), ``breach_date`` and the method's overrides ``capacity``, ``working_hours``, ``wind_limit``,
+    ``unit_mass`` (:mod:`~breachflow.cycle.config.timeline`, :mod:`~breachflow.cycle.timeline`)."""
 
     remap: str = "porous"
     seed: int = 0
@@ -127,10 +138,16 @@ class ClosureSection:
     loss_limit: float = 0.5
     porous_law: str = "ergun"
     pile_sampling: str = "centre"
+    timeline: TimelineKeys = field(default_factory=TimelineKeys)
+
+    @classmethod
+    def extra_schema_keys(cls) -> dict:
+        """The time-coupling keys (:meth:`~breachflow.cycle.config.timeline.TimelineKeys.schema_keys`)."""
+        return TimelineKeys.schema_keys()
 
     @classmethod
     def from_table(cls, table, ctx):
-        ctx.check_keys(table, {"remap", "seed", "area", "loss_limit", "porous_law", "pile_sampling"})
+        ctx.check_keys(table, {"remap", "seed", "area", "loss_limit", "porous_law", "pile_sampling", *TIMELINE_KEYS})
         area = None
         if "area" in table:
             val = ctx.raw(table, "area", types=(list,))
@@ -153,4 +170,5 @@ class ClosureSection:
             raise ctx.error(f"remap must be one of {REMAP_MODES}", "remap")
         if out.porous_law not in FORCHHEIMER_LAWS:
             raise ctx.error(f"porous_law must be one of {sorted(FORCHHEIMER_LAWS)}", "porous_law")
+        out.timeline = TimelineKeys.from_table(table, ctx)
         return out

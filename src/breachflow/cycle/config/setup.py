@@ -167,6 +167,27 @@ def closure_setup(scenario, *, overrides: dict | None = None):
     for item in criteria.items:
         if hasattr(item, "bind_scenario"):
             item.bind_scenario(scenario)
+    timeline = None
+    if closure.timeline.method is not None:
+        if not isinstance(solver, (_WarmStartSWE, _StageSolver)):
+            raise InputError(f"[closure] method: the closure in time moves the flood-side and polder levels of the "
+                             f"embedded flow model; [hydro] solver = {hydro.solver!r} takes its boundaries from "
+                             f"the ingested model (use solver = \"swe\")")
+        from .timeline import build_timeline, shifted_boundaries
+        from ..timeline import TimelineSolver
+
+        if built is not None:
+            ground, wall = bottom, float(getattr(built.breach, "wall_slope", 0.0))
+        else:
+            ground, wall = scene.ground_elevation, scene.breach.wall_slope
+        timeline = build_timeline(scenario, closure.timeline, site_level=flood_level, ground=ground, bottom=bottom,
+                                  length=2.0 * half, wall_slope=wall, built=built,
+                                  levee=None if built is not None else scene.levee, placement=placement)
+        base = dom.boundaries
+        inner = solver.inner if isinstance(solver, _StageSolver) else solver
+        solver = TimelineSolver(inner, timeline, lambda level, b=base, z=flood_level: shifted_boundaries(b, level - z))
+        metadata["timeline"] = {"method": timeline.method.name, "start_s": timeline.start,
+                                "description": timeline.describe()}
     if isinstance(solver, _StageSolver):
         solver.plan = placement
     setup = ClosureSetup(domain=dom, solver=solver, placement=placement, criteria=criteria, dem=dem,
@@ -174,7 +195,8 @@ def closure_setup(scenario, *, overrides: dict | None = None):
                          breach_x=(xc - half, xc + half), levee_y=yc,
                          flood_level=flood_level, bottom=bottom, name=scenario.name, attrs=attrs, metadata=metadata,
                          area=closure.area or (breach_area(scene, placement.diameter[1]) if built is None else None),
-                         loss_limit=closure.loss_limit, frame=built.frame if built is not None else None)
+                         loss_limit=closure.loss_limit, frame=built.frame if built is not None else None,
+                         timeline=timeline)
     for k, v in (overrides or {}).items():
         setattr(setup, k, v)
     from ..sanity import check_setup

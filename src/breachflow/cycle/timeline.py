@@ -1,0 +1,353 @@
+"""The closure in time: operation time, flood stage and polder level of each closure cycle.
+
+Each cycle ``g`` happens at its operation time ``t_g`` (seconds since the breach)::
+
+    t_g = calendar time after (tonnes delivered up to cycle g) / (method capacity) hours of work,
+          counted from the start of the closure (working hours per day, calm wind; cycle/delivery.py)
+
+The flood-side boundary of cycle ``g``'s flow solve is the flood stage at ``t_g`` (:class:`FloodStage`:
+the site's constant level, its stage series, or the ``[flood]`` hydrograph: linear rates, a preset or a
+measured CSV, as the closure window); the protected side is the polder's water level at ``t_g``
+(:class:`~breachflow.scenario.polder.Polder`), integrated from the breach discharge minus the pumps:
+
+    dV/dt = Q_breach - Q_pump,   V = A (z_P - z_0)  (or the polder's stage–storage curve)
+
+Between two cycles the discharge is the one of the last steady solve (the pile as it stood); over
+that interval the balance is exact in the volume (a piecewise-constant inflow). Before the start of
+the closure the breach grows by the chosen growth law (``[breach] growth``, report eqs. 2.2–2.8, up
+to the site's breach length) and discharges as a broad-crested weir (Fread's form,
+:func:`~breachflow.scenario.discharge.weir_discharge`, submerged by the polder's tailwater) while the
+polder fills; the first solve then starts from the polder level at the start time.
+
+A polder that reaches the flood level has met the breach balance (report's ``t_Q``): the flow
+through the breach stops, and the level stays with the flood's.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import InputError
+from ..scenario.polder import Polder
+from .delivery import DeliveryClock, DeliveryMethod, HOUR
+
+#: a protected-side boundary becomes a prescribed level (tailwater) once the polder water stands this
+#: much above the protected-side ground; below it the polder edge drains freely (m)
+TAILWATER_MIN_DEPTH = 0.05
+
+
+@dataclass
+class FloodStage:
+    """Flood-side water level (m, datum of the bed) against time since the breach (s)."""
+
+    level_at: object  #: callable t -> level
+    source: str = "constant"
+
+    def __call__(self, t) -> float:
+        return float(self.level_at(float(t)))
+
+    @classmethod
+    def constant(cls, level: float) -> "FloodStage":
+        return cls(lambda t, z=float(level): z, "the site's flood level (constant)")
+
+
+def flood_stage_from_section(flood, ground: float) -> FloodStage:
+    """The ``[flood]`` section's hydrograph as a level: ``ground`` + the stage above ground at
+    ``breach_time + t`` (times of the hydrograph relative to the crest; the level does not fall below
+    the ground)."""
+    from ..scenario.config import _si_back  # noqa: F401  (the section holds SI values)
+    from ..scenario.window import _linear_flood
+
+    t0 = float(flood.breach_time or 0.0)
+    if flood.hydrograph is not None:
+        from ..scenario.hydrograph import MeasuredHydrograph
+
+        hyd = MeasuredHydrograph.from_csv(flood.hydrograph, ground_elevation=flood.ground_elevation,
+                                          column=flood.hydrograph_column)
+        return FloodStage(lambda t: ground + max(float(hyd.stage(t0 + t)), 0.0),
+                          f"measured hydrograph {flood.hydrograph.name}, breach {t0 / HOUR:g} h after the crest")
+    vals = []
+    for key in ("surge_height", "fall_rate", "rise_rate"):
+        v = getattr(flood, key)
+        if v is not None and np.ndim(np.asarray(getattr(v, "values", v))) != 0:
+            raise InputError(f"[flood] {key}: a closure run takes one value, not a list")
+        vals.append(None if v is None else f"{float(getattr(v, 'values', v))!r} {'m' if key == 'surge_height' else 'm/s'}")
+    h, rr, rf = (float(v) for v in _linear_flood(vals[0], vals[1], vals[2], flood.preset))
+
+    def level(t):
+        tc = t0 + t
+        return ground + max(h + rr * tc if tc < 0 else h - rf * tc, 0.0)
+
+    what = f"preset {flood.preset}" if flood.preset else "linear hydrograph"
+    return FloodStage(level, f"{what}: h_W {h:g} m, rise {rr * 3.6e5:.3g} cm/h, fall {rf * 3.6e5:.3g} cm/h, "
+                             f"breach {t0 / HOUR:g} h after the crest")
+
+
+@dataclass
+class Timeline:
+    """The clock, flood stage and polder balance of a closure run (SI; times since the breach).
+
+    ``start`` the start of the closure; ``bottom`` the breach bottom and ``length`` / ``wall_slope`` the
+    breach of the flow model (for the weir discharge before the start); ``growth`` a callable ``t ->
+    B(t)`` (m) of the breach before it reached ``length`` (None: the full breach from the breach on);
+    ``wind`` ``(times s since the breach, speeds m/s)``; ``breach_date`` the date-time of the breach
+    (numpy datetime64) or None."""
+
+    stage: FloodStage
+    polder: Polder
+    method: DeliveryMethod
+    start: float = 0.0
+    bottom: float = 0.0
+    length: float = 0.0
+    wall_slope: float = 0.0
+    growth: object = None
+    wind: tuple | None = None
+    breach_date: object = None
+    ground: float | None = None  #: protected-side ground (m): a tailwater above it is imposed
+    #: weir coefficient C (m^0.5/s): the report's 3.1 ft^0.5/s (Fread 1996)
+    weir_coefficient: float = 3.1 * 0.3048 ** 0.5
+    #: a constant breach discharge before the start (m³/s; the report's linear model ``Q_D``, §2.4) instead
+    #: of the weir: it flows until the polder meets the flood level
+    prestart_discharge: float | None = None
+    prestart_step: float = 600.0
+    # state
+    time: float = 0.0
+    polder_level: float = float("nan")
+    discharge: float = 0.0
+    balance_time: float | None = None
+    delivered: float = 0.0  #: kg delivered so far
+    history: list = field(default_factory=list)
+
+    def __post_init__(self):
+        if not (np.isfinite(self.start) and self.start >= 0):
+            raise InputError(f"[closure] start must be >= 0 s after the breach, got {self.start!r}")
+        self.clock = DeliveryClock(self.method, self.start, self.wind)
+        self.polder_level = self.polder.initial_level
+        if self.ground is None:
+            self.ground = self.polder.initial_level
+
+    # ------------------------------------------------------------------ levels
+    @property
+    def flood_level(self) -> float:
+        return self.stage(self.time)
+
+    @property
+    def head(self) -> float:
+        """Head across the breach (m): flood level − polder level (the polder counted from the breach bottom)."""
+        return self.flood_level - max(self.polder_level, self.bottom)
+
+    @property
+    def tailwater(self) -> float | None:
+        """The protected-side level to impose (m), or None while the polder is (nearly) dry."""
+        z = self.polder_level
+        return z if z > self.ground + TAILWATER_MIN_DEPTH else None
+
+    @property
+    def datetime(self):
+        """Date-time of the current operation time (None when the breach is not dated)."""
+        if self.breach_date is None:
+            return None
+        return self.breach_date + np.timedelta64(int(round(self.time)), "s")
+
+    # ------------------------------------------------------------------ before the start
+    def breach_length_at(self, t: float) -> float:
+        if self.growth is None:
+            return self.length
+        return float(min(max(float(self.growth(t)), 0.0), self.length))
+
+    def weir(self, t: float, polder_level: float) -> float:
+        """Breach discharge (m³/s) before the start: broad-crested weir over the breach of length B(t),
+        ``k_s C (b H^1.5 + (2.45/3.1) m H^2.5)`` (:func:`~breachflow.scenario.discharge.weir_discharge`,
+        Fread's form, submerged by the polder's tailwater)."""
+        from ..scenario.discharge import SIDE_TO_BOTTOM_COEFFICIENT, submergence_factor
+
+        head = self.stage(t) - self.bottom
+        if head <= 0:
+            return 0.0
+        tail = max(polder_level - self.bottom, 0.0)
+        if tail >= head:
+            return 0.0
+        if self.prestart_discharge is not None:
+            return float(self.prestart_discharge)
+        b = self.breach_length_at(t)
+        if b <= 0:
+            return 0.0
+        q = self.weir_coefficient * (b * head ** 1.5 + SIDE_TO_BOTTOM_COEFFICIENT * self.wall_slope * head ** 2.5)
+        return float(q * (submergence_factor(head, tail) if tail > 0 else 1.0))
+
+    def begin(self) -> None:
+        """Integrate the polder from the breach to the start of the closure (weir discharge of the growing
+        breach), leaving the clock at ``start``."""
+        self.history = []
+        self.balance_time = None
+        z, q, t, bal = self._open_breach(self.start, log=True)
+        self.polder_level, self.discharge, self.time, self.balance_time = z, q, self.start, bal
+
+    def _open_breach(self, t_end: float, *, log: bool = False, inundation: float | None = None):
+        """The open breach from the breach to *t_end* (or to the balance / the polder *inundation* depth
+        above its initial level, whichever first when *inundation* is given): returns ``(polder level,
+        discharge, time reached, balance time or None)``."""
+        z = self.polder.initial_level
+        self.time, self.polder_level = 0.0, z
+        q = self.weir(0.0, z)
+        if log:
+            self._log("growth", q)
+        t0, bal = 0.0, None
+        while t0 < t_end - 1e-9:
+            # steps of at most prestart_step, and short enough that the polder rises by at most 2 % of the head
+            head = max(self.stage(t0) - max(z, self.bottom), 0.01)
+            fill = 0.02 * head * self.polder.plan_area(z) / max(q, 1e-9)
+            t1 = min(t_end, t0 + max(min(self.prestart_step, fill), 1.0))
+            # midpoint discharge (second order): the weir at the half-step level
+            zh, half_cross = self.polder.step(z, 0.5 * (t1 - t0), q, (self.stage(t0), self.stage(0.5 * (t0 + t1))))
+            qm = self.weir(0.5 * (t0 + t1), zh) if half_cross is None else q  # balance within the half step
+            z1, cross = self.polder.step(z, t1 - t0, qm, (self.stage(t0), self.stage(t1)))
+            if cross is not None and bal is None:
+                bal = t0 + cross
+            if inundation is not None and (bal is not None or z1 - self.polder.initial_level >= inundation):
+                if bal is None:  # the time the polder reached the depth, within the step (linear)
+                    frac = (self.polder.initial_level + inundation - z) / max(z1 - z, 1e-12)
+                    return z1, qm, t0 + frac * (t1 - t0), None
+                return z1, qm, bal, bal
+            z, t0 = z1, t1
+            q = self.weir(t1, z1)
+            self.time, self.polder_level = t1, z1
+            if log and (len(self.history) < 2 or t1 - self.history[-1]["time"] >= self.prestart_step or t1 >= t_end):
+                self._log("growth", q)
+            if inundation is not None and q <= self.polder.pump_capacity and self.stage(t1) <= self.stage(t0):
+                return z, q, float("inf"), None  # the pumps keep up with a falling flood: no window end
+        return z, q, t0, bal
+
+    def open_breach_window(self, inundation_depth: float | None = None, horizon: float = 60 * 86400.0):
+        """The closure window of the breach left open (s since the breach): the first of the breach balance
+        and the polder reaching *inundation_depth* (m above its initial level), with the weir discharge of
+        the growing breach as before the start; inf when neither happens within *horizon*. The timeline's
+        state is left as it was."""
+        saved = (self.time, self.polder_level, self.discharge, list(self.history), self.balance_time)
+        try:
+            _, _, t, _ = self._open_breach(horizon, inundation=inundation_depth if inundation_depth else 1e9)
+        finally:
+            self.time, self.polder_level, self.discharge, self.history, self.balance_time = saved
+        return float(t) if t < horizon else float("inf")
+
+    # ------------------------------------------------------------------ during the closure
+    def advance(self, delivered: float) -> float:
+        """Move the clock to the operation time after *delivered* kg in all (the masses placed so far) and
+        integrate the polder with the last discharge over the interval; returns the new time (s)."""
+        self.delivered = float(delivered)
+        t_new = self.clock.time_after(self.method.work_time(self.delivered))
+        self._integrate(t_new)
+        return self.time
+
+    def _integrate(self, t_new: float, max_step: float = HOUR) -> None:
+        t = self.time
+        while t < t_new - 1e-9:
+            t1 = min(t + max_step, t_new)
+            z1, cross = self.polder.step(self.polder_level, t1 - t, self.discharge, (self.stage(t), self.stage(t1)))
+            if cross is not None and self.balance_time is None:
+                self.balance_time = t + cross
+            self.polder_level, t = z1, t1
+        self.time = max(t_new, self.time)
+
+    def record(self, discharge: float, phase: str = "closure") -> None:
+        """The breach discharge (m³/s) of the solve at the current time (the flow until the next cycle)."""
+        self.discharge = float(discharge) if np.isfinite(discharge) else 0.0
+        self._log(phase, self.discharge)
+
+    def _log(self, phase, q):
+        self.history.append({"phase": phase, "time": float(self.time), "flood_level": self.flood_level,
+                             "polder_level": float(self.polder_level), "breach_discharge": float(q),
+                             "delivered_t": self.delivered / 1000.0})
+
+    # ------------------------------------------------------------------ resume
+    def state(self) -> dict:
+        """What a cycle summary stores to restore the timeline on resume."""
+        return {"operation_time": float(self.time), "flood_level": float(self.flood_level),
+                "polder_level": float(self.polder_level), "timeline_discharge": float(self.discharge),
+                "delivered_t": self.delivered / 1000.0,
+                "balance_time": None if self.balance_time is None else float(self.balance_time)}
+
+    def restore(self, summary: dict) -> None:
+        self.time = float(summary["operation_time"])
+        self.polder_level = float(summary["polder_level"])
+        self.discharge = float(summary.get("timeline_discharge", summary.get("breach_discharge", 0.0)))
+        self.delivered = 1000.0 * float(summary.get("delivered_t", 0.0))
+        bt = summary.get("balance_time")
+        self.balance_time = None if bt is None else float(bt)
+
+    def describe(self) -> str:
+        return (f"closure by {self.method.describe()}; start {self.start / HOUR:g} h after the breach; flood: "
+                f"{self.stage.source}; polder {self.polder.area / 1e4:,.0f} ha, pumps {self.polder.pump_capacity:g} m³/s")
+
+
+class TimelineSolver:
+    """A flow solver whose boundaries follow the timeline: before each solve, the flood-side level is the
+    flood stage at the current operation time and the protected side the polder level (a prescribed
+    level once the polder water stands above its ground; free drainage before). *boundaries_at* is a
+    callable ``flood_level -> boundaries dict`` of the site (flood-side level sources, the rest free
+    outflow)."""
+
+    def __init__(self, inner, timeline: Timeline, boundaries_at):
+        self.inner, self.timeline, self.boundaries_at = inner, timeline, boundaries_at
+        self.responds_to_pile = getattr(inner, "responds_to_pile", True)
+
+    def __getattr__(self, name):  # window, cold, warm... of the wrapped solver
+        return getattr(self.__dict__["inner"], name)
+
+    def boundaries(self):
+        from ..hydro.terrain import BoundaryCondition
+
+        tl = self.timeline
+        bcs = self.boundaries_at(tl.flood_level)
+        tail = tl.tailwater
+        if tail is None:
+            return bcs
+        out = {}
+        for side, lst in bcs.items():
+            out[side] = [BoundaryCondition.water_level(tail, start=bc.start, stop=bc.stop)
+                         if bc.kind == "outflow" else bc for bc in lst]
+        return out
+
+    def solve(self, domain, obstacles=None, initial=None):
+        from dataclasses import replace
+
+        from ..hydro.terrain import _copy_spacing
+
+        d = replace(domain, boundaries=self.boundaries())
+        tail = self.timeline.tailwater
+        if initial is None and tail is not None and domain.initial_surface is not None:
+            # a cold start with the polder already filled: its dry cells start at the polder level, not empty
+            # (filling them from the polder edges would be a long transient of no interest)
+            init = np.asarray(domain.initial_surface, float)
+            dry = ~(init > domain.bed)
+            d.initial_surface = np.where(dry & (domain.bed < tail) & ~np.asarray(domain.obstacle, bool), tail, init)
+        _copy_spacing(domain, d)
+        return self.inner.solve(d, obstacles=obstacles, initial=initial)
+
+
+def cycle_variables(rep, timeline: Timeline | None) -> dict:
+    """The per-cycle CF variables of a cycle file (0-d here; the ``cycle`` dimension is added with the
+    others): ``flood_level``, ``polder_level`` (m, datum of the bed), ``operation_time`` (since the breach;
+    CF time units ``seconds since <breach_date>`` when the breach is dated) and ``breach_discharge``."""
+    import xarray as xr
+
+    dated = timeline is not None and timeline.breach_date is not None
+    t_units = f"seconds since {np.datetime_as_string(timeline.breach_date, unit='s').replace('T', ' ')}" if dated else "s"
+    t_attrs = {"units": t_units, "long_name": "operation time of the cycle since the breach",
+               "calendar": "proleptic_gregorian"} if dated else {
+        "units": "s", "long_name": "operation time of the cycle since the breach"}
+    polder_attrs = {"units": "m", "long_name": "polder water level (protected side) at the cycle's solve",
+                    "comment": "elevation in the datum of bed_elevation"}
+    if timeline is None:
+        polder_attrs["comment"] += "; NaN: no polder balance ([closure] method not set)"
+    return {
+        "flood_level": xr.DataArray(float(rep.flood_level), attrs={
+            "units": "m", "long_name": "flood-side water level at the cycle's solve",
+            "comment": "elevation in the datum of bed_elevation"}),
+        "polder_level": xr.DataArray(float(rep.polder_level), attrs=polder_attrs),
+        "operation_time": xr.DataArray(float(rep.operation_time), attrs=t_attrs),
+        "breach_discharge": xr.DataArray(float(rep.breach_discharge), attrs={
+            "units": "m3 s-1", "long_name": "discharge through the breach section after the cycle's re-solve "
+                                            "(overflow and seepage through the pile)"}),
+    }
