@@ -73,6 +73,9 @@ class DemSettings:
     stability_time: float = 5.0
     rest_time: float = 0.5
     rest_rule: str = "window"
+    #: the ``[bed]`` settings (:class:`~breachflow.cycle.config.bed.BedSettings`): rough terrain, near-bed forces,
+    #: erosion; None: smooth terrain, centre-height flow
+    bed: object = None
 
     def __post_init__(self):
         for name in ("e_tol", "max_time", "rest_speed", "record_interval", "stability_time", "rest_time"):

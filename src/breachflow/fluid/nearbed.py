@@ -48,7 +48,7 @@ NEZU_DU, NEZU_CK = 2.30, 1.0
 #: lift coefficient (Wiberg & Smith 1987; Einstein & El-Samni 1949: 0.178)
 LIFT_COEFFICIENT = 0.2
 #: peak factor calibrated against Shields' theta_c = 0.047 (docs/bed-and-forces.md, tests/fluid/test_nearbed.py)
-PEAK_FACTOR = 1.0
+PEAK_FACTOR = 0.93
 
 #: the registry of near-bed force terms; each fills its slots of the parameter vector
 NEAR_BED_TERMS: Registry = Registry("near-bed force term", "breachflow.near_bed_terms")
