@@ -172,6 +172,10 @@ class CycleReport:
     #: largest, and depth-weighted mean (:func:`~breachflow.cycle.criteria.gap_section_speeds`), m/s
     gap_max_speed: float = 0.0
     gap_mean_speed: float = 0.0
+    #: deepest scour of an erodible bed in this cycle's flow (m) and where (:mod:`~breachflow.cycle.scour`)
+    scour_depth: float = 0.0
+    scour_x: float = float("nan")
+    scour_y: float = float("nan")
 
     def as_dict(self) -> dict:
         d = dict(self.__dict__)
@@ -259,7 +263,7 @@ class ClosureRun(CycleDem):
 
     @staticmethod
     def _grid_only(ds: xr.Dataset) -> xr.Dataset:
-        keep = [v for v in ds.data_vars if "particle" not in ds[v].dims]
+        keep = [v for v in ds.data_vars if "particle" not in ds[v].dims and v != "scour_depth"]
         return ds[keep]
 
     def _cycle(self, g, rec, snapshot):
@@ -356,6 +360,9 @@ class ClosureRun(CycleDem):
         proxy = DischargeProxy("0 m^3/s").value(ctx)
         q_breach = section_discharge(new_snapshot, s.breach_x, s.levee_y)
         gap_max, gap_mean = gap_section_speeds(new_snapshot, s.breach_x, s.levee_y)
+        from .scour import cycle_scour
+
+        scour_map, scour_max, scour_x, scour_y = cycle_scour(s, new_snapshot)
         # 6. write the cycle
         masses = int(st.n)
         tonnage = float(st.mass[st.active].sum()) / 1000.0
@@ -375,9 +382,13 @@ class ClosureRun(CycleDem):
                           time_solve=t_solve, time_dem=t_dem, cpu_solve=c_solve, cpu_dem=c_dem,
                           seepage_discharge=ctx.seepage_discharge,
                           not_at_rest=int((st.active[:st.n] & ~resting[:st.n]).sum()),
-                          gap_max_speed=gap_max, gap_mean_speed=gap_mean)
+                          gap_max_speed=gap_max, gap_mean_speed=gap_mean, scour_depth=scour_max, scour_x=scour_x,
+                          scour_y=scour_y)
         t_out = _time.perf_counter()
-        field_ds = validate(self._field_dataset(new_snapshot, st, placed_cycle, resting, rep), "closure_cycle")
+        field_ds = self._field_dataset(new_snapshot, st, placed_cycle, resting, rep)
+        if scour_map is not None:
+            field_ds["scour_depth"] = scour_map.expand_dims("cycle").assign_coords(cycle=field_ds["cycle"])
+        field_ds = validate(field_ds, "closure_cycle")
         traj = None
         if moving.size:
             tt = np.broadcast_to(t_rec, (moving.size, t_rec.size))  # seconds since the cycle's release
