@@ -73,7 +73,7 @@ class DemSettings:
     stability_time: float = 5.0
     rest_time: float = 0.5
     rest_rule: str = "window"
-    #: the ``[bed]`` settings (:class:`~breachflow.cycle.config.bed.BedSettings`): rough terrain, near-bed forces,
+    #: the ``[bed]`` settings (:class:`~breachflow.cycle.config.BedSettings`): rough terrain, near-bed forces,
     #: erosion; None: smooth terrain, centre-height flow
     bed: object = None
 

@@ -102,7 +102,7 @@ class HeightField(Boundary):
     def __init__(self, x, y, bed, material: Material | None = None, roughness=None):
         super().__init__(material)
         #: the bed's roughness (:class:`breachflow.fluid.bed.BedRoughness`; None: smooth): a rough bed adds the
-        #: pocket columns ``(d_bed, z_star)`` to the contact properties (:mod:`.pocket`)
+        #: pocket columns ``(d_bed, z_star)`` to the contact properties (:mod:`breachflow.dem.pocket`)
         self.roughness = roughness
         if roughness is not None:
             self.props = roughness.wall_props(self.props)

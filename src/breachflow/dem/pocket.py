@@ -2,7 +2,7 @@
 (Wiberg & Smith 1987; the physics and its sources: :mod:`breachflow.fluid.bed`, ``docs/bed-and-forces.md``).
 
 A height field whose contact properties carry two more columns ``(d_bed, z_star)`` after the eight of
-:func:`~breachflow.dem.boundaries._wall_props` is a rough bed: the contact's friction and rolling
+``boundaries._wall_props`` is a rough bed: the contact's friction and rolling
 resistance are at least :func:`pocket_tangent` of the particle's diameter (``walls._wall_loop``). With the
 eight columns (a smooth bed) the contact is computed as before, bit for bit.
 """

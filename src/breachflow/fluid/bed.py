@@ -95,7 +95,7 @@ class BedRoughness:
         return KS_PER_GRAIN * self.grain_size if self.rough else None
 
     def wall_props(self, props: np.ndarray) -> np.ndarray:
-        """The terrain's contact properties *props* (8 columns, :func:`~breachflow.dem.boundaries._wall_props`)
+        """The terrain's contact properties *props* (8 columns, as ``breachflow.dem.boundaries`` builds them)
         extended by the pocket parameters ``(d_bed, z_star)`` that the height-field contact reads; unchanged
         (8 columns, the smooth-bed path) for a smooth bed."""
         props = np.asarray(props, float)
