@@ -23,7 +23,8 @@ from .setup import closure_setup
 
 __all__ = [
     "demo_breach", "SITE_PRESETS", "SiteSection", "RESOLVE_MODES", "SNAPSHOT_SOLVERS", "HydroSection", "DemSection",
-    "FluidSection", "BedSection", "BedSettings", "PlacementSection", "CriteriaSection", "ClosureSection", "closure_setup",
+    "FluidSection", "BedSection", "BedSettings", "PlacementSection", "CriteriaSection", "ClosureSection",
+    "closure_setup",
 ]
 
 # documented here, their public home (Sphinx reads a ``#:`` comment from the module that assigns the name)
