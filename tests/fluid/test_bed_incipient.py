@@ -18,7 +18,7 @@ G = 9.80665
 
 
 def test_pivot_angle_of_wiberg_and_smith():
-    # cos(phi0) = (D/d - 0.02) / (D/d + 1): 60.7 deg for equal grains (Wiberg & Smith 1987, their Fig. 3)
+    # cos(phi0) = (D/d - 0.02) / (D/d + 1): 60.7 deg for equal grains (Wiberg & Smith 1987)
     assert pivot_angle(1.0, 1.0) == pytest.approx(math.degrees(math.acos(0.49)), abs=1e-9)
     assert pivot_angle(1.0, 1.0) == pytest.approx(60.7, abs=0.05)
     r = np.array([0.5, 1.0, 2.0, 4.0, 16.0, 1e4])

@@ -24,7 +24,7 @@ def test_formulas_against_arithmetic():
 
 
 def test_hec18_clear_water_contraction_scour_is_the_equilibrium_depth():
-    """HEC-18 eq. 6.4 (SI): y2 = (0.025 q^2 / D_m^(2/3))^(3/7), D_m = 1.25 D50, from n = 0.041 D_m^(1/6) and
+    """HEC-18 clear-water contraction scour (SI): y2 = (0.025 q^2 / D_m^(2/3))^(3/7), D_m = 1.25 D50, from n = 0.041 D_m^(1/6) and
     theta_c = 0.039: the same law as equilibrium_depth with those n and theta_c (to the rounding of 0.025)."""
     for q, d50 in ((10.0, 0.01), (30.0, 0.002), (5.0, 0.05)):
         dm = 1.25 * d50

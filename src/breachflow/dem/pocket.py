@@ -16,7 +16,7 @@ import numba
 @numba.njit(cache=True, inline="always")
 def pocket_tangent(diameter, d_bed, z_star):
     """``tan(phi0)``, ``cos(phi0) = (D/d + z*) / (D/d + 1)``, of a grain of *diameter* ``D`` in a pocket of a bed
-    of grains *d_bed* ``d`` (Wiberg & Smith 1987, eq. 7); 0 for ``d_bed <= 0`` (smooth bed)."""
+    of grains *d_bed* ``d`` (Wiberg & Smith 1987); 0 for ``d_bed <= 0`` (smooth bed)."""
     if d_bed <= 0.0:
         return 0.0
     r = diameter / d_bed

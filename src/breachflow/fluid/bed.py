@@ -6,7 +6,7 @@ Pocket (pivot) angle
 --------------------
 A grain of diameter ``D`` resting on a bed of grains of diameter ``d`` must be lifted over its
 downstream neighbours to move. The pivot angle ``phi0`` (between the vertical and the line from the
-pivot point to the grain's centre) of Wiberg & Smith (1987, Water Resour. Res. 23(8):1471–1480, eq. 7),
+pivot point to the grain's centre) of Wiberg & Smith (1987, Water Resour. Res. 23(8):1471–1480),
 fitted by them to the measured pivot angles of natural sand of Miller & Byrne (1966, Sedimentology 6),
 
     ``phi0 = arccos((D/d + z*) / (D/d + 1))``,   ``z* = -0.02``,

@@ -11,7 +11,7 @@ Exposed height (Wiberg & Smith 1987)
     ``z = z_c - a cos(t)`` (``dA = 2 a^2 sin(t)^2 dt``); ``F = 1`` for the uniform profile.
 Turbulent velocity peaks (term ``turbulence``)
     a sweep raises the local velocity by ``k_p sigma_u``, ``sigma_u = D_u u* exp(-C_k z_c / h)`` (Nezu &
-    Nakagawa 1993, *Turbulence in open-channel flows*, IAHR Monograph, eq. 4.5: ``D_u = 2.30``,
+    Nakagawa 1993, *Turbulence in open-channel flows*, IAHR Monograph: ``D_u = 2.30``,
     ``C_k = 1``), ``u* / |U| = kappa / (ln(30 h / k_s) - 1)`` (the depth-averaged log law; Manning–Strickler
     ``1 / (8.1 (h/k_s)^(1/6))`` where no log layer exists); the velocity a mass feels is
     ``U (F + P)``, ``P = k_p D_u exp(-C_k z_c/h) u*/|U|``: the whole local profile is scaled by
@@ -19,8 +19,8 @@ Turbulent velocity peaks (term ``turbulence``)
     ``theta_c = 0.047``, docs).
 Lift (term ``lift``)
     ``F_L = 1/2 rho C_L A phi (u_T^2 - u_B^2)`` upward, ``u_T``, ``u_B`` the flow at the top and the bottom of
-    the sphere (Wiberg & Smith 1987, eq. 3, with ``C_L = 0.2``; Einstein & El-Samni 1949 measured
-    ``C_L = 0.178`` for hemispheres on a rough bed with the velocity 0.35 D above the theoretical bed):
+    the sphere (Wiberg & Smith 1987, with ``C_L = 0.2``, their value; Einstein & El-Samni 1949 measured the lift
+    on hemispheres of a rough bed, a coefficient of about 0.18 as usually quoted):
     relative to the mass, ``F_L = 1/2 rho C_L A phi |U_eff - v_h|^2 Lambda``, ``Lambda = (f_T^2 - f_B^2)/F^2``
     (0 in a uniform profile: no shear, no lift; small far from the bed).
 
@@ -45,7 +45,7 @@ N_PARAMS = 7
 KAPPA_VK = 0.41
 #: Nezu & Nakagawa (1993): ``u'/u* = 2.30 exp(-z/h)``
 NEZU_DU, NEZU_CK = 2.30, 1.0
-#: lift coefficient (Wiberg & Smith 1987; Einstein & El-Samni 1949: 0.178)
+#: lift coefficient (Wiberg & Smith 1987; Einstein & El-Samni 1949 measured about 0.18 on a rough bed)
 LIFT_COEFFICIENT = 0.2
 #: peak factor calibrated against Shields' theta_c = 0.047 (docs/bed-and-forces.md, tests/fluid/test_nearbed.py)
 PEAK_FACTOR = 0.93

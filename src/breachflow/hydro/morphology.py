@@ -22,8 +22,8 @@ move while its own threshold is not exceeded.
 
 Equilibrium (clear water, no supply from upstream): the bed scours until ``theta = theta_c``, i.e.
 ``h_eq = (rho g n^2 q^2 / tau_c)^(3/7)`` with the unit discharge ``q = h |u|`` — Laursen's (1963) clear-water
-contraction scour, the formula of FHWA HEC-18 (Arneson et al. 2012, eq. 6.4 with ``n = 0.041 d^(1/6)`` and
-``theta_c = 0.039``): :func:`equilibrium_depth`.
+contraction scour, the formula of FHWA HEC-18 (Arneson et al. 2012), with ``n = 0.041 d^(1/6)`` and
+``theta_c = 0.039``: :func:`equilibrium_depth`.
 """
 from __future__ import annotations
 
