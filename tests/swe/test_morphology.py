@@ -41,7 +41,7 @@ def test_closed_box_conserves_the_bed_volume(seed):
     depth = 2.0 + rng.uniform(0, 1, (ny, nx))
     u = rng.normal(2.5, 1.0, (ny, nx))
     v = rng.normal(0.0, 1.0, (ny, nx))
-    new, steps = M.scour(bed, depth, u, v, 0.002, 0.03, 60.0, dx=2.0, dy=3.0, open_edges=False)
+    new, steps, _ = M.scour(bed, depth, u, v, 0.002, 0.03, 60.0, dx=2.0, dy=3.0, open_edges=False)
     assert steps > 5 and np.abs(new - bed).max() > 1e-3
     assert new.sum() == pytest.approx(bed.sum(), abs=1e-11 * bed.size)
 
@@ -53,13 +53,13 @@ def test_no_change_below_the_threshold_and_a_protection_holds():
     u = np.full((ny, nx), 1.0)
     v = np.zeros((ny, nx))
     d = 0.05  # theta = 1000 g n^2 1 / 3^(1/3) / (1650 g 0.05) = 0.0053 << 0.047
-    new, steps = M.scour(bed, depth, u, v, d, 0.025, 3600.0, dx=1.0, dy=1.0)
+    new, steps, _ = M.scour(bed, depth, u, v, d, 0.025, 3600.0, dx=1.0, dy=1.0)
     assert steps == 0 and np.array_equal(new, bed)
     # a fast jet over sand with a protected patch of 1 m stones in its middle
     u[:] = 4.0
     dmap = np.full((ny, nx), 0.001)
     dmap[:, 15:25] = 1.0
-    new, _ = M.scour(bed, depth, u, v, dmap, 0.025, 300.0, dx=1.0, dy=1.0)
+    new, _, _ = M.scour(bed, depth, u, v, dmap, 0.025, 300.0, dx=1.0, dy=1.0)
     assert (bed - new)[:, 0].min() > 0.05  # the sand at the head scours
     # the protection's own threshold is not exceeded: it never scours; the sand it receives moves on over it
     assert (new[:, 15:25] >= bed[:, 15:25]).all()
@@ -75,8 +75,21 @@ def test_clear_water_scour_levels_off_at_the_laursen_depth():
     q = h0 * U
     h_eq = float(M.equilibrium_depth(q, d, n))
     assert h_eq > h0 * 1.2
-    new, steps = M.scour(bed, np.full((1, nx), h0), np.full((1, nx), U), np.zeros((1, nx)), d, n, 3.0e6, dx=1.0,
+    new, steps, _ = M.scour(bed, np.full((1, nx), h0), np.full((1, nx), U), np.zeros((1, nx)), d, n, 3.0e6, dx=1.0,
                          dy=1.0, max_steps=400000)
     depth = h0 - new[0]
     assert depth.max() <= h_eq * (1 + 1e-6)
     assert depth[0] == pytest.approx(h_eq, rel=0.01)  # the head of the flume: no supply from upstream
+
+
+def test_equilibrium_scour_per_cell():
+    depth = np.array([[2.0, 2.0, 3.0, 0.0]])
+    u = np.array([[2.5, 0.2, 4.0, 3.0]])
+    v = np.array([[0.0, 0.0, 3.0, 0.0]])
+    s = M.equilibrium_scour(depth, u, v, 0.004, 0.025)
+    heq = [(1000 * G * 0.025 ** 2 * (h * sp) ** 2 / (0.047 * 1650 * G * 0.004)) ** (3 / 7)
+           for h, sp in ((2.0, 2.5), (2.0, 0.2), (3.0, 5.0))]
+    assert s[0, 0] == pytest.approx(heq[0] - 2.0, rel=1e-12)
+    assert s[0, 1] == 0.0 and heq[1] < 2.0  # below the threshold: no scour
+    assert s[0, 2] == pytest.approx(heq[2] - 3.0, rel=1e-12)
+    assert s[0, 3] == 0.0  # dry

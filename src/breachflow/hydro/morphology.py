@@ -112,8 +112,8 @@ def scour(bed, depth, u, v, d, manning, duration, *, dx, dy, porosity=0.4, rho_s
     and unit discharge ``(h u, h v)`` per cell are held (the velocity falls as the bed scours). *d*: grain size
     (m, scalar or map: a protection is larger grains); what deposits above a cell's initial level is of grain
     size *d_deposit* (default the smallest of *d*: the mobile bed material), so it moves on over a protection.
-    Returns ``(new_bed, steps)``; the scour depth is
-    ``max(bed - new_bed, 0)``."""
+    Returns ``(new_bed, steps, t)``: the scour depth is ``max(bed - new_bed, 0)`` after the flow time *t* (s),
+    *duration* unless *max_steps* explicit steps ended it earlier (fast flow over fine sand needs many)."""
     z = np.array(bed, float)
     h0 = np.asarray(depth, float)
     if z.shape != h0.shape or np.shape(u) != z.shape or np.shape(v) != z.shape:
@@ -152,7 +152,17 @@ def scour(bed, depth, u, v, d, manning, duration, *, dx, dy, porosity=0.4, rho_s
         z -= rate * dt
         t += dt
         steps += 1
-    return z, steps
+    return z, steps, t
+
+
+def equilibrium_scour(depth, u, v, d, manning, rho_s=2650.0, rho=RHO_W, g=G, theta_c=MPM_THETA_C, dry=1e-3):
+    """Clear-water equilibrium scour depth per cell, ``max(h_eq - h, 0)`` (m), ``h_eq`` of :func:`equilibrium_depth`
+    with the cell's unit discharge ``q = h |u|``: how deep the bed scours under the flow held steady with no
+    sediment fed from upstream (Laursen 1963; HEC-18) — an upper estimate of :func:`scour` run to the end."""
+    h = np.asarray(depth, float)
+    q = h * np.hypot(np.asarray(u, float), np.asarray(v, float))
+    heq = equilibrium_depth(q, d, manning, rho_s, rho, g, theta_c)
+    return np.where(h > dry, np.maximum(heq - h, 0.0), 0.0)
 
 
 def scour_summary(x, y, bed, new_bed):

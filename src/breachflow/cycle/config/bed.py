@@ -20,14 +20,12 @@ from ...scenario.config import register_section
 class BedSettings:
     """What the closure run takes from ``[bed]``: the terrain's :class:`~breachflow.fluid.bed.BedRoughness`,
     the near-bed parameter vector (:func:`breachflow.fluid.nearbed.parameters`; None: off) and the erosion
-    settings (``erodible``: the bed's grain size for the scour estimate of :mod:`breachflow.hydro.morphology`,
-    ``porosity``, ``scour_time`` the flow duration the per-cycle estimate integrates)."""
+    setting (``erodible``: the per-cycle scour estimate of :mod:`breachflow.cycle.scour` with the bed's grain
+    size)."""
 
     roughness: BedRoughness = field(default_factory=BedRoughness)
     near_bed: np.ndarray | None = None
     erodible: bool = False
-    porosity: float = 0.4
-    scour_time: float = 3600.0
 
 
 @register_section("bed")
@@ -38,12 +36,12 @@ class BedSection:
     ``z_star`` (pivot-angle offset, Wiberg & Smith 1987), ``roughness`` (k_s, default 2 grain_size);
     near-bed forces: ``near_bed`` (true), ``lift_coefficient`` (0.2), ``peak_factor`` (calibrated,
     :data:`~breachflow.fluid.nearbed.PEAK_FACTOR`), ``turbulence_intensity`` (2.30), ``turbulence_decay`` (1);
-    erosion: ``erodible`` (false), ``porosity`` (0.4), ``scour_time`` (1 hr)."""
+    erosion: ``erodible`` (false: no scour estimate)."""
 
     settings: BedSettings = field(default_factory=BedSettings)
 
     KEYS = {"kind", "grain_size", "thickness", "z_star", "roughness", "near_bed", "lift_coefficient", "peak_factor",
-            "turbulence_intensity", "turbulence_decay", "erodible", "porosity", "scour_time"}
+            "turbulence_intensity", "turbulence_decay", "erodible"}
 
     @classmethod
     def from_table(cls, table, ctx):
@@ -74,8 +72,4 @@ class BedSection:
         erodible = ctx.raw(table, "erodible", types=(bool,), default=False)
         if erodible and d is None:
             raise ctx.error("an erodible bed needs its grain_size", "erodible")
-        por = ctx.quantity(table, "porosity", "dimensionless", default=0.4, default_unit="", nonnegative=True)
-        if not por < 1.0:
-            raise ctx.error(f"porosity must be < 1, got {por!r}", "porosity")
-        t = ctx.quantity(table, "scour_time", "time", default=3600.0, default_unit="s", positive=True)
-        return cls(BedSettings(rough, bedp, bool(erodible), float(por), float(t)))
+        return cls(BedSettings(rough, bedp, bool(erodible)))
