@@ -68,9 +68,11 @@ class CycleDem:
         fallback = getattr(self.setup.solver, "fallback_sampler", None)  # nested: the ingested field outside the window
         if fallback is not None:
             field = FieldSampler(field, d.sampling, fallback=fallback(d.sampling))
+        bed = d.bed
         return FluidForces(field, drag_law=d.drag_law, sampling=d.sampling, xi=d.xi, outside="air",
-                           velocity_profile=d.velocity_profile, roughness=d.roughness,
-                           manning=float(np.median(self.setup.domain.manning)))
+                           velocity_profile=d.velocity_profile, roughness=self._fluid_roughness(),
+                           manning=float(np.median(self.setup.domain.manning)),
+                           near_bed=None if bed is None else bed.near_bed)
 
     def _cycle_dem(self, g, snapshot, rec):
         """The DEM of cycle *g*: the previous cycle's simulation continued in the field of *snapshot*, or
@@ -88,7 +90,8 @@ class CycleDem:
         s = self.setup
         d = s.dem
         dom = s.domain
-        terrain = HeightField(dom.x, dom.y, dom.bed, self._terrain_material())
+        terrain = HeightField(dom.x, dom.y, dom.bed, self._terrain_material(),
+                              roughness=None if d.bed is None else d.bed.roughness)
         x0, x1, y0, y1 = s.area if s.area is not None else (dom.x[0] - 0.5 * dom.dx, dom.x[-1] + 0.5 * dom.dx,
                                                                dom.y[0] - 0.5 * dom.dy, dom.y[-1] + 0.5 * dom.dy)
         # masses leaving this box (the breach area) are retired by the DEM and counted as lost
@@ -169,4 +172,9 @@ class CycleDem:
         d = self.setup.dem
         if d.roughness is not None:
             return float(d.roughness)
-        return float(roughness_from_manning(np.median(self.setup.domain.manning)))
+        ks = float(roughness_from_manning(np.median(self.setup.domain.manning)))
+        if d.bed is not None and d.bed.roughness.ks is not None:
+            # a rough bed: its grain roughness k_s = 2 d_bed (fluid/bed.py) is a lower bound of the flow's
+            # roughness, which the SWE's Manning n (with bed forms) may exceed
+            return max(float(d.bed.roughness.ks), ks)
+        return ks

@@ -74,6 +74,9 @@ class DemSettings:
     stability_time: float = 5.0
     rest_time: float = 0.5
     rest_rule: str = "window"
+    #: the ``[bed]`` settings (:class:`~breachflow.cycle.config.BedSettings`): rough terrain, near-bed forces,
+    #: erosion; None: smooth terrain, centre-height flow
+    bed: object = None
 
     def __post_init__(self):
         for name in ("e_tol", "max_time", "rest_speed", "record_interval", "stability_time", "rest_time"):
@@ -178,6 +181,10 @@ class CycleReport:
     polder_level: float = float("nan")
     #: the timeline's state after the cycle (:meth:`~breachflow.cycle.timeline.Timeline.state`; {} without one)
     timeline: dict = field(default_factory=dict)
+    #: deepest scour of an erodible bed in this cycle's flow (m) and where (:mod:`~breachflow.cycle.scour`)
+    scour_depth: float = 0.0
+    scour_x: float = float("nan")
+    scour_y: float = float("nan")
 
     def as_dict(self) -> dict:
         d = dict(self.__dict__)
@@ -280,7 +287,7 @@ class ClosureRun(CycleDem):
 
     @staticmethod
     def _grid_only(ds: xr.Dataset) -> xr.Dataset:
-        keep = [v for v in ds.data_vars if "particle" not in ds[v].dims]
+        keep = [v for v in ds.data_vars if "particle" not in ds[v].dims and v != "scour_depth"]
         return ds[keep]
 
     def _cycle(self, g, rec, snapshot):
@@ -382,6 +389,9 @@ class ClosureRun(CycleDem):
         if s.timeline is not None:
             s.timeline.record(q_breach)
         gap_max, gap_mean = gap_section_speeds(new_snapshot, s.breach_x, s.levee_y)
+        from .scour import cycle_scour
+
+        scour_map, scour_max, scour_x, scour_y = cycle_scour(s, new_snapshot)
         # 6. write the cycle
         masses = int(st.n)
         tonnage = float(st.mass[st.active].sum()) / 1000.0
@@ -401,14 +411,18 @@ class ClosureRun(CycleDem):
                           time_solve=t_solve, time_dem=t_dem, cpu_solve=c_solve, cpu_dem=c_dem,
                           seepage_discharge=ctx.seepage_discharge,
                           not_at_rest=int((st.active[:st.n] & ~resting[:st.n]).sum()),
-                          gap_max_speed=gap_max, gap_mean_speed=gap_mean)
+                          gap_max_speed=gap_max, gap_mean_speed=gap_mean, scour_depth=scour_max, scour_x=scour_x,
+                          scour_y=scour_y)
         if s.timeline is not None:
             rep.operation_time, rep.timeline = s.timeline.time, s.timeline.state()
             rep.flood_level, rep.polder_level = s.timeline.flood_level, s.timeline.polder_level
         else:
             rep.flood_level = float(s.flood_level)
         t_out = _time.perf_counter()
-        field_ds = validate(self._field_dataset(new_snapshot, st, placed_cycle, resting, rep), "closure_cycle")
+        field_ds = self._field_dataset(new_snapshot, st, placed_cycle, resting, rep)
+        if scour_map is not None:
+            field_ds["scour_depth"] = scour_map.expand_dims("cycle").assign_coords(cycle=field_ds["cycle"])
+        field_ds = validate(field_ds, "closure_cycle")
         traj = None
         if moving.size:
             tt = np.broadcast_to(t_rec, (moving.size, t_rec.size))  # seconds since the cycle's release

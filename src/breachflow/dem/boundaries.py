@@ -99,8 +99,13 @@ class HeightField(Boundary):
     snapshot's grid (schema data_schemas/snapshot_grid.json); :meth:`from_snapshot` takes it from a snapshot Dataset.
     """
 
-    def __init__(self, x, y, bed, material: Material | None = None):
+    def __init__(self, x, y, bed, material: Material | None = None, roughness=None):
         super().__init__(material)
+        #: the bed's roughness (:class:`breachflow.fluid.bed.BedRoughness`; None: smooth): a rough bed adds the
+        #: pocket columns ``(d_bed, z_star)`` to the contact properties (:mod:`breachflow.dem.pocket`)
+        self.roughness = roughness
+        if roughness is not None:
+            self.props = roughness.wall_props(self.props)
         x = np.asarray(x, float)
         y = np.asarray(y, float)
         bed = np.asarray(bed, float)
@@ -119,11 +124,12 @@ class HeightField(Boundary):
         self.bed = np.ascontiguousarray(bed)
 
     @classmethod
-    def from_snapshot(cls, snapshot, material: Material | None = None, time_index: int = 0) -> "HeightField":
+    def from_snapshot(cls, snapshot, material: Material | None = None, time_index: int = 0,
+                      roughness=None) -> "HeightField":
         bed = snapshot["bed_elevation"]
         if "time" in bed.dims:
             bed = bed.isel(time=time_index)
-        return cls(snapshot["x"].values, snapshot["y"].values, bed.transpose("y", "x").values, material)
+        return cls(snapshot["x"].values, snapshot["y"].values, bed.transpose("y", "x").values, material, roughness)
 
     def elevation(self, px, py):
         """Bed elevation (m) of the bilinear surface at points (px, py)."""

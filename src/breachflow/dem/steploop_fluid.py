@@ -94,13 +94,13 @@ def fluid_verlet_steps(nmax, t, idx, pos, vel, omega, vel_prev, omega_prev, forc
     """
     pl_point, pl_normal, pl_vel, pl_props, pl_hist, pl_rhist, pl_reaction = planes
     hx0, hy0, hhx, hhy, hbed, hprops, hhist, hrhist = hf
-    method, bed, depth, u, v, x0, y0, dx, dy, smax, outside_air, profile, k_s = field
+    method, bed, depth, u, v, x0, y0, dx, dy, smax, outside_air, profile, k_s, bedp = field
     wind, rho_w, nu_w, rho_a, nu_a, with_air, grav, dlaw, params, xi, time_step, do_torque, rho_am = fluid
     nb = pl_point.shape[0] + (1 if hf_at >= 0 else 0)
     phi = np.empty(idx.shape[0])
     if fluid_on:  # the apparent mass at the start positions (as DemSimulation.inverse_mass)
         grid_added_masses(idx, pos, radius, method, bed, depth, u, v, x0, y0, dx, dy, smax, outside_air, profile,
-                          k_s, rho_w, rho_am, xi, phi)
+                          k_s, bedp, rho_w, rho_am, xi, phi)
         for k in range(idx.shape[0]):
             i = idx[k]
             inv_m[i] = 1.0 / (mass[i] + phi[k])
@@ -163,7 +163,7 @@ def fluid_verlet_steps(nmax, t, idx, pos, vel, omega, vel_prev, omega_prev, forc
             _add_gravity(idx, mass, g, force)
             zero_rows(idx, fm, tm)
             grid_fluid_forces_phi(idx, pos, ve, we, pos, awake, radius, method, bed, depth, u, v, x0, y0, dx, dy,
-                                  smax, outside_air, profile, k_s, wind, rho_w, nu_w, rho_a, nu_a, with_air, grav,
+                                  smax, outside_air, profile, k_s, bedp, wind, rho_w, nu_w, rho_a, nu_a, with_air, grav,
                                   dlaw, params, xi, time_step, do_torque, fm, tm, phi)
             for k in range(idx.shape[0]):
                 i = idx[k]
@@ -233,7 +233,7 @@ def eligible(sim) -> bool:
 
 
 _NO_FIELD = (0, np.zeros((1, 1)), np.zeros((1, 1)), np.zeros((1, 1)), np.zeros((1, 1)), 0.0, 0.0, 1.0, 1.0, 0.0,
-             True, 0, 1.0)
+             True, 0, 1.0, np.zeros(7))
 
 
 def run(sim, nmax: int, e_tol: float = -1.0, crit: int = 0, consecutive: int = 1, ok: int = 0):

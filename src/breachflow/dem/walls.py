@@ -13,6 +13,7 @@ import numba
 import numpy as np
 
 from .contact_law import HOOKE_HISTORY, WINDOW_AVERAGED, contact_law, hooke_history, rolling_law
+from .pocket import pocket_tangent
 
 
 #: the kinds of boundary of ``_wall_loop`` (compile-time constants)
@@ -86,6 +87,11 @@ def _wall_loop(idx, geom, bed, wprops, hist, rhist, pos, vel, omega, radius, mas
     ymax = y0 + (nby - 1) * hy
     al_w, be_w, kn_w, ks_w, ccn_w, ccs_w, ccf_w, mur_w = (wprops[0], wprops[1], wprops[2], wprops[3], wprops[4],
                                                           wprops[5], wprops[6], wprops[7])
+    # a rough bed (height field with the pocket columns d_bed, z_star; :mod:`.pocket`): friction and rolling
+    # resistance at least tan(phi0) of the particle's pocket; a smooth bed (8 columns) skips it
+    rough = kind == HEIGHT_FIELD and wprops.shape[0] > 9 and wprops[8] > 0.0
+    d_bed = wprops[8] if rough else 0.0
+    z_star = wprops[9] if rough else 0.0
     rx, ry, rz = reaction[0], reaction[1], reaction[2]  # the plane's reaction, summed in registers
     for k in range(idx.shape[0]):
         i = np.uint64(idx[k])  # unsigned: no negative-index wraparound test on each access
@@ -147,16 +153,22 @@ def _wall_loop(idx, geom, bed, wprops, hist, rhist, pos, vel, omega, radius, mas
         gy = uy - vel_h[i, 1] - (wz * nx - wx * nz)
         gz = uz - vel_h[i, 2] - (wx * ny - wy * nx)
         kn = min(props[i, 2], kn_w)
+        beta = min(props[i, 1], be_w)
+        mu_r = min(props[i, 7], mur_w)
+        if rough:
+            pocket = pocket_tangent(2.0 * ri, d_bed, z_star)
+            beta = max(beta, pocket)
+            mu_r = max(mu_r, pocket)
         if law == HOOKE_HISTORY:
             phi, fx, fy, fz, ftx, fty, ftz, fn = hooke_history(nx, ny, nz, overlap, vx, vy, vz, gx, gy, gz, hist, i,
                                                                kn, min(props[i, 3], ks_w), min(props[i, 4], ccn_w),
                                                                min(props[i, 5], ccs_w), min(props[i, 0], al_w),
-                                                               min(props[i, 1], be_w), dt)
+                                                               beta, dt)
         else:
             phi, fx, fy, fz, ftx, fty, ftz, fn = contact_law(nx, ny, nz, overlap, vx, vy, vz, gx, gy, gz, hist, i, kn,
                                                              min(props[i, 3], ks_w), min(props[i, 4], ccn_w),
                                                              min(props[i, 5], ccs_w), min(props[i, 6], ccf_w),
-                                                             min(props[i, 0], al_w), min(props[i, 1], be_w), dt, lo, hi)
+                                                             min(props[i, 0], al_w), beta, dt, lo, hi)
         if overlap <= 0.0:  # touching only within the window: no rolling contact now
             rhist[i, 0] = 0.0
             rhist[i, 1] = 0.0
@@ -169,7 +181,6 @@ def _wall_loop(idx, geom, bed, wprops, hist, rhist, pos, vel, omega, radius, mas
         torque[i, 0] += ri * (ny * ftz - nz * fty)
         torque[i, 1] += ri * (nz * ftx - nx * ftz)
         torque[i, 2] += ri * (nx * fty - ny * ftx)
-        mu_r = min(props[i, 7], mur_w)
         if mu_r > 0.0 and overlap > 0.0:
             rolling_law(nx, ny, nz, o0, o1, o2, fn, ri, mu_r, kn, inertia[i] + mass[i] * ri * ri, rhist, i, dt, mr)
             torque[i, 0] += mr[0]

@@ -27,6 +27,7 @@ import numpy as np
 
 from ..hydro.sampling import grid_bilinear_point, grid_neighbourhood_point
 from . import kernels as K
+from .nearbed import ON, lift_force, near_bed
 from .profile import profile_factor
 
 BILINEAR, NEIGHBOURHOOD = 0, 1
@@ -51,6 +52,18 @@ def _profiled(code, k_s, z, b, h, uu, vv):
 
 
 @numba.njit(cache=True, inline="always")
+def _felt(code, k_s, bedp, z, b, h, a, uu, vv):
+    """``(u, v, lam)``: the velocity a sphere of radius *a* at height *z* feels and its lift factor: the profile
+    at its centre (:func:`_profiled`, lam 0) or, with the near-bed terms on (``bedp[ON]``), the near-bed
+    velocity of :func:`~breachflow.fluid.nearbed.near_bed`."""
+    if bedp[ON] == 0.0:
+        su, sv = _profiled(code, k_s, z, b, h, uu, vv)
+        return su, sv, 0.0
+    g, lam = near_bed(code, k_s, z - b, h, a, bedp)
+    return uu * g, vv * g, lam
+
+
+@numba.njit(cache=True, inline="always")
 def apparent_mass(xi, a, phi, rho_w, rho_a):
     """``xi (rho_W V_sub + rho_A (V - V_sub))`` (kg) of a sphere of radius *a* with submerged fraction *phi*."""
     vol = 4.0 / 3.0 * math.pi * a ** 3
@@ -59,11 +72,11 @@ def apparent_mass(xi, a, phi, rho_w, rho_a):
 
 @numba.njit(cache=True)
 def grid_added_masses(rows, pos, radius, method, bed, depth, u, v, x0, y0, dx, dy, smax, outside_air,
-                      profile, k_s, rho_w, rho_a, xi, out):
+                      profile, k_s, bedp, rho_w, rho_a, xi, out):
     """Apparent mass ``xi (rho_W V_sub + rho_A (V - V_sub))`` of particles *rows* at *pos* into ``out[k]``.
 
     Returns -1, or (``outside_air`` False) the position ``k`` in *rows* of the first particle outside the
-    field (nothing is meaningful in *out* then). *profile*, *k_s* are not used (the apparent mass does not
+    field (nothing is meaningful in *out* then). *profile*, *k_s*, *bedp* are not used (the apparent mass does not
     depend on the velocity); they are taken so that both kernels share the field arguments.
     """
     for k in range(rows.size):
@@ -81,8 +94,8 @@ def grid_added_masses(rows, pos, radius, method, bed, depth, u, v, x0, y0, dx, d
 
 @numba.njit(cache=True)
 def grid_fluid_forces(idx, pos, vel, omega, state_pos, awake, radius, method, bed, depth, u, v, x0, y0, dx, dy,
-                      smax, outside_air, profile, k_s, wind, rho_w, nu_w, rho_a, nu_a, with_air, g, law, params, xi,
-                      time_step, do_torque, force, torque):
+                      smax, outside_air, profile, k_s, bedp, wind, rho_w, nu_w, rho_a, nu_a, with_air, g, law, params,
+                      xi, time_step, do_torque, force, torque):
     """Add buoyancy, drag, convective apparent mass and gridpoint torque on particles *idx* to *force*/*torque*.
 
     The kinematics are rows of *pos*/*vel*/*omega*; a sleeping particle (``awake`` False) is taken at rest
@@ -92,18 +105,19 @@ def grid_fluid_forces(idx, pos, vel, omega, state_pos, awake, radius, method, be
     before anything is added. The water velocity is the depth-averaged one times the vertical profile
     factor (*profile* code of :data:`~breachflow.fluid.profile.PROFILES`, roughness *k_s*) at the
     particle's centre height, here and at the predicted position of the convective term (the gridpoint
-    torque uses the depth-averaged gridpoint velocities, as the step path). ``time_step`` 0 means the
+    torque uses the depth-averaged gridpoint velocities, as the step path); with the near-bed terms on
+    (*bedp*, :mod:`~breachflow.fluid.nearbed`) the near-bed velocity and the lift instead. ``time_step`` 0 means the
     default horizon of the convective term, ``0.125 max(s_max, 1e-3) / max |v_h|``. Returns -1 on success.
     """
     return grid_fluid_forces_phi(idx, pos, vel, omega, state_pos, awake, radius, method, bed, depth, u, v, x0, y0,
-                                 dx, dy, smax, outside_air, profile, k_s, wind, rho_w, nu_w, rho_a, nu_a, with_air, g,
-                                 law, params, xi, time_step, do_torque, force, torque, np.empty(idx.size))
+                                 dx, dy, smax, outside_air, profile, k_s, bedp, wind, rho_w, nu_w, rho_a, nu_a, with_air,
+                                 g, law, params, xi, time_step, do_torque, force, torque, np.empty(idx.size))
 
 
 @numba.njit(cache=True)
 def grid_fluid_forces_phi(idx, pos, vel, omega, state_pos, awake, radius, method, bed, depth, u, v, x0, y0, dx, dy,
-                          smax, outside_air, profile, k_s, wind, rho_w, nu_w, rho_a, nu_a, with_air, g, law, params,
-                          xi, time_step, do_torque, force, torque, phi):
+                          smax, outside_air, profile, k_s, bedp, wind, rho_w, nu_w, rho_a, nu_a, with_air, g, law,
+                          params, xi, time_step, do_torque, force, torque, phi):
     """:func:`grid_fluid_forces`, leaving the submerged fraction of particle ``idx[k]`` in ``phi[k]`` (0 outside
     the field or in the air): with :func:`apparent_mass` the next step's apparent mass at the same positions
     without sampling the field again (the DEM's compiled step loop, :mod:`breachflow.dem.steploop_fluid`)."""
@@ -113,6 +127,7 @@ def grid_fluid_forces_phi(idx, pos, vel, omega, state_pos, awake, radius, method
     po = np.empty((n, 3))
     su = np.empty(n)
     sv = np.empty(n)
+    lam = np.zeros(n)
     ins_ = np.empty(n, np.bool_)
     vmax = 0.0
     any_wet = False
@@ -132,7 +147,7 @@ def grid_fluid_forces_phi(idx, pos, vel, omega, state_pos, awake, radius, method
         ins_[k] = ins
         if ins:
             phi[k] = K.submerged_fraction(px[k, 2], radius[i], b + h, b)
-            su[k], sv[k] = _profiled(profile, k_s, px[k, 2], b, h, uu, vv)
+            su[k], sv[k], lam[k] = _felt(profile, k_s, bedp, px[k, 2], b, h, radius[i], uu, vv)
         else:
             if not outside_air:
                 return k
@@ -167,6 +182,8 @@ def grid_fluid_forces_phi(idx, pos, vel, omega, state_pos, awake, radius, method
             fx -= kk * rx
             fy -= kk * ry
             fz -= kk * rz
+            if lam[k] > 0.0:
+                fz += lift_force(bedp, lam[k], rho_w, a, f, rx, ry)
         if with_air and f < 1.0:
             rx = pv[k, 0] - wind[0]
             ry = pv[k, 1] - wind[1]
@@ -182,7 +199,7 @@ def grid_fluid_forces_phi(idx, pos, vel, omega, state_pos, awake, radius, method
             ay = px[k, 1] + pv[k, 1] * horizon
             ins1, b1, h1, u1, v1 = _sample(method, bed, depth, u, v, x0, y0, dx, dy, smax, ax, ay, a)
             if ins1:
-                u1, v1 = _profiled(profile, k_s, px[k, 2] + pv[k, 2] * horizon, b1, h1, u1, v1)
+                u1, v1, _ = _felt(profile, k_s, bedp, px[k, 2] + pv[k, 2] * horizon, b1, h1, a, u1, v1)
             if not (ins1 and ins_[k]):
                 u1 = su[k]
                 v1 = sv[k]

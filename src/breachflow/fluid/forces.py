@@ -49,6 +49,7 @@ from . import kernels as K
 from .basset import BassetHistory, basset_coefficient
 from .drag import DragLaw, get_drag_law
 from .field import as_field
+from . import nearbed as NB
 from .profile import factors as profile_factors_np
 from .profile import profile_code, roughness_from_manning
 
@@ -112,6 +113,9 @@ class FluidForces:
     roughness, manning
         Roughness height ``k_s`` (m) of the log law; ``None`` derives it from Manning's *manning*
         (Manning–Strickler, :func:`~breachflow.fluid.profile.roughness_from_manning`).
+    near_bed
+        The near-bed terms' parameter vector (:func:`breachflow.fluid.nearbed.parameters`: the flow over the
+        exposed height, lift, turbulent peaks); None (default) leaves them off.
     basset
         Add the Basset history force (off by default; docs/theory.md, *Fluid forces on a mass*); ``basset_range`` ``(s_min, s_max)`` (s)
         is where its kernel quadrature is accurate (relative ~3e-7).
@@ -125,12 +129,16 @@ class FluidForces:
                  time_step: float | None = None, wind=(0.0, 0.0, 0.0), outside: str = "error",
                  gravity: float = G, torque_points: int = 5, basset: bool = False,
                  basset_range=(1e-8, 1e5), velocity_profile: str = "uniform", roughness: float | None = None,
-                 manning: float = 0.025, compiled: bool = True):
+                 manning: float = 0.025, compiled: bool = True, near_bed=None):
         self.velocity_profile = str(velocity_profile)
         self.profile_code = profile_code(self.velocity_profile)
         self.roughness = float(roughness_from_manning(manning) if roughness is None else roughness)
         if not (np.isfinite(self.roughness) and self.roughness > 0):
             raise InputError(f"FluidForces: roughness height must be > 0 m, got {roughness!r} (manning {manning!r})")
+        #: the near-bed terms' parameter vector (:mod:`breachflow.fluid.nearbed`; all 0: off, the earlier forces)
+        self.bedp = NB.off() if near_bed is None else np.ascontiguousarray(near_bed, dtype=float).reshape(NB.N_PARAMS)
+        self.near_bed_on = bool(self.bedp[NB.ON] != 0.0)
+        self._lam = None
         self.field = as_field(field, sampling)
         self.drag_law = get_drag_law(drag_law)
         self.water = water
@@ -171,7 +179,7 @@ class FluidForces:
         # outside the grid and the call takes the step-by-step path, which samples the fallback there
         return (method, g.bed, g.depth, g.u, g.v, float(g.x0), float(g.y0), float(g.dx), float(g.dy),
                 float(self.field.s_max), self.outside == "air" and getattr(sampler, "fallback", None) is None,
-                self.profile_code, self.roughness)
+                self.profile_code, self.roughness, self.bedp)
 
     def _has_fallback(self) -> bool:
         return getattr(getattr(self.field, "sampler", None), "fallback", None) is not None
@@ -217,9 +225,20 @@ class FluidForces:
             bed = np.where(inside, bed, -np.inf)
             u = np.where(inside, u, 0.0)
             v = np.where(inside, v, 0.0)
-        if self.profile_code != 0:
+        if self.near_bed_on:
+            u, v, self._lam = self._near_bed(pos, radius, surface, bed, u, v)
+        elif self.profile_code != 0:
             u, v = self._profiled(pos, surface, bed, u, v)
         return surface, bed, u, v, inside
+
+    def _near_bed(self, pos, radius, surface, bed, u, v):
+        """``(u, v, lam)``: the near-bed velocity the particles feel and their lift factors
+        (:func:`~breachflow.fluid.nearbed.near_bed`)."""
+        with np.errstate(invalid="ignore"):  # outside the field: surface = bed = -inf
+            depth = np.where(np.isfinite(surface) & np.isfinite(bed), surface - bed, 0.0)
+            z = np.where(np.isfinite(bed), pos[:, 2] - bed, 0.0)
+        g, lam = NB.factors(self.profile_code, self.roughness, z, depth, radius, self.bedp)
+        return u * g, v * g, lam
 
     def _profiled(self, pos, surface, bed, u, v):
         """``(u, v)`` times the vertical profile factor at the particles' centre heights."""
@@ -299,6 +318,10 @@ class FluidForces:
         air = self.air if self.air is not None else self.water
         K.buoyancy_and_drag(p, w, rad, phi, u, v, self.wind, self.water.rho, self.water.nu, air.rho, air.nu,
                             self.gravity, law, params, self.air is not None, f)
+        if self.near_bed_on and self.bedp[NB.LIFT] > 0.0:  # lift (fluid/nearbed.py)
+            rx, ry = w[:, 0] - u, w[:, 1] - v
+            f[:, 2] += (0.5 * self.water.rho * self.bedp[NB.LIFT] * np.pi * rad ** 2 * phi
+                        * np.maximum(self._lam, 0.0) * (rx * rx + ry * ry))
         wet = phi > 0.0
         if wet.any():
             if self.basset is not None:
@@ -356,7 +379,9 @@ class FluidForces:
         s1 = self.field.sample(ahead[:, 0], ahead[:, 1], rad)
         ok = np.asarray(s1.inside, bool) & inside
         su, sv = np.asarray(s1.u, float), np.asarray(s1.v, float)
-        if self.profile_code != 0:
+        if self.near_bed_on:
+            su, sv, _ = self._near_bed(ahead, rad, np.asarray(s1.surface, float), np.asarray(s1.bed, float), su, sv)
+        elif self.profile_code != 0:
             su, sv = self._profiled(ahead, np.asarray(s1.surface, float), np.asarray(s1.bed, float), su, sv)
         u1 = np.where(ok, su, u)
         v1 = np.where(ok, sv, v)

@@ -18,11 +18,13 @@ from .site import SITE_PRESETS, SiteSection, demo_breach
 from .hydro import RESOLVE_MODES, SNAPSHOT_SOLVERS, HydroSection
 from .dem import DemSection, FluidSection
 from .closure import ClosureSection, CriteriaSection, PlacementSection
+from .bed import BedSection, BedSettings
 from .setup import closure_setup
 
 __all__ = [
     "demo_breach", "SITE_PRESETS", "SiteSection", "RESOLVE_MODES", "SNAPSHOT_SOLVERS", "HydroSection", "DemSection",
-    "FluidSection", "PlacementSection", "CriteriaSection", "ClosureSection", "closure_setup",
+    "FluidSection", "BedSection", "BedSettings", "PlacementSection", "CriteriaSection", "ClosureSection",
+    "closure_setup",
 ]
 
 # documented here, their public home (Sphinx reads a ``#:`` comment from the module that assigns the name)

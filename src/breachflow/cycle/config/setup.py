@@ -130,6 +130,7 @@ def closure_setup(scenario, *, overrides: dict | None = None):
     fluid = scenario.get("fluid") or FluidSection()
     dem = DemSettings(material=material, drag_law=fluid.drag_law, sampling=fluid.sampling, xi=fluid.xi,
                       velocity_profile=fluid.velocity_profile, roughness=fluid.roughness,
+                      bed=scenario["bed"].settings if "bed" in scenario else None,
                       **dem_vals, **dem_kw)
     closure = scenario.get("closure") or ClosureSection()
     placement = scenario["placement"].plan if "placement" in scenario else PlacementPlan(
