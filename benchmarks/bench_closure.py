@@ -29,7 +29,7 @@ spread one placement seed makes. ``--json`` writes every run's figures to a file
 ``--no-dem`` skips the DEM measurement: cycle 1 of the embedded default scenario (1 m cells, 5 masses)
 stepped three ways in the same process: the fluid forces term by term (``FluidForces(compiled=False)``, the
 path before issue 16), the fused fluid-force kernel called once per step from Python
-(``DemSimulation.compiled = False``), and many steps per compiled call (:mod:`breachflow.dem.steploop_fluid`,
+(``DemSimulation.compiled = False``), and many steps per compiled call (:mod:`breachflow.coupling.steploop`,
 the default): microseconds per DEM step, the ratios, and the largest difference of the final positions
 against the term-by-term path (the error figure: round-off amplified by the contacts; the compiled loop and
 the per-step fused path are bit-identical).
@@ -241,7 +241,7 @@ def dem_ratio(n_steps: int = 1500) -> None:
     from breachflow.cycle.driver import ClosureRun, dem_view
     from breachflow.cycle.main import default_scenario_text
     from breachflow.fluid.forces import FluidForces
-    from breachflow.hydro.sampling import FieldSampler
+    from breachflow.field.sampling import FieldSampler
     from breachflow.scenario.config import parse_scenario
 
     text = default_scenario_text()

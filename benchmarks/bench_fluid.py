@@ -72,7 +72,7 @@ class Problem:
 def problems():
     from breachflow.fluid.drag import get_drag_law
     from breachflow.fluid.field import UniformWater
-    from breachflow.hydro.sampling import uniform_snapshot
+    from breachflow.field.sampling import uniform_snapshot
 
     mu, xi = RHO_W * 1e-6, 0.5
     d_s = 1e-4

@@ -28,8 +28,8 @@ import numpy as np
 CHILD = r"""
 import json, resource, sys, time, warnings
 from pathlib import Path
-import breachflow.hydro as h
-from breachflow.hydro.io import open_snapshot
+import breachflow.field as h
+from breachflow.io import open_snapshot
 base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
 d = Path(sys.argv[1])
 t0 = time.perf_counter()
@@ -45,8 +45,8 @@ WRITE = r"""
 import json, sys, tempfile, time, warnings
 import numpy as np
 from pathlib import Path
-from breachflow.hydro.io import open_snapshot, write_adh
-from breachflow.hydro.snapshot import mesh_face_nodes, node_coordinates
+from breachflow.io import open_snapshot, write_adh
+from breachflow.field.snapshot import mesh_face_nodes, node_coordinates
 d = Path(sys.argv[1])
 ds = open_snapshot([d / "bench.3dm", d / "bench_dep.dat", d / "bench_vel.dat", d / "bench.bc"])
 out = Path(tempfile.mkdtemp())

@@ -22,7 +22,7 @@ import numpy as np
 
 
 def field():
-    from breachflow.hydro.snapshot import grid_snapshot
+    from breachflow.field.snapshot import grid_snapshot
 
     x = np.arange(-10.0, 10.0 + 1e-9, 0.7)
     y = np.arange(-8.0, 8.0 + 1e-9, 0.91)

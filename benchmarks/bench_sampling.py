@@ -41,7 +41,7 @@ def main(argv) -> int:
     from scipy.interpolate import LinearNDInterpolator, RegularGridInterpolator
     from scipy.spatial import Delaunay
 
-    from breachflow.hydro import FieldSampler, grid_snapshot, mesh_snapshot
+    from breachflow.field import FieldSampler, grid_snapshot, mesh_snapshot
 
     rng = np.random.default_rng(0)
     rows = []

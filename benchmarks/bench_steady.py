@@ -88,7 +88,7 @@ def record(text, workdir):
 
 
 def compare(setup, rec, tolerances, long_factor, t_max=None, cold_time=None):
-    from breachflow.hydro.swe import SWESimulation
+    from breachflow.swe import SWESimulation
 
     warm = rec.solver.warm
     rows = []

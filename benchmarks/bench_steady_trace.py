@@ -49,7 +49,7 @@ def spectrum_period(t, y):
 def main(argv=None) -> int:
     from breachflow.cycle.config import closure_setup
     from breachflow.cycle.criteria import row_discharge, section_discharge
-    from breachflow.hydro.swe import SWESimulation
+    from breachflow.swe import SWESimulation
     from breachflow.scenario.config import parse_scenario
 
     ap = argparse.ArgumentParser(prog="bench steady_trace")

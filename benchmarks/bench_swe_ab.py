@@ -31,8 +31,8 @@ TIMER = r"""
 import dataclasses, hashlib, json, math, sys, time
 import numpy as np
 sys.path.insert(0, {bench!r})
-from breachflow.hydro.swe import SWEOptions, SWESimulation
-from breachflow.hydro.terrain import uniform_grid
+from breachflow.swe import SWEOptions, SWESimulation
+from breachflow.swe.domain import uniform_grid
 case, threads = {case!r}, {threads}
 kw = dict(order=2, threads=threads)
 if {skip!r} is not None and "skip_quiet" in {{f.name for f in dataclasses.fields(SWEOptions)}}:

@@ -11,8 +11,8 @@ is off-centre and large) — and re-solved warm:
 * the open breach solved cold at ``--cold`` (1/s), the warm start of every re-solve;
 * reference: the full domain at ``--reference`` (1/s), t_max ``--reference-t-max`` (s);
 * for each tolerance of ``--tolerances``: the full-domain re-solve (``[hydro] resolve = "full"``) and the
-  window re-solve (``resolve = "window"``, :mod:`breachflow.hydro.window`) with each far-field model of
-  ``--far`` (:mod:`breachflow.hydro.window_far`; ``coarse`` on cells ``--factor`` times larger). Each
+  window re-solve (``resolve = "window"``, :mod:`breachflow.hydro.resolve_region`) with each far-field model of
+  ``--far`` (:mod:`breachflow.hydro.far_field`; ``coarse`` on cells ``--factor`` times larger). Each
   window re-solve is the first of a run (a new resolver): the coarse far field pays for two coarse solves.
 
 Printed per solve: breach discharge Q (m³/s) and its difference to the reference (%), the largest speed
@@ -62,7 +62,7 @@ def main(argv) -> int:
     ap.add_argument("--far", default="frozen", help="far-field models of the window re-solve, comma-separated")
     ap.add_argument("--factor", type=int, default=4, help="coarsening of the 'coarse' far field")
     a = ap.parse_args(argv)
-    from breachflow.hydro.window import WindowResolver
+    from breachflow.hydro.resolve_region import WindowResolver
 
     margin = f'resolve_margin = "{a.margin}"' if a.margin else ""
 

@@ -7,7 +7,7 @@ margin, 5e-5 1/s) at 1.7 m cells with a pile against the east wall (the breach e
 and at 1.5 m with a pile against the west wall. Printed per far-field model: breach discharge of the
 full and the window re-solve and their difference, the mean water-level rise on the flood side outside
 the window (full and window) and the rms of their difference, the window's growths and the far field's
-CPU time (:mod:`breachflow.hydro.window_far`).
+CPU time (:mod:`breachflow.hydro.far_field`).
 """
 from __future__ import annotations
 
@@ -25,7 +25,7 @@ def main(argv) -> int:
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "cycle"))
     from test_window_resolve import SCENE, closure_setup, parse_scenario, section_discharge
 
-    from breachflow.hydro.window import WindowResolver
+    from breachflow.hydro.resolve_region import WindowResolver
 
     for res, wall in [("1.7 m", "east"), ("1.5 m", "west")]:
         setup = closure_setup(parse_scenario(SCENE.replace('"1.5 m"', f'"{res}"')))

@@ -11,7 +11,7 @@ its warm start, the open breach's steady state — is the problem every solve be
 
 * reference: the full domain at ``--reference`` (1/s), at least ``--reference-min-time`` s (the
   averaged criterion alone stopped it after 313 s at 4 m, inside the slow transient), with the averaged criterion
-  (``run_to_steady(average=True)``, :mod:`breachflow.hydro.steady_mean`: batch means of the breach
+  (``run_to_steady(average=True)``, :mod:`breachflow.swe.steady_mean`: batch means of the breach
   discharge, the first half of the record left out as the transient), t_max ``--reference-t-max``. Its
   breach discharge is given with the batch-means error (standard error and half-drift,
   ``BatchMeans.stats``) and the linear drift of Q over the averaging window (per 1000 s); the largest
@@ -47,7 +47,7 @@ HERE = Path(__file__).resolve().parent
 
 def _se_batch(values) -> float:
     """Batch-means standard error (and half-drift) of a record, the reference's own estimator."""
-    from breachflow.hydro.steady_mean import BatchMeans
+    from breachflow.swe.steady_mean import BatchMeans
 
     v = np.asarray(values, float)
     if v.size < 8:
@@ -79,8 +79,8 @@ def main(argv=None) -> int:
     from bench_steady import record
 
     from breachflow.cycle.criteria import section_discharge
-    from breachflow.hydro.swe import SWESimulation
-    from breachflow.hydro.window import WindowResolver
+    from breachflow.swe import SWESimulation
+    from breachflow.hydro.resolve_region import WindowResolver
     from breachflow.scenario.toml import scenario_with
 
     text = scenario_with(Path(a.scenario).read_text(), {"hydro.resolution": f"{a.resolution:g} m",

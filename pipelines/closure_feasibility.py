@@ -130,7 +130,7 @@ def probability_figure(ds, path: Path) -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from breachflow.output.atomic import atomic_path
+    from breachflow.atomic import atomic_path
 
     ds = ds.transpose("mass_size", "polder_area", "breach_length", "replicate")
     sizes = ds["mass_size"].values
@@ -174,7 +174,7 @@ def figure(ds, path: Path) -> Path:
     from matplotlib.colors import ListedColormap
     from matplotlib.patches import Patch
 
-    from breachflow.output.atomic import atomic_path
+    from breachflow.atomic import atomic_path
 
     if "replicate" in ds.dims:
         return probability_figure(ds, path)

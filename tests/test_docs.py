@@ -22,7 +22,7 @@ def test_api_reference_builds_without_broken_references(tmp_path):
     res = _build(ROOT / "docs", tmp_path / "html")
     assert res.returncode == 0, res.stdout + res.stderr
     api = (tmp_path / "html" / "api.html").read_text()
-    for name in ("breachflow.cycle.driver.ClosureRun", "breachflow.hydro.crs.resolve_crs", "breachflow.units.to_si"):
+    for name in ("breachflow.cycle.driver.ClosureRun", "breachflow.field.crs.resolve_crs", "breachflow.units.to_si"):
         assert f'id="{name}"' in api, name
 
 

@@ -10,7 +10,7 @@ import xarray as xr
 from breachflow.cycle.config import closure_setup
 from breachflow.cycle.main import run_closure
 from breachflow.errors import BreachflowWarning
-from breachflow.hydro.snapshot import grid_snapshot
+from breachflow.field.snapshot import grid_snapshot
 from breachflow.hydro.solvers import SnapshotSolver, get_solver
 from breachflow.scenario.config import parse_scenario
 

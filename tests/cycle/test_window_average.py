@@ -22,10 +22,10 @@ import pytest
 
 from breachflow.cycle.config import closure_setup
 from breachflow.errors import ParseError
-from breachflow.hydro.section import snapshot_discharge
-from breachflow.hydro.swe.solver import SWESolver
-from breachflow.hydro.terrain import BoundaryCondition, uniform_grid
-from breachflow.hydro.window import WindowResolver
+from breachflow.swe.section import snapshot_discharge
+from breachflow.swe.solver import SWESolver
+from breachflow.swe.domain import BoundaryCondition, uniform_grid
+from breachflow.hydro.resolve_region import WindowResolver
 from breachflow.scenario.config import parse_scenario
 from breachflow.scenario.toml import scenario_with
 

@@ -15,7 +15,7 @@ from breachflow.fluid.drag import get_drag_law
 from breachflow.fluid.field import UniformWater
 from breachflow.fluid.forces import FluidForces
 from breachflow.fluid.freeflight import integrate
-from breachflow.hydro.sampling import uniform_snapshot
+from breachflow.field.sampling import uniform_snapshot
 
 G = 9.80665
 RHO_W, NU_W = 1000.0, 1.0e-6

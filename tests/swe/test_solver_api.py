@@ -7,10 +7,10 @@ import pytest
 import xarray as xr
 
 from breachflow.errors import InputError, PhysicsError
-from breachflow.hydro import derived
+from breachflow.field import derived
 from breachflow.hydro.solvers import HydroSolver, SnapshotSolver, get_solver, solvers
-from breachflow.hydro.swe import SWEOptions, SWESimulation, SWESolver
-from breachflow.hydro.terrain import BoundaryCondition as BC, breach_domain, levee_bed, uniform_grid
+from breachflow.swe import SWEOptions, SWESimulation, SWESolver
+from breachflow.swe.domain import BoundaryCondition as BC, breach_domain, levee_bed, uniform_grid
 from breachflow.schemas import validate
 from breachflow.scenario import typical_breach
 

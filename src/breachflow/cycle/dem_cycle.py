@@ -15,8 +15,8 @@ import xarray as xr
 from ..dem import DemSimulation, HeightField
 from ..fluid.forces import FluidForces
 from ..fluid.profile import roughness_from_manning
-from ..hydro.sampling import FieldSampler
-from ..hydro.snapshot import DRY_DEPTH
+from ..field.sampling import FieldSampler
+from ..field.snapshot import DRY_DEPTH
 from .rest import RestWindow
 
 

@@ -29,10 +29,10 @@ import xarray as xr
 from ..dem import Material
 from ..errors import InputError
 from ..fluid.profile import factors as profile_factors
-from ..hydro.sampling import FieldSampler
+from ..field.sampling import FieldSampler
 from ..schemas import validate
-from ..output import RunDirectory, particles_dataset, trajectories_dataset
-from ..output.cf import pad_particles
+from ..io import RunDirectory, particles_dataset, trajectories_dataset
+from ..io.cf import pad_particles
 from .dem_cycle import CycleDem, dem_view  # noqa: F401  (dem_view: re-exported, the nested tests import it here)
 from .criteria import CycleContext, EndCriteria, gap_section_speeds, section_discharge, seepage_in_section
 from .losses import (LOSS_LIMIT, cannot_close, carried_away_faster, cycle_losses, gap_speed, gap_speed_and_depth,
@@ -88,7 +88,7 @@ class DemSettings:
 class ClosureSetup:
     """Everything a closure run needs (SI).
 
-    ``domain`` the hydrodynamic :class:`~breachflow.hydro.terrain.Domain`; ``solver`` a HydroSolver;
+    ``domain`` the hydrodynamic :class:`~breachflow.swe.domain.Domain`; ``solver`` a HydroSolver;
     ``breach_x`` the breach extent along the levee at ``levee_y``; ``flood_level`` flood-side water
     elevation; ``bottom`` the breach bottom elevation (for the cross-section criteria); ``area`` the
     breach area ``(x0, x1, y0, y1)`` outside which masses are removed and counted as lost (None: the
@@ -435,11 +435,11 @@ class ClosureRun(CycleDem):
 
     def _seepage(self, snapshot, pile) -> float:
         """Discharge through the porous pile across the breach section (m³/s), from the steady split of
-        each cell's unit discharge (:func:`~breachflow.hydro.swe.porous.seepage_field`)."""
+        each cell's unit discharge (:func:`~breachflow.swe.porous.seepage_field`)."""
         if pile is None or not pile.any:
             return 0.0
         s = self.setup
-        from ..hydro.swe.porous import seepage_field
+        from ..swe.porous import seepage_field
 
         h = np.asarray(snapshot["depth"].values, float)
         u = np.asarray(snapshot["u"].values, float)

@@ -116,7 +116,7 @@ def run_closure(scenario=None, out="runs/default", *, resume: bool = False, over
 
     The scenario is parsed and checked in full before the run directory is touched. *on_start(run)* is
     called with the :class:`~breachflow.cycle.driver.ClosureRun` once its directory is started or resumed, before any work."""
-    from ..output import RunDirectory
+    from ..io import RunDirectory
 
     t0 = _time.perf_counter()
     source = None

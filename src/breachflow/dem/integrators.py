@@ -160,7 +160,7 @@ class VelocityVerlet:
             vel, omega = w["v"], w["w"]
         else:
             vel, omega = s.vel, s.omega
-        # the rebuild check with the window's reach at the velocities the law uses (as steploop_fluid)
+        # the rebuild check with the window's reach at the velocities the law uses (as the compiled loop)
         reach_t = sim.window_reach(self.force_window)
         sim.relist_after_drift(0.0 if reach_t == 0.0 else reach_t * (
             max_speed(sim.idx, vel) if self.predict_velocity else disp[0] / dt))

@@ -1,6 +1,6 @@
 """Many DEM steps inside one compiled call (issue 16): the pieces of the step loop and the driver's side.
 
-The loop itself is :func:`.steploop_fluid.fluid_verlet_steps`, one loop for the dry scenes of this module
+The loop itself is :func:`breachflow.coupling.steploop.fluid_verlet_steps`, one loop for the dry scenes of this module
 (spheres, fixed planes, gravity, global damping: :func:`eligible`, :func:`run`) and for the closure cycle's
 scene (a height field and fluid forces). It runs the steps of the two Verlet integrators
 (``velocity_verlet``, ``predicted_verlet``, :mod:`.integrators`) with the same kernels in the same order as
@@ -31,7 +31,7 @@ from .contacts import sleep_update
 from .neighbours import displacement_since
 from .periodic import min_image, outside, wrapped
 
-#: why the compiled loop (:func:`.steploop_fluid.fluid_verlet_steps`) returned
+#: why the compiled loop (:func:`breachflow.coupling.steploop.fluid_verlet_steps`) returned
 DONE, LEFT, BAD, WAKE, SLEEP, CONVERGED = range(6)
 
 
@@ -85,7 +85,7 @@ def close_and_first_pass(idx, pos, vel, omega, force, torque, fp, tp, vp, wp, in
     their order (two half kicks ``v += h a``, two roundings), so bit-identical to them. The force and torque
     rows of a particle retired or non-finite in the first part keep the closing pass's sums, as after
     :func:`second_pass`. Only where the closing pass's particles are the first pass's (no leaver in the
-    closing step) and no event ends the call after it (:func:`.steploop_fluid.fluid_verlet_steps`).
+    closing step) and no event ends the call after it (:func:`breachflow.coupling.steploop.fluid_verlet_steps`).
     Returns as :func:`first_pass`."""
     mx = 0.0
     sm = 0.0
@@ -322,19 +322,19 @@ def eligible(sim) -> bool:
 
 def runner(sim):
     """The compiled many-steps runner that can advance *sim* (this module's :func:`run`, or
-    :func:`.steploop_fluid.run` for height fields and fluid forces), or None (step in Python)."""
+    :func:`breachflow.coupling.steploop.run` for height fields and fluid forces), or None (step in Python)."""
     if eligible(sim):
         return run
-    from . import steploop_fluid
+    from ..coupling import steploop as steploop_fluid
 
     return steploop_fluid.run if steploop_fluid.eligible(sim) else None
 
 
 def run(sim, nmax: int, e_tol: float = -1.0, crit: int = 0, consecutive: int = 1, ok: int = 0):
     """Advance *sim* (:func:`eligible`) by up to *nmax* steps in one compiled call: the cycle's loop
-    (:func:`.steploop_fluid.run`) without height field and fluid forces; returns (steps done, last (max,
+    (:func:`breachflow.coupling.steploop.run`) without height field and fluid forces; returns (steps done, last (max,
     sum) displacement, ok)."""
-    from . import steploop_fluid
+    from ..coupling import steploop as steploop_fluid
 
     return steploop_fluid.run(sim, nmax, e_tol, crit, consecutive, ok)
 
@@ -362,7 +362,7 @@ def relist_args(sim):
 
 def finish(sim, planes, pl_hist, pl_rhist, reaction, done, why, t, stats, n0, e_tol, ok):
     """The driver's bookkeeping after a compiled many-steps call (this module's or
-    :mod:`.steploop_fluid`'s) that ended with reason *why*; returns (steps done, last (max, sum)
+    :mod:`breachflow.coupling.steploop`'s) that ended with reason *why*; returns (steps done, last (max, sum)
     displacement, ok)."""
     from ..errors import PhysicsError
 

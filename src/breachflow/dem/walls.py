@@ -2,7 +2,7 @@
 field (split out of :mod:`.contacts`, which re-exports these names).
 
 :func:`plane_candidates` lists, per fixed plane, the particles that can touch it before the next
-neighbour-list rebuild, so that the many-steps loop (:mod:`.steploop_fluid`) runs the plane loop over those
+neighbour-list rebuild, so that the many-steps loop (:mod:`breachflow.coupling.steploop`) runs the plane loop over those
 only (issue 16).
 """
 from __future__ import annotations

@@ -5,7 +5,7 @@ import json
 import os
 from pathlib import Path
 
-from ..output.atomic import atomic_path
+from ..atomic import atomic_path
 
 
 def atomic_write_text(path, text: str) -> Path:

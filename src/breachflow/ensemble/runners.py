@@ -29,7 +29,7 @@ undeclared results are added as they come. Runners are instantiated on the worke
 are shipped to workers by reference: the class must live in an importable module.
 
 A runner is found by name in the registry; a built-in one living in another subpackage is imported on
-demand through :data:`RUNNER_PROVIDERS` (``"closure"`` → ``breachflow.cycle.runner``); third-party
+demand through :data:`RUNNER_PROVIDERS` (``"closure"`` → ``breachflow.ensemble.closure``); third-party
 packages use the entry-point group ``breachflow.member_runners``.
 """
 from __future__ import annotations
@@ -50,7 +50,7 @@ from .spec import SI_UNIT_TEXT, dump_toml
 member_runners: Registry = Registry("member runner", "breachflow.member_runners")
 
 #: Runner name -> module that registers it when imported (built-in runners living in other subpackages).
-RUNNER_PROVIDERS: dict[str, str] = {"closure": "breachflow.cycle.runner"}
+RUNNER_PROVIDERS: dict[str, str] = {"closure": "breachflow.ensemble.closure"}
 
 
 def resolve_runner(name: str):

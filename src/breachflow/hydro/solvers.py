@@ -46,7 +46,7 @@ def get_solver(name: str = "swe", **options) -> HydroSolver:
 
 @solvers.register("swe")
 def _swe(**options):
-    from .swe.solver import SWESolver
+    from ..swe.solver import SWESolver
 
     return SWESolver(**options)
 

@@ -22,7 +22,7 @@ def closure_setup(scenario, *, overrides: dict | None = None):
     """Build the :class:`~.driver.ClosureSetup` of a parsed scenario (missing sections take defaults)."""
     from ...dem import Material
     from ...hydro.solvers import get_solver
-    from ...hydro.terrain import breach_domain
+    from ...swe.domain import breach_domain
     from ..driver import ClosureSetup, DemSettings
 
     site = scenario.get("site") or SiteSection()
@@ -191,7 +191,7 @@ class _WarmStartSWE:
         self.warm = get_solver("swe", t_max=hydro.t_max, **kw)
         self.window = None
         if hydro.resolve == "window":
-            from ...hydro.window import WindowResolver
+            from ...hydro.resolve_region import WindowResolver
 
             self.window = WindowResolver(self.warm, margin=hydro.resolve_margin, edge_level=hydro.resolve_edge_level,
                                          far=hydro.resolve_far,
@@ -215,7 +215,7 @@ class _StageSolver:
         t = 0.0 if self.plan is None else self.plan.operation_time(self.calls * self.plan.batch)
         self.calls += 1
         level = self.site.level_at(t)
-        from ...hydro.terrain import _copy_spacing
+        from ...swe.domain import _copy_spacing
 
         d = replace(domain, boundaries=self.site.with_level(level).boundaries)
         _copy_spacing(domain, d)
