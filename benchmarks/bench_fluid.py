@@ -168,7 +168,7 @@ def main(argv):
     ap.add_argument("--problems", default="stokes,tanh,steel,entry,shear")
     ap.add_argument("--out", default=str(Path(__file__).resolve().parent / "results"))
     args = ap.parse_args(argv)
-    from breachflow.dem.integrators import AdaptiveFreeFlight
+    from breachflow.coupling.integrators import AdaptiveFreeFlight
 
     probs = problems()
     names = [n.strip() for n in args.problems.split(",") if n.strip()]

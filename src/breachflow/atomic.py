@@ -82,9 +82,9 @@ def atomic_write(path, write) -> Path:
 
 def atomic_write_netcdf(ds, path, *, provenance: bool = True, **kwargs) -> Path:
     """Write Dataset *ds* to NetCDF4 at *path* atomically (``kwargs`` go to ``to_netcdf``), with the
-    provenance attributes of :func:`breachflow.io.provenance.stamp` unless *provenance* is False."""
+    provenance attributes of :func:`breachflow.provenance.stamp` unless *provenance* is False."""
     if provenance:
-        from .io.provenance import stamp
+        from .provenance import stamp
 
         ds = stamp(ds)
     return atomic_write(path, lambda tmp: ds.to_netcdf(tmp, engine="netcdf4", **kwargs))

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from breachflow.dem import DemSimulation, Material, ParticleState, Plane, integrators
-from breachflow.dem.integrators import AdaptiveFreeFlight
+from breachflow.coupling.integrators import AdaptiveFreeFlight
 from breachflow.fluid.drag import get_drag_law
 from breachflow.fluid.forces import FluidForces
 

@@ -15,7 +15,8 @@ import breachflow
 from breachflow.errors import DiskFullError
 from breachflow.field.snapshot import grid_snapshot, write_snapshot
 from breachflow.atomic import atomic_write_netcdf
-from breachflow.io import RunDirectory, provenance
+from breachflow import provenance
+from breachflow.io import RunDirectory
 from breachflow import atomic as atomic_mod
 
 from .test_rundir import _field, _traj

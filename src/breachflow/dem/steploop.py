@@ -23,10 +23,12 @@ opened in one pass over the particles (:func:`close_and_first_pass`; otherwise :
 from __future__ import annotations
 
 import math
+from typing import Protocol
 
 import numba
 import numpy as np
 
+from ..registry import Registry
 from .contacts import sleep_update
 from .neighbours import displacement_since
 from .periodic import min_image, outside, wrapped
@@ -320,23 +322,41 @@ def eligible(sim) -> bool:
             and all(type(b) is Plane and b.control == "fixed" for b in sim.boundaries))
 
 
+class StepLoop(Protocol):
+    """A compiled many-steps loop (registry ``breachflow.step_loops``): :func:`eligible` says which
+    simulations it can advance, :func:`run` advances one by up to ``nmax`` steps in one call."""
+
+    def eligible(self, sim) -> bool: ...
+
+    def run(self, sim, nmax: int, e_tol: float = -1.0, crit: int = 0, consecutive: int = 1, ok: int = 0): ...
+
+
+#: The compiled step loops, by name. The built-in ``fluid_verlet``
+#: (:mod:`breachflow.coupling.steploop`: the DEM step with the fluid forces inside it) lives above the DEM
+#: and is found through its entry point, as a third-party loop would be.
+step_loops: Registry[StepLoop] = Registry("compiled step loop", "breachflow.step_loops")
+#: the loop that runs the dry scenes of this module (:func:`run`)
+DRY_LOOP = "fluid_verlet"
+
+
 def runner(sim):
-    """The compiled many-steps runner that can advance *sim* (this module's :func:`run`, or
-    :func:`breachflow.coupling.steploop.run` for height fields and fluid forces), or None (step in Python)."""
+    """The compiled many-steps runner that can advance *sim* (this module's :func:`run`, or the ``run`` of
+    the first loop in :data:`step_loops` whose ``eligible(sim)`` holds: height fields and fluid forces), or
+    None (step in Python)."""
     if eligible(sim):
         return run
-    from ..coupling import steploop as steploop_fluid
-
-    return steploop_fluid.run if steploop_fluid.eligible(sim) else None
+    for name in step_loops.available():
+        loop = step_loops.get(name)
+        if loop.eligible(sim):
+            return loop.run
+    return None
 
 
 def run(sim, nmax: int, e_tol: float = -1.0, crit: int = 0, consecutive: int = 1, ok: int = 0):
     """Advance *sim* (:func:`eligible`) by up to *nmax* steps in one compiled call: the cycle's loop
-    (:func:`breachflow.coupling.steploop.run`) without height field and fluid forces; returns (steps done, last (max,
-    sum) displacement, ok)."""
-    from ..coupling import steploop as steploop_fluid
-
-    return steploop_fluid.run(sim, nmax, e_tol, crit, consecutive, ok)
+    (:func:`breachflow.coupling.steploop.run`, :data:`DRY_LOOP`) without height field and fluid forces;
+    returns (steps done, last (max, sum) displacement, ok)."""
+    return step_loops.get(DRY_LOOP).run(sim, nmax, e_tol, crit, consecutive, ok)
 
 
 def current_list(sim):

@@ -289,7 +289,7 @@ def write_result(ds: xr.Dataset, path) -> Path:
     """Validate and write the result Dataset to NetCDF atomically (never a half-written file)."""
     path = Path(path)
     validate_result(ds, source=str(path))
-    from ..io.provenance import stamp
+    from ..provenance import stamp
 
     ds = stamp(ds)  # breachflow version, git commit, command (one helper for every writer)
     with atomic_path(path, suffix=".nc") as tmp:

@@ -55,7 +55,7 @@ def execute_member(task: MemberTask) -> dict:
     errors (they are recorded with their type and message). The member's files record the ensemble's
     command (``task.command``), not the worker process's command line."""
     from ..numba_cache import serialise_cache_saves
-    from ..io.provenance import using_command
+    from ..provenance import using_command
 
     serialise_cache_saves()  # workers compiling into one cache at once (breachflow.numba_cache)
     run_dir = Path(task.run_dir)
@@ -134,7 +134,7 @@ def plan(spec, out=None) -> tuple[EnsembleSpec, Path, list[Member], list[MemberT
         raise InputError(f"[ensemble.options]: member runner {spec.runner!r} does not accept them ({exc})") from None
     members = spec.members()
     fp = spec.fingerprint()
-    from ..io.provenance import command
+    from ..provenance import command
 
     cmd = command()
     paths = {p.name: p.dotted for p in spec.parameters}

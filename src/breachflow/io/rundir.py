@@ -13,7 +13,7 @@ Layout::
 Every file is written atomically, and the manifest — rewritten atomically *after* a cycle's files —
 is the commit point: a crash leaves at worst stray temp files or files of a cycle the manifest does not
 list, which resuming sweeps away (:meth:`RunDirectory.sweep`). The manifest records the provenance
-(:func:`breachflow.io.provenance.attrs`) of the command that started the run and of every resume.
+(:func:`breachflow.provenance.attrs`) of the command that started the run and of every resume.
 
 Each cycle file carries a length-1 ``cycle`` dimension coordinate on its per-cycle variables, its
 particles padded to the run's capacity (``max_cycles × batch``: the same ``particle`` index in every
@@ -35,7 +35,7 @@ import numpy as np
 import xarray as xr
 
 from ..errors import InputError
-from . import provenance
+from .. import provenance
 from ..atomic import atomic_write, atomic_write_json, atomic_write_netcdf, atomic_write_text
 from .cf import netcdf_encoding
 
@@ -52,7 +52,7 @@ _CYCLE_FILE = re.compile(r"^(cycle|restart|trajectories)_(?P<g>\d{4})(_trajector
 
 
 def session(action: str) -> dict:
-    """A manifest record of one command acting on a run: time, action and :func:`breachflow.io.provenance.attrs`."""
+    """A manifest record of one command acting on a run: time, action and :func:`breachflow.provenance.attrs`."""
     return {"time": datetime.now(timezone.utc).isoformat(timespec="seconds"), "action": action,
             **provenance.attrs()}
 

@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import BreachflowWarning, ParseError
+from .sms_dataset import DatDataset
 
 VERSION = 3000
 CARDS = {100: "OBJTYPE", 110: "SFLT", 120: "SFLG", 130: "BEGSCL", 140: "BEGVEC", 150: "VECTYPE", 160: "OBJID",
@@ -50,9 +51,7 @@ class _Bytes:
 
 
 def read_binary_dat(path) -> list:
-    """Parse a binary SMS dataset file (see the module doc) into :class:`~.adh.DatDataset` objects."""
-    from .sms_dat import DatDataset
-
+    """Parse a binary SMS dataset file (see the module doc) into :class:`~.sms_dataset.DatDataset` objects."""
     path = Path(path)
     rd = _Bytes(path)
     try:

@@ -29,7 +29,7 @@ def write_netcdf(ds: xr.Dataset, path) -> Path:
         from ..schemas import validate
 
         validate(ds, "closure_window")
-    from ..io.provenance import stamp
+    from ..provenance import stamp
 
     with atomic_path(path) as tmp:
         stamp(netcdf_ready(ds)).to_netcdf(tmp)

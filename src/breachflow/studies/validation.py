@@ -157,7 +157,7 @@ def save_settling(ds: xr.Dataset, out_dir, stem: str = "settling") -> dict[str, 
     """Write ``<stem>.nc``, ``<stem>.csv`` (long format) and ``<stem>.png`` into *out_dir*; returns the paths."""
     out = Path(out_dir)
     paths = {"netcdf": out / f"{stem}.nc", "csv": out / f"{stem}.csv", "png": out / f"{stem}.png"}
-    from ..io.provenance import stamp
+    from ..provenance import stamp
 
     atomic_write(paths["netcdf"], lambda tmp: stamp(ds).to_netcdf(tmp))
     table = ds[["velocity", "depth", "reynolds", "cd"]].to_dataframe().reset_index()

@@ -55,7 +55,7 @@ def command() -> str:
 
 
 def version() -> str:
-    from .. import __version__
+    from . import __version__
 
     return __version__
 
