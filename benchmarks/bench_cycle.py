@@ -64,12 +64,12 @@ def one_cycle(n_resting: int, workdir: str) -> dict:
     obstacle, bed = remap_top(top, dom.bed, base["water_surface"].values, setup.remap_mode)
     solve_domain = dom if setup.remap_mode == "no_flow" else dom.with_raised_bed(bed > dom.bed, bed)
     snapshot = setup.solver.solve(solve_domain, obstacles=obstacle, initial=base)
-    sim = run._make_dem(snapshot)
-    run._add(sim, pos, radius, np.full(n_resting, 2650.0))
+    sim = run.dem.make(snapshot)
+    run.dem.add(sim, pos, radius, np.full(n_resting, 2650.0))
     sim.sleep(np.arange(sim.state.n))
     rec = {"dem." + key: v for key, v in sim.save_state().items()}
     rec.update(placed_cycle=np.zeros(n_resting, np.int32), resting=resting)
-    run._live = (0, sim)  # an uninterrupted run continues the DEM of the previous cycle
+    run.dem.live = (0, sim)  # an uninterrupted run continues the DEM of the previous cycle
     w0, c0 = time.perf_counter(), time.process_time()
     rep, _, _ = run._cycle(1, rec, snapshot)
     return {"wall": time.perf_counter() - w0, "cpu": time.process_time() - c0, "steps": rep.dem_steps,

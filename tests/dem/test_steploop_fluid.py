@@ -54,7 +54,7 @@ def scene(compiled, integrator, fluid_kw, wall, seed):
 
 
 def settle(sim, seconds):
-    """As the cycle's ``_settle``: equilibrium runs in record-interval chunks (here never stopping early)."""
+    """As the cycle's ``CycleDem.settle``: equilibrium runs in record-interval chunks (here never stopping early)."""
     chunk = int(round(0.1 / sim.dt))
     for _ in range(int(seconds / 0.1)):
         sim.run_to_equilibrium(1e-5, max_steps=chunk, consecutive=min(chunk, 50))

@@ -217,7 +217,7 @@ def test_closure_cycle_runs_with_the_log_profile(tmp_path):
     run = ClosureRun(closure_setup(parse_scenario(text)), tmp_path / "log", text)
     (rep,) = run.run()
     assert rep.masses == 3
-    fluid = run._live[1].models[0]
+    fluid = run.dem.live[1].models[0]
     assert fluid.velocity_profile == "log"
     assert fluid.roughness == pytest.approx(roughness_from_manning(0.025))
 

@@ -176,7 +176,7 @@ class CycleReport:
         return d
 
 
-class ClosureRun(CycleDem):
+class ClosureRun:
     """Drive a closure run in a run directory: ``ClosureRun(setup, run_dir, scenario_text).run()``."""
 
     def __init__(self, setup: ClosureSetup, run_dir, scenario_text: str, *, resume: bool = False,
@@ -191,7 +191,7 @@ class ClosureRun(CycleDem):
                           metadata={"name": setup.name, **setup.metadata, **(metadata or {})})
         self.progress = progress  # callable(CycleReport) or None
         self.reports: list[CycleReport] = []
-        self._live = None  # (cycle, DemSimulation) of the last cycle, continued by the next one
+        self.dem = CycleDem(setup)  # the DEM of the cycles
         self._pile = IncrementalPileTop(setup.domain.x, setup.domain.y, setup.domain.bed,
                                         sub=subpoints(dom.dx, dom.dy, 0.5 * setup.placement.diameter[0]),
                                         cells=setup.pile_sampling == "cell_average")
@@ -266,7 +266,7 @@ class ClosureRun(CycleDem):
         # 1. the DEM continues the previous cycle's (in memory, or restored from its saved state after a
         #    resume): resting masses asleep, their wake reference the old field, so a changed flow wakes
         #    the ones it really affects
-        sim = self._cycle_dem(g, snapshot, rec)
+        sim = self.dem.for_cycle(g, snapshot, rec)
         # 2. release this cycle's masses
         sampler = FieldSampler(snapshot, method="bilinear")
 
@@ -276,14 +276,14 @@ class ClosureRun(CycleDem):
 
         sill = self._pile_view(sim, rec) if s.placement.uses_pile else None
         rel = s.placement.release(g, s.seed, surface_at, pile=sill)
-        new_ids = self._add(sim, rel.pos, rel.radius, rel.density)
+        new_ids = self.dem.add(sim, rel.pos, rel.radius, rel.density)
         placed_cycle = np.concatenate([rec["placed_cycle"], np.full(len(new_ids), g, np.int32)])
         # 3. settle in the frozen field, recording the moving masses
         steps0, ps0 = sim.steps, sim.particle_steps
         moving = np.flatnonzero(sim.state.awake & sim.state.active)
         active0 = sim.state.active.copy()
         t_dem, c_dem = _time.perf_counter(), _time.process_time()
-        converged, t_rec, frames, vframes, window = self._settle(sim, d.max_time, record_ids=moving)
+        converged, t_rec, frames, vframes, window = self.dem.settle(sim, d.max_time, record_ids=moving)
         t_dem, c_dem = _time.perf_counter() - t_dem, _time.process_time() - c_dem
         st = sim.state
         lost_now = np.flatnonzero(active0 & ~st.active)
@@ -384,7 +384,7 @@ class ClosureRun(CycleDem):
                 traj.attrs.update(s.frame.attrs())
         rep.time_output = _time.perf_counter() - t_out  # the summary records the time up to the write itself
         self.rundir.write_cycle(g, field_ds, traj, new_rec, _summary(rep))
-        self._live = (g, sim)
+        self.dem.live = (g, sim)
         return rep, new_rec, new_snapshot
 
     def _verdict(self, g, closed, losses, lost_now, new_ids, rel, snapshot, area) -> str:
@@ -397,7 +397,7 @@ class ClosureRun(CycleDem):
         diam = float(np.median(2.0 * rel.radius))
         rho = float(np.median(rel.density))
         speed, depth = gap_speed_and_depth(snapshot, area)
-        factor = float(profile_factors(d.velocity_profile, 0.5 * diam, depth, self._fluid_roughness()))
+        factor = float(profile_factors(d.velocity_profile, 0.5 * diam, depth, self.dem.fluid_roughness()))
         roll = rolling_speed(diam, rho, d.material.rolling_friction, d.drag_law)
         if not cannot_close(losses, s.loss_limit, speed=speed, izbash=float(izbash_speed(diam, rho)),
                             felt_speed=factor * speed, roll_speed=roll):
@@ -425,7 +425,7 @@ class ClosureRun(CycleDem):
         """Criterion 5: the assembly, every mass awake, re-run in the new flow for ``stability_time``;
         returns the largest displacement of a resting mass (inf if one left the domain)."""
         d = self.setup.dem
-        sim = self._make_dem(snapshot, self._dem_part(rec))
+        sim = self.dem.make(snapshot, self.dem.state_of(rec))
         sim.wake_all()
         start = sim.state.pos.copy()
         sim.step(int(np.ceil(d.stability_time / sim.dt)))
