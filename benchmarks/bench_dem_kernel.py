@@ -129,7 +129,8 @@ def phases(a) -> int:
 
     import importlib
 
-    from breachflow.dem import contacts, forces, steploop
+    from breachflow.dem import forces, steploop
+    from breachflow.dem import pair_contacts as contacts
 
     integrators = importlib.import_module("breachflow.dem.integrators")  # the package exports the registry
 
@@ -248,7 +249,7 @@ def main(argv) -> int:
     sys.path.insert(0, str(Path(__file__).resolve().parent))
     import bench_dem
 
-    from breachflow.dem import contacts
+    from breachflow.dem import pair_contacts as contacts
 
     mods = {"": contacts}
     if a.old:
@@ -356,7 +357,7 @@ def steps_ab(a) -> int:
 _COMPILE = """
 import time, numpy as np
 c = time.process_time()
-from breachflow.dem import contacts
+from breachflow.dem import pair_contacts as contacts
 c1 = time.process_time()
 n = 3
 pos = np.array([[0.0, 0, 0], [0, 0, 0.99], [0, 0, 1.98]]); z = np.zeros((n, 3)); props = np.tile([0.0, 0.5, 1e7, 1e7, 1e3, 1e3, 1e3, 0.0], (n, 1))
@@ -388,7 +389,7 @@ def compile_cost(a) -> int:
 
 
 def _old_contacts(src):
-    """dem/contacts.py of another source tree (*src*: its ``src`` directory), imported under another name
+    """dem/pair_contacts.py (dem/contacts.py in older trees) of another source tree (*src*: its ``src`` directory), imported under another name
     (with the other modules of its ``dem`` package beside it, for the ones it imports: .contact_law,
     .neighbours, .bins, ...)."""
     import importlib
@@ -403,7 +404,8 @@ def _old_contacts(src):
         if f.name != "__init__.py":
             shutil.copy(f, pkg / f.name)
     sys.path.insert(0, str(tmp))
-    return importlib.import_module("old_breachflow_dem.contacts")
+    name = "pair_contacts" if (pkg / "pair_contacts.py").exists() else "contacts"
+    return importlib.import_module(f"old_breachflow_dem.{name}")
 
 
 if __name__ == "__main__":

@@ -45,7 +45,7 @@ def main(argv) -> int:
     from breachflow.dem import integrators as _  # noqa: F401
     import importlib
 
-    from breachflow.dem import walls
+    from breachflow.dem import wall_contacts as walls
 
     integ_mod = importlib.import_module("breachflow.dem.integrators")
     trees = {"": walls} | ({"old ": _old_contacts(a.old)} if a.old else {})  # contacts re-exports plane_forces

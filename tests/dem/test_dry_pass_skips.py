@@ -6,7 +6,8 @@ and both contact laws."""
 import numpy as np
 import pytest
 
-from breachflow.dem import DemSimulation, Material, Plane, contacts, steploop
+from breachflow.dem import DemSimulation, Material, Plane, steploop
+from breachflow.dem import pair_contacts as contacts
 from breachflow.dem.contact_law import HOOKE_HISTORY, WINDOW_AVERAGED
 from breachflow.dem.contact_laws import contact_laws
 

@@ -4,7 +4,7 @@ The cycle's DEM (``cycle/driver.py``) has the terrain as a :class:`~.boundaries.
 flow field as a :class:`~breachflow.fluid.forces.FluidForces` model (``static_models``).
 :func:`fluid_verlet_steps` is the one compiled loop of :mod:`.steploop` (which runs it for dry scenes
 without these) with, in the order of ``DemSimulation._one_step``: the height-field contacts
-(:func:`.walls.heightfield_forces`, in the boundaries' order among fixed planes), gravity, the fluid
+(:func:`.wall_contacts.heightfield_forces`, in the boundaries' order among fixed planes), gravity, the fluid
 forces (:func:`breachflow.fluid.compiled.grid_fluid_forces_phi`: buoyancy, drag with the vertical
 velocity profile, convective apparent mass, gridpoint torque, into ``sim._fm``/``_tm`` and then added) and
 the global damping; the inverse mass ``1/(m + m_added)`` of the kicks is the integrators'
@@ -20,7 +20,7 @@ gap to the plane was below the skin ``margin`` or whose plane histories are not 
 no particle left out can reach its plane: it moved at most ``moved`` since the build (measured after the
 drift by ``first_pass``) and the window-averaged law looks ``max(-lo, hi) |v . n|`` further
 (``|v|`` at most ``mx / dt`` for ``velocity_verlet``, the predicted velocities' maximum for ``predicted_verlet``),
-which must stay below the margin (:func:`.walls.candidates_hold`). If it does not, that step and all up to
+which must stay below the margin (:func:`.wall_contacts.candidates_hold`). If it does not, that step and all up to
 the next build run over all particles, as the Python step does. The particles left out are far, as the full
 loop would find them, and their history rows +0.0, as it would leave them: the results are bit-identical
 (tests/dem/test_plane_candidates.py). A plane whose normal has a component along a periodic axis has no list.
@@ -40,11 +40,11 @@ import numpy as np
 
 from ..fluid.compiled import apparent_mass, grid_added_masses, grid_fluid_forces_phi
 from ..dem.contact_law import WINDOW_AVERAGED
-from ..dem.contacts import heightfield_forces, pair_forces_window, plane_forces
+from ..dem.pair_contacts import heightfield_forces, pair_forces_window, plane_forces
 from ..dem.forces import _add_gravity, zero_rows
 from ..dem.neighbours import displacement_since, rebuild
 from ..dem.steploop import BAD, DONE, any_damping, close_and_first_pass, first_pass, next_ok, second_pass, step_event
-from ..dem.walls import candidates_hold, plane_candidates
+from ..dem.wall_contacts import candidates_hold, plane_candidates
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -57,7 +57,7 @@ def _inverse_masses(idx, mass, radius, phi, xi, rho_w, rho_a, inv_m):
 
 @numba.njit(cache=True, error_model="numpy")
 def list_planes(idx, pos_build, radius, pl_point, pl_normal, margin, pl_hist, pl_rhist, listable, cand, ncand):
-    """The candidate lists of the fixed planes (:func:`.walls.plane_candidates` with *margin*) into the rows
+    """The candidate lists of the fixed planes (:func:`.wall_contacts.plane_candidates` with *margin*) into the rows
     of *cand*, their lengths into *ncand*; a plane not *listable* lists none (its loop runs over all)."""
     for p in range(pl_point.shape[0]):
         ncand[p] = plane_candidates(idx, pos_build, radius, pl_point[p], pl_normal[p], margin, pl_hist[p],

@@ -31,7 +31,7 @@ import numpy as np
 
 from ..registry import Registry
 from . import memory
-from .walls import max_speed
+from .wall_contacts import max_speed
 
 integrators: Registry = Registry("DEM integrator", "breachflow.integrators")
 

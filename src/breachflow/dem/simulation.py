@@ -29,7 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError
-from . import contacts, neighbours, steploop
+from . import neighbours, pair_contacts, steploop
 from .boundaries import Boundary, Plane  # Plane: the example above
 from .checkpoint import CheckpointMixin
 from .contact_laws import resolve as resolve_contact_law
@@ -289,7 +289,7 @@ class DemSimulation(PairListMixin, SleepingMixin, CheckpointMixin):
         split = vel_h is not None and vel_h is not vel
         vel_h = vel if vel_h is None else vel_h
         omega_h = omega if omega_h is None else omega_h
-        n = contacts.pair_forces_window(self._pa, self._pb, self._hist, self._rhist, self._touch, pos, vel, omega,
+        n = pair_contacts.pair_forces_window(self._pa, self._pb, self._hist, self._rhist, self._touch, pos, vel, omega,
                                         vel_h, omega_h, split, s.radius, s.mass, s.inertia, s._props, s.awake,
                                         s.active, self.geom, self.periodic, self._dt, self.wake_velocity, force,
                                         torque, self._wake_flag, self._wake_ids, self._n_wake, lo, hi, self._law)

@@ -29,7 +29,7 @@ import numba
 import numpy as np
 
 from ..registry import Registry
-from .contacts import sleep_update
+from .pair_contacts import sleep_update
 from .neighbours import displacement_since
 from .periodic import min_image, outside, wrapped
 
@@ -64,7 +64,7 @@ def first_pass(idx, pos, vel, omega, force, torque, fp, tp, vp, wp, inv_m, inv_i
     the drift: this step's rebuild check, as :func:`.neighbours.displacement_since`). Returns
     (bad id or -1, #left, idx, the kicked idx, ve, we, max and sum step displacement, max displacement
     since the build, the largest predicted speed ``|vp|`` of the active particles if *predict*, else 0: the
-    plane lists' check, :func:`.walls.candidates_hold`). :func:`close_and_first_pass` without its closing
+    plane lists' check, :func:`.wall_contacts.candidates_hold`). :func:`close_and_first_pass` without its closing
     part.
 
     Each particle's rows are loaded once into scalars and stored once (numba cannot tell that the arrays do

@@ -1,5 +1,5 @@
 """Contact forces of the DEM (SPEC §5): particle pairs from the neighbour list; planes and terrain in
-:mod:`.walls` (re-exported here).
+:mod:`.wall_contacts` (re-exported here).
 
 Neighbour search: :mod:`.neighbours` (cell grid, half stencil, skin check; re-exported here). Contact
 laws (SPEC §5): :mod:`.contact_law` (the window-averaged spring–dashpot with rolling resistance, and
@@ -16,7 +16,7 @@ from .contact_law import (HOOKE_HISTORY, ROLLING_DAMPING_RATIO, ROLLING_STIFFNES
                           contact_law, contact_window, hooke_history, rolling_law)
 from .neighbours import (build_grid, displacement_since, find_pairs, min_image,  # noqa: F401  (re-exported)
                          wrap_and_check)
-from .walls import _bilinear, heightfield_forces, plane_candidates, plane_forces  # noqa: F401  (re-exported)
+from .wall_contacts import _bilinear, heightfield_forces, plane_candidates, plane_forces  # noqa: F401  (re-exported)
 
 
 #: unsigned offsets for the flat (3 N) views of the pair loop (mixed signed/unsigned int64 would be float)

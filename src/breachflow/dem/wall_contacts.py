@@ -1,5 +1,5 @@
 """Contacts of particles with boundaries (SPEC §5): fixed or moving planes and the terrain as a height
-field (split out of :mod:`.contacts`, which re-exports these names).
+field (split out of :mod:`.pair_contacts`, which re-exports these names).
 
 :func:`plane_candidates` lists, per fixed plane, the particles that can touch it before the next
 neighbour-list rebuild, so that the many-steps loop (:mod:`breachflow.coupling.steploop`) runs the plane loop over those
