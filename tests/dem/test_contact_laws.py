@@ -14,7 +14,7 @@ import pytest
 
 from breachflow.dem import DemSimulation, Material, Plane
 from breachflow.dem import pair_contacts as contacts
-from breachflow.dem.contact_laws import contact_laws, resolve
+from breachflow.dem.contact_law import contact_laws, resolve
 from breachflow.errors import InputError
 
 from . import impact_cases

@@ -82,7 +82,7 @@ def fluid_verlet_steps(nmax, t, idx, pos, vel, omega, vel_prev, omega_prev, forc
     *stats* (out): [max, sum displacement of the last step, contacts, #left / #woken / #asleep / bad id,
     consecutive steps below *e_tol*]; ``e_tol < 0``: no equilibrium test. *crit* 0: max criterion, 1: sum.
     ``ok``: consecutive steps below e_tol so far. *law*: kernel code of the contact law
-    (:mod:`.contact_laws`).
+    (:data:`breachflow.dem.contact_law.contact_laws`).
 
     *planes* ``(point, normal, velocity, props, hist, rhist, reaction)`` stacked per fixed plane; *hf_at*
     the position of the height field among the boundaries (-1: none), *hf* its ``(x0, y0, hx, hy, bed,

@@ -75,7 +75,7 @@ class Plane(Boundary):
 
     def forces(self, idx, state, dt, force, torque, lo=0.0, hi=0.0, law=0) -> int:
         """Add the contact forces on particles *idx*, averaged over the force window ``[lo, hi]`` (s,
-        :func:`.contact_law.contact_law`; *law*: kernel code of the contact law, :mod:`.contact_laws`);
+        :func:`.contact_law.contact_law`; *law*: kernel code of the contact law, :data:`.contact_law.contact_laws`);
         returns the number of pair_contacts."""
         self.reaction[:] = 0.0
         return pair_contacts.plane_forces(idx, self.point, self.normal, self.velocity, self.props, self.hist,

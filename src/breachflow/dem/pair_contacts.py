@@ -3,7 +3,7 @@
 
 Neighbour search: :mod:`.neighbours` (cell grid, half stencil, skin check; re-exported here). Contact
 laws (SPEC §5): :mod:`.contact_law` (the window-averaged spring–dashpot with rolling resistance, and
-LAMMPS' ``gran/hooke/history``), chosen by name in :mod:`.contact_laws`.
+LAMMPS' ``gran/hooke/history``), chosen by name in :data:`.contact_law.contact_laws`.
 """
 from __future__ import annotations
 

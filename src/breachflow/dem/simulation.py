@@ -32,7 +32,7 @@ from ..errors import InputError
 from . import neighbours, pair_contacts, steploop
 from .boundaries import Boundary, Plane  # Plane: the example above
 from .checkpoint import CheckpointMixin
-from .contact_laws import resolve as resolve_contact_law
+from .contact_law import resolve as resolve_contact_law
 from .forces import G, ForceModel, Gravity, add_global_damping, zero_rows
 from .integrators import integrators
 from .pairlist import _EMPTY_I, PairListMixin
@@ -64,7 +64,7 @@ class DemSimulation(PairListMixin, SleepingMixin, CheckpointMixin):
     median diameter + skin); ``sleeping`` on/off; ``plane_2d`` restricts motion to the x–z plane
     (translation in x, z and rotation about y; the report's 2-D setting; out-of-plane components of
     inserted velocities are dropped); ``contact_law`` name in ``breachflow.contact_laws``
-    (:mod:`.contact_laws`: ``window_averaged``, the default, or LAMMPS' ``hooke_history``).
+    (:data:`.contact_law.contact_laws`: ``window_averaged``, the default, or LAMMPS' ``hooke_history``).
     """
 
     def __init__(self, state: ParticleState | None = None, *, boundaries=(), models=(), gravity=(0.0, 0.0, -G),
