@@ -223,7 +223,7 @@ def main(argv=None) -> int:
     from rich.console import Console
 
     from breachflow.ensemble import parse_spec, run
-    from breachflow.ensemble.io import atomic_write_text
+    from breachflow.atomic import atomic_write_text
 
     grid = dict(FULL_GRID if args.full else DEFAULT_GRID)
     for key in grid:
@@ -233,7 +233,7 @@ def main(argv=None) -> int:
     console = Console()
     args.output.mkdir(parents=True, exist_ok=True)
     spec_path = args.output / "closure_feasibility.toml"
-    atomic_write_text(spec_path, text)
+    atomic_write_text(text, spec_path)
     t0 = time.perf_counter()
     ds = run(parse_spec(text, path=spec_path), out=args.output, workers=args.workers, scheduler=args.scheduler,
              console=console)

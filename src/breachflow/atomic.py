@@ -91,6 +91,8 @@ def atomic_write_netcdf(ds, path, *, provenance: bool = True, **kwargs) -> Path:
 
 
 def atomic_write_text(text: str, path) -> Path:
+    """Write *text* (UTF-8) to *path* atomically."""
+
     def write(tmp):
         with open(tmp, "w", encoding="utf-8") as fh:
             fh.write(text)
@@ -98,8 +100,10 @@ def atomic_write_text(text: str, path) -> Path:
     return atomic_write(path, write)
 
 
-def atomic_write_json(obj, path) -> Path:
-    return atomic_write_text(json.dumps(obj, indent=2, sort_keys=True, default=_jsonable) + "\n", path)
+def atomic_write_json(obj, path, *, indent: int = 2, default=None) -> Path:
+    """Write *obj* as JSON (sorted keys, *indent*) to *path* atomically; *default* turns values JSON does not
+    know into ones it does (numpy scalars and arrays, paths by default)."""
+    return atomic_write_text(json.dumps(obj, indent=indent, sort_keys=True, default=default or _jsonable) + "\n", path)
 
 
 def _jsonable(o):

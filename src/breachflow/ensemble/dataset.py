@@ -22,9 +22,9 @@ import numpy as np
 import xarray as xr
 
 from .. import __version__
+from ..atomic import atomic_path
 from ..errors import InputError, SchemaError
 from ..schemas import validate
-from .io import atomic_path
 from .spec import EnsembleSpec
 
 STATUS_OK, STATUS_FAILED, STATUS_NOT_RUN = 0, 1, 2

@@ -24,9 +24,10 @@ from pathlib import Path
 
 import xarray as xr
 
+from ..atomic import atomic_write_text
 from ..errors import InputError
 from .dataset import build_dataset, write_result
-from .io import atomic_write_json, atomic_write_text, read_json
+from .io import read_json, write_record
 from .runners import MemberScenario, normalise_results, resolve_runner
 from .spec import EnsembleSpec, Member, as_spec
 
@@ -78,7 +79,7 @@ def execute_member(task: MemberTask) -> dict:
     record["elapsed"] = time.perf_counter() - t0
     record["cpu_time"] = time.thread_time() - c0   # CPU time of this thread: elapsed - cpu = waiting for a core
     record["worker"] = _worker_name()
-    atomic_write_json(run_dir / RESULT_FILE, record)
+    write_record(run_dir / RESULT_FILE, record)
     return record
 
 
@@ -189,7 +190,7 @@ def run(spec, *, out=None, scheduler: str | None = None, workers: int | None = N
     console = console or Console(stderr=True)
     member_warnings = check_members(tasks)  # before the output directory exists
     out_dir.mkdir(parents=True, exist_ok=True)
-    atomic_write_text(out_dir / "spec.toml", spec.to_toml())
+    atomic_write_text(spec.to_toml(), out_dir / "spec.toml")
     for note in unused_parameters(spec, tasks[0].runner_cls if tasks else None):
         console.print(f"note: {note}", highlight=False, markup=False)
     for w in member_warnings:
@@ -298,7 +299,7 @@ def _client_side_failure(task: MemberTask, exc: BaseException) -> dict:
     rec.update(status="failed", error_type=type(exc).__name__, error_message=str(exc) or repr(exc),
                elapsed=float("nan"), worker="")
     try:
-        atomic_write_json(Path(task.run_dir) / RESULT_FILE, rec)
+        write_record(Path(task.run_dir) / RESULT_FILE, rec)
     except OSError:
         pass
     return rec

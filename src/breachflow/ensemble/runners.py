@@ -139,10 +139,10 @@ class MemberScenario:
 
     def write(self, path: Path, sections=None) -> Path:
         """Write the scenario TOML (runner sections first, so parse errors name the right line)."""
-        from .io import atomic_write_text
+        from ..atomic import atomic_write_text
 
         order = self._ordered(sections)
-        atomic_write_text(path, dump_toml(self.table, order))
+        atomic_write_text(dump_toml(self.table, order), path)
         self.path = Path(path)
         return self.path
 
