@@ -262,7 +262,7 @@ def test_drag_on_a_resting_mass_matches_the_log_law_by_hand(compiled, where, zc,
     on the pile, clipped to the surface), times the drag law and the submerged fraction. On the pile the
     height and the depth are measured from the pile's top (2.5 m), not from the terrain."""
     from breachflow.dem.state import ParticleState
-    from breachflow.fluid.drag import get_drag_law
+    from breachflow.fluid.drag import DRAG_LAWS
     from breachflow.field.snapshot import grid_snapshot
 
     x = np.arange(-20.0, 20.01, 1.0)
@@ -287,6 +287,6 @@ def test_drag_on_a_resting_mass_matches_the_log_law_by_hand(compiled, where, zc,
     cap = lambda t: math.pi * t * t * (3 * a - t) / 3  # noqa: E731
     phi = (cap(min(max(b0 + h0 - (zc - a), 0.0), D)) - cap(min(max(b0 - (zc - a), 0.0), D))) / (4 / 3 * math.pi * a ** 3)
     assert 0 < phi <= 1
-    cd = float(get_drag_law("report").cd(u * D / 1e-6))
+    cd = float(DRAG_LAWS.create("report").cd(u * D / 1e-6))
     drag = phi * 0.5 * 1000.0 * cd * math.pi * D * D / 4 * u * u
     assert f[0, 0] == pytest.approx(drag, rel=1e-9), where

@@ -17,7 +17,7 @@ from breachflow.cycle.main import run_closure
 from breachflow.io import write_adh, write_hecras_hdf
 from breachflow.hydro.nested import NestedSolver, breach_window, consistency
 from breachflow.field.snapshot import read_snapshot, write_snapshot
-from breachflow.hydro.solvers import get_solver
+from breachflow.hydro.solvers import solvers
 from breachflow.swe.domain import breach_domain, breach_vicinity
 from breachflow.scenario.config import load_scenario
 from breachflow.scenario.geometry import typical_breach
@@ -27,7 +27,7 @@ from .meshing import unaligned_mesh
 
 def _steady(scene, res):
     dom = breach_domain(scene, res)
-    return get_solver("swe", tolerance=1e-4, t_max=900.0, region=breach_vicinity(dom, scene)).solve(dom)
+    return solvers.create("swe", tolerance=1e-4, t_max=900.0, region=breach_vicinity(dom, scene)).solve(dom)
 
 
 @pytest.fixture(scope="module")

@@ -45,7 +45,7 @@ class AdaptiveFreeFlight:
             raise InputError("adaptive_free_flight: rtol, atol and max_step must be > 0")
         self.tableau = TABLEAUX[method]
         self.method, self.rtol, self.atol = method, float(rtol), float(atol)
-        self.contact = integrators.get(contact)() if isinstance(contact, str) else contact
+        self.contact = integrators.create(contact)
         self.margin = margin
         self.max_step = float(max_step)
         self.h = None  # next free-flight step (s)

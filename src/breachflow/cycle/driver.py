@@ -28,6 +28,7 @@ import xarray as xr
 
 from ..dem import Material
 from ..errors import InputError
+from ..fluid.profile import DEFAULT_PROFILE
 from ..fluid.profile import factors as profile_factors
 from ..field.sampling import FieldSampler
 from ..schemas import validate
@@ -68,7 +69,7 @@ class DemSettings:
     drag_law: str = "report"
     sampling: str = "bilinear"
     xi: float = 0.5
-    velocity_profile: str = "uniform"
+    velocity_profile: str = DEFAULT_PROFILE
     roughness: float | None = None
     stability_time: float = 5.0
     rest_time: float = 0.5

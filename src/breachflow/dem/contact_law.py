@@ -387,7 +387,7 @@ def resolve(law) -> object:
     law without a kernel code."""
     from ..errors import InputError
 
-    obj = contact_laws.get(law)() if isinstance(law, str) else law
+    obj = contact_laws.create(law)
     if getattr(obj, "code", None) not in (WINDOW_AVERAGED, HOOKE_HISTORY):
         raise InputError(f"contact law {law!r} has no compiled kernel (choose one of: window_averaged, "
                          f"hooke_history)")

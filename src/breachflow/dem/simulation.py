@@ -81,7 +81,7 @@ class DemSimulation(PairListMixin, SleepingMixin, CheckpointMixin):
             if not isinstance(m, ForceModel):
                 raise InputError(f"force model {m!r} lacks added_mass/accumulate (ForceModel protocol)")
         self.gravity = Gravity(gravity)
-        self.integrator = integrators.get(integrator)() if isinstance(integrator, str) else integrator
+        self.integrator = integrators.create(integrator)
         self.contact_law = resolve_contact_law(contact_law)
         self._law = int(self.contact_law.code)  # kernel code of the contact law
         self._user_dt = dt

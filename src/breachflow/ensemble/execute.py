@@ -28,7 +28,7 @@ from ..atomic import atomic_write_text
 from ..errors import InputError
 from .dataset import build_dataset, write_result
 from .io import read_json, write_record
-from .runners import MemberScenario, normalise_results, resolve_runner
+from .runners import MemberScenario, member_runners, normalise_results
 from .spec import EnsembleSpec, Member, as_spec
 
 RESULT_FILE = "result.json"
@@ -128,7 +128,7 @@ def plan(spec, out=None) -> tuple[EnsembleSpec, Path, list[Member], list[MemberT
     """Members and their tasks (no execution): useful to inspect an ensemble before running it."""
     spec = as_spec(spec)
     out_dir = Path(out) if out is not None else default_output_dir(spec)
-    runner_cls = resolve_runner(spec.runner)
+    runner_cls = member_runners.get(spec.runner)
     try:  # options are checked once here rather than failing every member
         runner_cls(**spec.options)
     except TypeError as exc:

@@ -144,7 +144,7 @@ def open_snapshot(paths, format: str | None = None, units=None, crs: str | None 
         if not p.exists():
             raise InputError(f"file {str(p)!r} does not exist")
     name = format or guess_format(paths, options.get("roles"))
-    reader = READERS.get(name)()
+    reader = READERS.create(name)
     if crs is not None:
         from ..field.crs import resolve_crs
 

@@ -20,7 +20,7 @@ from scipy.optimize import brentq
 
 from ..errors import InputError
 from ..atomic import atomic_write
-from ..fluid.drag import get_drag_law
+from ..fluid.drag import DRAG_LAWS
 from ..fluid.field import UniformWater
 from ..fluid.forces import WATER, FluidForces
 
@@ -34,7 +34,7 @@ def terminal_velocity(diameter: float, density: float, drag_law="report", fluid=
     With a law that has a drag crisis the force balance can have several roots; the smallest is returned
     (the one a sphere accelerating from rest meets first).
     """
-    law = get_drag_law(drag_law)
+    law = DRAG_LAWS.create(drag_law)
     d = float(diameter)
     if not (d > 0 and density > fluid.rho):
         raise InputError(f"terminal_velocity: need diameter > 0 and density > {fluid.rho} kg/m^3")
@@ -66,7 +66,7 @@ def settling_curves(diameters=FIG52_DIAMETERS, density: float = STEEL, drag_laws
     diameters = np.atleast_1d(np.asarray(diameters, dtype=float))
     if np.any(~(diameters > 0)) or not (duration > 0 and dt > 0 and record_every >= dt):
         raise InputError("settling_curves: diameters, duration, dt > 0 and record_every >= dt are required")
-    laws = [get_drag_law(x) for x in drag_laws]
+    laws = [DRAG_LAWS.create(x) for x in drag_laws]
     n_rec = int(round(duration / record_every))
     times = np.arange(n_rec + 1) * record_every
     vel = np.zeros((len(laws), diameters.size, n_rec + 1))
