@@ -65,7 +65,7 @@ def main(argv) -> int:
     ap.add_argument("--calls", type=int, default=300)
     ap.add_argument("--reps", type=int, default=7)
     a = ap.parse_args(argv)
-    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/, for the published benchmarks' helpers
     import bench_dem
 
     from breachflow.dem import steploop

@@ -38,7 +38,7 @@ def main(argv) -> int:
     ap.add_argument("--scene", default="bed", choices=("bed", "pour"))
     ap.add_argument("--old", help="src directory of another tree: its plane_forces timed interleaved")
     a = ap.parse_args(argv)
-    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/, for the published benchmarks' helpers
     import bench_dem
     from bench_dem_kernel import _old_contacts, _repeat, _writable
 

@@ -11,7 +11,7 @@ import json, os, subprocess, sys, tempfile
 from pathlib import Path
 import numpy as np
 old, new, scene, n, steps = sys.argv[1], sys.argv[2], sys.argv[3], int(sys.argv[4]), int(sys.argv[5])
-bench = str(Path(__file__).resolve().parent)
+bench = str(Path(__file__).resolve().parents[1])  # the folder of bench_dem
 tmp = Path(tempfile.mkdtemp())
 sys.path.insert(0, bench)
 import bench_dem as b

@@ -70,7 +70,7 @@ class Problem:
 
 
 def problems():
-    from breachflow.fluid.drag import get_drag_law
+    from breachflow.fluid.drag import DRAG_LAWS
     from breachflow.fluid.field import UniformWater
     from breachflow.field.sampling import uniform_snapshot
 
@@ -89,7 +89,7 @@ def problems():
         "stokes": Problem("stokes", d_s, GLASS, [0, 0, -1.0], [0, 0, 0], 5 * tau,
                           dict(field=0.0, air=None, xi=xi), exact=stokes_v, dt_scale=5 * tau),
         "tanh": Problem("tanh", d_t, STEEL, [0, 0, -10.0], [0, 0, 0], 1.0,
-                        dict(field=0.0, air=None, xi=xi, drag_law=get_drag_law("constant", value=cd)), exact=tanh_v),
+                        dict(field=0.0, air=None, xi=xi, drag_law=DRAG_LAWS.create("constant", value=cd)), exact=tanh_v),
         "steel": Problem("steel", 0.01, STEEL, [0, 0, -10.0], [0, 0, 0], 1.0,
                          dict(field=0.0, air=None, xi=xi, drag_law="clift_gauvin")),
         "entry": Problem("entry", 0.04, STEEL, [0, 0, 2.02], [0, 0, 0], 1.5,
@@ -166,7 +166,7 @@ def main(argv):
     ap = argparse.ArgumentParser(prog="bench fluid")
     ap.add_argument("--quick", action="store_true", help="time steps only down to 1e-4 s")
     ap.add_argument("--problems", default="stokes,tanh,steel,entry,shear")
-    ap.add_argument("--out", default=str(Path(__file__).resolve().parent / "results"))
+    ap.add_argument("--out", default=str(Path(__file__).resolve().parents[1] / "results"))
     args = ap.parse_args(argv)
     from breachflow.coupling.integrators import AdaptiveFreeFlight
 

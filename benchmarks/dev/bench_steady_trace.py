@@ -58,7 +58,7 @@ def main(argv=None) -> int:
     ap.add_argument("--every", type=float, default=1.0)
     ap.add_argument("--skip", type=float, default=600.0, help="statistics after this simulated time (s)")
     ap.add_argument("--pile", action="store_true")
-    ap.add_argument("--out", default=str(Path(__file__).resolve().parent / "results" / "steady_trace"))
+    ap.add_argument("--out", default=str(Path(__file__).resolve().parents[1] / "results" / "steady_trace"))
     a = ap.parse_args(argv)
     setup = closure_setup(parse_scenario(SCENARIO.format(res=a.resolution)))
     dom = setup.domain

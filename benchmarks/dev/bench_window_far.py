@@ -22,7 +22,7 @@ def main(argv) -> int:
     ap = argparse.ArgumentParser(prog="bench window_far")
     ap.add_argument("--factor", type=int, default=2)
     a = ap.parse_args(argv)
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "cycle"))
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "tests" / "cycle"))
     from test_window_resolve import SCENE, closure_setup, parse_scenario, section_discharge
 
     from breachflow.hydro.resolve_region import WindowResolver

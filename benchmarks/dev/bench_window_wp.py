@@ -42,7 +42,7 @@ from pathlib import Path
 
 import numpy as np
 
-HERE = Path(__file__).resolve().parent
+HERE = Path(__file__).resolve().parents[1]  # benchmarks/
 
 
 def _se_batch(values) -> float:
@@ -75,7 +75,7 @@ def main(argv=None) -> int:
                     "averaged criterion too (full-avg: [hydro] steady_average = true)")
     ap.add_argument("--out", default=str(HERE / "results" / "window_wp"))
     a = ap.parse_args(argv)
-    sys.path.insert(0, str(HERE))
+    sys.path.insert(0, str(HERE / "dev"))
     from bench_steady import record
 
     from breachflow.cycle.criteria import section_discharge
