@@ -62,7 +62,7 @@ def main(argv) -> int:
     ap.add_argument("--far", default="frozen", help="far-field models of the window re-solve, comma-separated")
     ap.add_argument("--factor", type=int, default=4, help="coarsening of the 'coarse' far field")
     a = ap.parse_args(argv)
-    from breachflow.hydro.resolve_region import WindowResolver
+    from breachflow.hydro.resolve_region import RegionResolver
 
     margin = f'resolve_margin = "{a.margin}"' if a.margin else ""
 
@@ -102,7 +102,7 @@ def main(argv) -> int:
         w = s.solver.window
         solvers = [("full", s.solver.warm)] + [
             ("window" if far == "frozen" else f"win+{far}",
-             WindowResolver(s.solver.warm, margin=w.margin, edge_level=w.edge_level, far=far,
+             RegionResolver(s.solver.warm, margin=w.margin, edge_level=w.edge_level, far=far,
                             far_factor=a.factor if far == "coarse" else None))
             for far in a.far.split(",") if far]
         for name, solver in solvers:

@@ -25,7 +25,7 @@ def main(argv) -> int:
     sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "tests" / "cycle"))
     from test_window_resolve import SCENE, closure_setup, parse_scenario, section_discharge
 
-    from breachflow.hydro.resolve_region import WindowResolver
+    from breachflow.hydro.resolve_region import RegionResolver
 
     for res, wall in [("1.7 m", "east"), ("1.5 m", "west")]:
         setup = closure_setup(parse_scenario(SCENE.replace('"1.5 m"', f'"{res}"')))
@@ -41,7 +41,7 @@ def main(argv) -> int:
         q = lambda ds: section_discharge(ds, setup.breach_x, setup.levee_y)
         eta = lambda ds: ds.bed_elevation.values + ds.depth.values
         for far in ("frozen", "coarse"):
-            w = WindowResolver(setup.solver.warm, margin=6.0, far=far, far_factor=a.factor if far == "coarse" else None)
+            w = RegionResolver(setup.solver.warm, margin=6.0, far=far, far_factor=a.factor if far == "coarse" else None)
             win = w.solve(piled, initial=snap)
             info = w.last_info
             j0, j1, i0, i1 = info.get("box", (0, 0, 0, 0))

@@ -80,7 +80,7 @@ def main(argv=None) -> int:
 
     from breachflow.cycle.criteria import section_discharge
     from breachflow.swe import SWESimulation
-    from breachflow.hydro.resolve_region import WindowResolver
+    from breachflow.hydro.resolve_region import RegionResolver
     from breachflow.scenario.toml import scenario_with
 
     text = scenario_with(Path(a.scenario).read_text(), {"hydro.resolution": f"{a.resolution:g} m",
@@ -155,13 +155,13 @@ def main(argv=None) -> int:
         full = copy.copy(warm)
         full.tolerance, full.t_max = tol, a.t_max
         solvers = [] if a.no_full else [("full", full)]
-        solvers.append(("window", WindowResolver(full)))
+        solvers.append(("window", RegionResolver(full)))
         if tol in [float(t) for t in a.average.split(",") if t] and not a.no_full:
             avg = copy.copy(full)
             avg.average = True
             solvers.append(("full-avg", avg))
         if tol in [float(t) for t in a.frozen.split(",") if t]:
-            solvers.append(("win-nogrow", WindowResolver(full, edge_level=1e3)))
+            solvers.append(("win-nogrow", RegionResolver(full, edge_level=1e3)))
         for name, solver in solvers:
             c = time.process_time()
             ds = solver.solve(dom, obstacles=obst, initial=init)

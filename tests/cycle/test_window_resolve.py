@@ -78,13 +78,13 @@ def test_window_resolve_matches_the_full_resolve_after_an_asymmetric_pile(scene,
 
 
 def test_window_resolve_falls_back_to_the_full_domain_when_the_window_would_cover_most_of_it(scene):
-    from breachflow.hydro.resolve_region import WindowResolver
+    from breachflow.hydro.resolve_region import RegionResolver
 
     setup, snap = scene
     dom = setup.domain
     X, Y = np.meshgrid(dom.x, dom.y)
     piled = dom.with_raised_bed((np.abs(X) < 2.0) & (np.abs(Y) < 1.0), setup.flood_level - 1.0)
-    wide = WindowResolver(setup.solver.warm, margin=40.0)
+    wide = RegionResolver(setup.solver.warm, margin=40.0)
     ds = wide.solve(piled, initial=snap)
     assert wide.last_info["mode"] == "full" and "of the domain" in wide.last_info["why"]
     assert ds.attrs["hydro_window"].startswith("full domain")

@@ -52,7 +52,7 @@ TURN_SERIES = 2.0**-14
 
 
 @numba.njit(cache=True, inline="always", error_model="numpy")
-def contact_window(u, w, lo, hi):
+def averaging_window(u, w, lo, hi):
     """Active part of the force window ``[lo, hi]`` (s, relative to the evaluation time) for the overlap
     ``u(tau) = u + w tau``: returns (fraction phi of the window in contact, midpoint m of the active part).
 
@@ -146,7 +146,7 @@ def contact_law(nx, ny, nz, overlap, vx, vy, vz, gx, gy, gz, hist, p, kn, ks, c_
     if full:
         phi, m = 1.0, 0.0
     else:
-        phi, m = contact_window(overlap, w, lo, hi)
+        phi, m = averaging_window(overlap, w, lo, hi)
     if phi <= 0.0:
         hist[p, 0] = 0.0
         hist[p, 1] = 0.0

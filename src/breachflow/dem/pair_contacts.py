@@ -13,7 +13,7 @@ import numba
 import numpy as np
 
 from .contact_law import (HOOKE_HISTORY, ROLLING_DAMPING_RATIO, ROLLING_STIFFNESS, WINDOW_AVERAGED,  # noqa: F401
-                          contact_law, contact_window, hooke_history, rolling_law)
+                          contact_law, averaging_window, hooke_history, rolling_law)
 from .neighbours import (build_grid, displacement_since, find_pairs, min_image,  # noqa: F401  (re-exported)
                          wrap_and_check)
 from .wall_contacts import _bilinear, heightfield_forces, plane_candidates, plane_forces  # noqa: F401  (re-exported)

@@ -67,7 +67,7 @@ def _clip_side(bcs, s_full: np.ndarray, i0: int, i1: int) -> list:
     return out
 
 
-def window_domain(domain: Domain, previous: xr.Dataset, box, *, name: str = "window"):
+def region_domain(domain: Domain, previous: xr.Dataset, box, *, name: str = "window"):
     """The sub-domain of *domain* on cells ``box = (j0, j1, i0, i1)`` (end exclusive), its edge conditions
     from the previous steady state *previous* (a grid snapshot of *domain*'s grid) on interior sides and
     from *domain* on sides that lie on the domain's edge."""
@@ -145,7 +145,7 @@ def _section_discharge(ds: xr.Dataset, section) -> float:
     return snapshot_discharge(ds, (x0, x1), y)
 
 
-class WindowResolver:
+class RegionResolver:
     """Re-solve a warm start in a local window (module docstring); a drop-in for the warm
     :class:`~breachflow.swe.solver.SWESolver` *full* (its options, tolerance, t_max, region and
     section are used).
@@ -245,7 +245,7 @@ class WindowResolver:
                         self.last_info.update(far_info)
                         self.far.accept(out)
                         return out
-                    sub = window_domain(dom, base, box)
+                    sub = region_domain(dom, base, box)
                     sl = (slice(j0, j1), slice(i0, i1))
                     reg = None
                     if region is not None and region[sl].any():

@@ -191,9 +191,9 @@ class _WarmStartSWE:
         self.warm = solvers.create("swe", t_max=hydro.t_max, **kw)
         self.window = None
         if hydro.resolve == "window":
-            from ...hydro.resolve_region import WindowResolver
+            from ...hydro.resolve_region import RegionResolver
 
-            self.window = WindowResolver(self.warm, margin=hydro.resolve_margin, edge_level=hydro.resolve_edge_level,
+            self.window = RegionResolver(self.warm, margin=hydro.resolve_margin, edge_level=hydro.resolve_edge_level,
                                          far=hydro.resolve_far,
                                          far_factor=hydro.resolve_far_factor if hydro.resolve_far == "coarse" else None)
 
