@@ -31,7 +31,7 @@ import numpy as np
 from ..errors import InputError
 from . import neighbours, pair_contacts, steploop
 from .boundaries import Boundary, Plane  # Plane: the example above
-from .checkpoint import CheckpointMixin
+from . import checkpoint
 from .contact_law import resolve as resolve_contact_law
 from .forces import G, ForceModel, Gravity, add_global_damping, zero_rows
 from .integrators import integrators
@@ -52,7 +52,7 @@ class EquilibriumResult:
     particle_steps: int  # sum over steps of the number of integrated (awake) particles
 
 
-class DemSimulation(PairListMixin, SleepingMixin, CheckpointMixin):
+class DemSimulation(PairListMixin, SleepingMixin):
     """A DEM scene of spheres.
 
     Parameters (SI): ``boundaries`` planes / height fields; ``models`` extra :class:`~breachflow.dem.forces.ForceModel` s (fluid);
@@ -452,6 +452,24 @@ class DemSimulation(PairListMixin, SleepingMixin, CheckpointMixin):
             if ok >= consecutive:
                 return EquilibriumResult(True, self.steps - st0, self.t, disp[k], self.particle_steps - ps0)
         return EquilibriumResult(False, self.steps - st0, self.t, disp[k], self.particle_steps - ps0)
+
+    # ------------------------------------------------------------------ checkpoints (:mod:`.checkpoint`)
+    def save_state(self) -> dict[str, np.ndarray]:
+        """Everything a bit-identical continuation needs, as a flat dict of numpy arrays (copies;
+        :func:`.checkpoint.save_state`). Save with e.g. ``np.savez(path, **sim.save_state())``."""
+        return checkpoint.save_state(self)
+
+    @classmethod
+    def from_state(cls, data, *, boundaries=(), models=(), **kwargs) -> "DemSimulation":
+        """A simulation continuing exactly from ``data`` (:meth:`save_state`, or an ``np.load`` of it;
+        :func:`.checkpoint.from_state`: *boundaries* the same kinds in the same order, *models* and the other
+        keyword arguments those of the constructor)."""
+        return checkpoint.from_state(cls, data, boundaries=boundaries, models=models, **kwargs)
+
+    def memory_bytes(self) -> int:
+        """Bytes held by the particle state, work arrays, neighbour list and histories
+        (:func:`.checkpoint.memory_bytes`)."""
+        return checkpoint.memory_bytes(self)
 
 
 def _accepts_idx(method) -> bool:
