@@ -54,7 +54,7 @@ def dem_view(snapshot: xr.Dataset) -> xr.Dataset:
 
 class CycleDem:
     """The DEM of the closure cycles of one run (``ClosureRun.dem``): builds it from a
-    :class:`~breachflow.cycle.driver.ClosureSetup`, continues it from cycle to cycle (:attr:`live`) or
+    :class:`~breachflow.cycle.driver.ClosureSetup`, continues it from cycle to cycle (``live``) or
     restores it from a restart record, inserts the masses and settles it."""
 
     def __init__(self, setup):

@@ -29,7 +29,7 @@ undeclared results are added as they come. Runners are instantiated on the worke
 are shipped to workers by reference: the class must live in an importable module.
 
 A runner is found by name in the registry (``member_runners.get(name)``); the built-in ``closure`` runner
-(:mod:`breachflow.ensemble.closure`, which builds on this module) is declared as an entry point of the group
+(``breachflow.ensemble.closure``, which builds on this module) is declared as an entry point of the group
 ``breachflow.member_runners``, as third-party runners are.
 """
 from __future__ import annotations
