@@ -29,7 +29,7 @@ spread one placement seed makes. ``--json`` writes every run's figures to a file
 ``--no-dem`` skips the DEM measurement: cycle 1 of the embedded default scenario (1 m cells, 5 masses)
 stepped three ways in the same process: the fluid forces term by term (``FluidForces(compiled=False)``, the
 path before issue 16), the fused fluid-force kernel called once per step from Python
-(``DemSimulation.compiled = False``), and many steps per compiled call (:mod:`breachflow.dem.steploop_fluid`,
+(``DemSimulation.compiled = False``), and many steps per compiled call (:mod:`breachflow.coupling.steploop`,
 the default): microseconds per DEM step, the ratios, and the largest difference of the final positions
 against the term-by-term path (the error figure: round-off amplified by the contacts; the compiled loop and
 the per-step fused path are bit-identical).
@@ -241,7 +241,7 @@ def dem_ratio(n_steps: int = 1500) -> None:
     from breachflow.cycle.driver import ClosureRun, dem_view
     from breachflow.cycle.main import default_scenario_text
     from breachflow.fluid.forces import FluidForces
-    from breachflow.hydro.sampling import FieldSampler
+    from breachflow.field.sampling import FieldSampler
     from breachflow.scenario.config import parse_scenario
 
     text = default_scenario_text()
@@ -254,13 +254,13 @@ def dem_ratio(n_steps: int = 1500) -> None:
             for name, (fused, loop) in variants.items():
                 run = ClosureRun(setup, Path(tmp) / f"r{rep}{len(out)}{fused}{loop}", text, overwrite=True)
                 d = setup.dem
-                orig = run._fluid
-                run._fluid = lambda s, c=fused: FluidForces(dem_view(s), drag_law=d.drag_law, sampling=d.sampling,
+                orig = run.dem.fluid
+                run.dem.fluid = lambda s, c=fused: FluidForces(dem_view(s), drag_law=d.drag_law, sampling=d.sampling,
                                                             xi=d.xi, velocity_profile=d.velocity_profile,
                                                             roughness=d.roughness,
                                                             manning=float(np.median(setup.domain.manning)),
                                                             outside="air", compiled=c)
-                sim = run._make_dem(snap)
+                sim = run.dem.make(snap)
                 sim.compiled = loop
                 sampler = FieldSampler(snap, method="bilinear")
 
@@ -269,13 +269,13 @@ def dem_ratio(n_steps: int = 1500) -> None:
                     return np.where(smp.inside, np.maximum(smp.surface, smp.bed), np.nan)
 
                 rel = setup.placement.release(1, setup.seed, surface_at)
-                run._add(sim, rel.pos, rel.radius, rel.density)
+                run.dem.add(sim, rel.pos, rel.radius, rel.density)
                 sim.step(10)
                 c0 = time.process_time()
                 sim.step(n_steps)
                 cpu = time.process_time() - c0
                 out.setdefault(name, []).append((cpu, sim.state.pos.copy(), sim.n_awake))
-                run._fluid = orig
+                run.dem.fluid = orig
     us = {name: min(c for c, _, _ in v) / n_steps * 1e6 for name, v in out.items()}
     spread = {name: max(c for c, _, _ in v) / n_steps * 1e6 for name, v in out.items()}
     ref = out["term by term"][0][1]

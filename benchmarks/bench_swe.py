@@ -53,8 +53,8 @@ def _table(title, header, rows):
 
 # ------------------------------------------------------------------ 1. throughput
 def throughput(sizes, min_cpu=2.0, thread_counts=(1,)):
-    from breachflow.hydro.swe import SWEOptions, SWESimulation
-    from breachflow.hydro.terrain import uniform_grid
+    from breachflow.swe import SWEOptions, SWESimulation
+    from breachflow.swe.domain import uniform_grid
 
     rows = []
     for n_cells in sizes:
@@ -92,9 +92,9 @@ def throughput(sizes, min_cpu=2.0, thread_counts=(1,)):
 def typical_breach_runs(resolutions, t_max, tolerance, monitor_radius=None, threads=1, sequence=True):
     """Each resolution from a cold start (flood side at the source level, polder dry) and, with
     *sequence*, also warm-started from the steady state of the previous (coarser) resolution."""
-    from breachflow.hydro.derived import peak_speed
-    from breachflow.hydro.swe import SWEOptions, SWESimulation
-    from breachflow.hydro.terrain import breach_domain, breach_vicinity
+    from breachflow.field.derived import peak_speed
+    from breachflow.swe import SWEOptions, SWESimulation
+    from breachflow.swe.domain import breach_domain, breach_vicinity
     from breachflow.scenario import typical_breach
 
     scene = typical_breach()
@@ -213,8 +213,8 @@ def _run_anuga(py, script, tmp, m_rect, n_rect):
 
 def _run_ours(cells, threads=1):
     """Second order on square cells, *cells* about the given count; returns (cells, L1 m, CPU s, wall s)."""
-    from breachflow.hydro.swe import SWEOptions, SWESimulation
-    from breachflow.hydro.terrain import uniform_grid
+    from breachflow.swe import SWEOptions, SWESimulation
+    from breachflow.swe.domain import uniform_grid
 
     side = math.sqrt(500.0 / cells)
     nx, ny = int(round(100 / side)), max(1, int(round(5 / side)))

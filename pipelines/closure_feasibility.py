@@ -130,7 +130,7 @@ def probability_figure(ds, path: Path) -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from breachflow.output.atomic import atomic_path
+    from breachflow.atomic import atomic_path
 
     ds = ds.transpose("mass_size", "polder_area", "breach_length", "replicate", ...)  # per-cycle variables: cycle last
     sizes = ds["mass_size"].values
@@ -174,7 +174,7 @@ def figure(ds, path: Path) -> Path:
     from matplotlib.colors import ListedColormap
     from matplotlib.patches import Patch
 
-    from breachflow.output.atomic import atomic_path
+    from breachflow.atomic import atomic_path
 
     if "replicate" in ds.dims:
         return probability_figure(ds, path)
@@ -223,7 +223,7 @@ def main(argv=None) -> int:
     from rich.console import Console
 
     from breachflow.ensemble import parse_spec, run
-    from breachflow.ensemble.io import atomic_write_text
+    from breachflow.atomic import atomic_write_text
 
     grid = dict(FULL_GRID if args.full else DEFAULT_GRID)
     for key in grid:
@@ -233,7 +233,7 @@ def main(argv=None) -> int:
     console = Console()
     args.output.mkdir(parents=True, exist_ok=True)
     spec_path = args.output / "closure_feasibility.toml"
-    atomic_write_text(spec_path, text)
+    atomic_write_text(text, spec_path)
     t0 = time.perf_counter()
     ds = run(parse_spec(text, path=spec_path), out=args.output, workers=args.workers, scheduler=args.scheduler,
              console=console)

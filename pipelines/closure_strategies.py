@@ -87,8 +87,8 @@ def run_member(text: str, run_dir: Path) -> dict:
     """Run (or resume, or read back) the closure of scenario *text* in *run_dir*; its row of the table
     and its history, all from the run directory's manifest (so a re-read run gives the same row)."""
     from breachflow.cycle.main import peak_gap_speed, run_closure
-    from breachflow.output import RunDirectory
-    from breachflow.output.atomic import atomic_write_text
+    from breachflow.io import RunDirectory
+    from breachflow.atomic import atomic_write_text
 
     run_dir.mkdir(parents=True, exist_ok=True)
     path = run_dir / "scenario.in.toml"  # (relative file paths in a scenario would resolve against run_dir)
@@ -168,7 +168,7 @@ def figure(ds, path: Path) -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from breachflow.output.atomic import atomic_path
+    from breachflow.atomic import atomic_path
 
     scen = [str(s) for s in ds["scenario"].values]
     strat = [str(s) for s in ds["strategy"].values]
@@ -198,7 +198,7 @@ def figure(ds, path: Path) -> Path:
 
 
 def write_csv(ds, path: Path) -> Path:
-    from breachflow.output.atomic import atomic_write_text
+    from breachflow.atomic import atomic_write_text
 
     names = list(COLUMNS) + ["verdict"]
     lines = [",".join(["scenario", "strategy"] + [f"{n}_{COLUMNS[n][0].replace('^', '').replace('/', '_per_')}"
@@ -234,7 +234,7 @@ def compare(scenarios, strategies=STRATEGIES, out: Path = Path("closure_strategi
             console=None):
     """Run every scenario (names or paths, :func:`scenario_text`) with every strategy in *out*; write and
     return the table Dataset (validated against ``data_schemas/closure_strategies.json``)."""
-    from breachflow.output.atomic import atomic_write_netcdf
+    from breachflow.atomic import atomic_write_netcdf
     from breachflow.schemas import validate
 
     out = Path(out)

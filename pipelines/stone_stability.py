@@ -1,7 +1,7 @@
 """Critical velocity of a stone on a rock bed from the DEM + fluid forces vs Izbash and Shields.
 
 ``python pipelines/stone_stability.py OUT [DRAG_LAW] [--from-csv]`` sweeps D in 0.1–2 m and h in 1–10 m for the
-velocity profiles ``uniform``, ``log`` and ``power`` (:func:`breachflow.fluid.stability.critical_velocity`),
+velocity profiles ``uniform``, ``log`` and ``power`` (:func:`breachflow.studies.stability.critical_velocity`),
 prints the table and per profile the bands of the Izbash coefficient ``U / sqrt(2 g Delta D)`` for three
 reference velocities — the depth-averaged ``U_c`` over the whole sweep, ``U_c`` where ``h/D`` is in
 Izbash's range 5–10, and the near-stone velocity ``u_b`` at ``z = D`` (:func:`near_bed_velocity`, the
@@ -27,7 +27,7 @@ def main(out="stone_stability", drag_law="report", from_csv=False):
     import matplotlib.pyplot as plt
     import numpy as np
 
-    from breachflow.fluid.stability import critical_velocity, near_bed_velocity
+    from breachflow.studies.stability import critical_velocity, near_bed_velocity
     from breachflow.scenario.stone import izbash_velocity, shields_velocity
 
     out = Path(out)

@@ -130,8 +130,8 @@ def test_warnings_reach_the_console_and_the_run_log(tmp_path, capsys):
 
 
 def test_run_to_steady_reports_progress():
-    from breachflow.hydro.swe import SWEOptions, SWESimulation
-    from breachflow.hydro.terrain import BoundaryCondition as BC, uniform_grid
+    from breachflow.swe import SWEOptions, SWESimulation
+    from breachflow.swe.domain import BoundaryCondition as BC, uniform_grid
 
     surface = np.where(np.arange(20)[None, :] < 10, 2.0, 1.0)  # a dam break: never steady within 5 s
     dom = uniform_grid(0.0, 20.0, 0.0, 1.0, 1.0, dy=1.0, bed=0.0, initial_surface=surface,

@@ -29,7 +29,7 @@ def test_api_reference_builds_without_broken_references(tmp_path):
     for section in ("closure-window", "breach-growth", "dem-contact", "porous-flow-through-the-pile"):
         assert f'id="{section}"' in theory, section
     api = (tmp_path / "html" / "api.html").read_text()
-    for name in ("breachflow.cycle.driver.ClosureRun", "breachflow.hydro.crs.resolve_crs", "breachflow.units.to_si"):
+    for name in ("breachflow.cycle.driver.ClosureRun", "breachflow.field.crs.resolve_crs", "breachflow.units.to_si"):
         assert f'id="{name}"' in api, name
 
 

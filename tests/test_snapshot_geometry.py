@@ -4,7 +4,7 @@ import pytest
 
 from breachflow import InputError
 from breachflow.errors import SchemaError
-from breachflow.hydro.snapshot import grid_snapshot, set_crs
+from breachflow.field.snapshot import grid_snapshot, set_crs
 from breachflow.schemas import validate
 from breachflow.scenario import BreachGeometry, LeveeGeometry, typical_breach
 

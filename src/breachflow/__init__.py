@@ -1,7 +1,7 @@
 """breachflow — levee-breach closure simulation.
 
 Closure-window arithmetic and breach growth (:mod:`breachflow.scenario`), hydrodynamic snapshots and the
-embedded shallow-water solver (:mod:`breachflow.hydro`), the discrete element method for dropped masses
+embedded shallow-water solver (:mod:`breachflow.field`), the discrete element method for dropped masses
 (:mod:`breachflow.dem`), the closure cycle (:mod:`breachflow.cycle`) and ensembles
 (:mod:`breachflow.ensemble`). The equations and their sources: docs/theory.md.
 """
@@ -21,7 +21,7 @@ __version__ = "0.2.0"
 def __getattr__(name):
     # lazy: importing the readers (numba kernels) only when asked for
     if name == "open_snapshot":
-        from .hydro.io import open_snapshot
+        from .io import open_snapshot
 
         return open_snapshot
     raise AttributeError(f"module 'breachflow' has no attribute {name!r}")

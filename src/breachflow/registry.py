@@ -1,9 +1,11 @@
-"""Small named registries for the pluggable parts (readers, solvers, drag laws, integrators).
+"""Small named registries for the pluggable parts (readers, solvers, drag laws, integrators, ...).
 
 Modelled on xarray's backend entry points: built-ins register themselves with the
-:meth:`Registry.register` decorator; third-party packages add theirs through a Python entry point
-group (``[project.entry-points."breachflow.drag_laws"]`` in their ``pyproject.toml``), loaded lazily
-the first time a name is looked up.
+:meth:`Registry.register` decorator and are declared as entry points in breachflow's own
+``pyproject.toml``; third-party packages add theirs through the same entry point group
+(``[project.entry-points."breachflow.drag_laws"]`` in their ``pyproject.toml``), loaded lazily
+the first time a name is looked up. Every choice is made the same way: :meth:`Registry.get` for the
+class, :meth:`Registry.create` for an instance with options (docs/architecture.md lists the groups).
 """
 from __future__ import annotations
 
@@ -68,13 +70,29 @@ class Registry(Generic[T]):
                 f"unknown {self.kind} {name!r}; available: {', '.join(self.available())}"
             ) from None
 
+    def create(self, choice, /, **options):
+        """An instance of the entry called *choice* made with *options*, or *choice* itself when it is not a
+        name (an instance made by the caller, *options* then must be empty); InputError for an unknown
+        name or options the entry does not take."""
+        if not isinstance(choice, str):
+            if options:
+                raise InputError(f"{self.kind} {choice!r} is an instance: options {sorted(options)} cannot apply")
+            return choice
+        cls = self.get(choice)
+        try:
+            return cls(**options)
+        except TypeError as exc:
+            raise InputError(f"{self.kind} {choice!r}: bad options {sorted(options)} ({exc})") from None
+
     def available(self) -> list[str]:
         self._load_entry_points()
         return sorted(self._items)
 
     def __contains__(self, name: str) -> bool:
-        self._load_entry_points()
-        return str(name).lower() in self._items
+        key = str(name).lower()
+        if key not in self._items:
+            self._load_entry_points()
+        return key in self._items
 
     def __iter__(self):
         return iter(self.available())

@@ -4,7 +4,7 @@
 of the embedded default closure scenario — 3 m cells, short solves, two cycles, 6 s of DEM each (long
 enough for masses to come to rest, so the porous pile and the incremental pile top are computed) — in a
 temporary directory. That calls every kernel of a closure run (solver, DEM contacts and integrators,
-fluid forces, the many-steps-per-call DEM loop of the cycle's scene (:mod:`breachflow.dem.steploop_fluid`),
+fluid forces, the many-steps-per-call DEM loop of the cycle's scene (:mod:`breachflow.coupling.steploop`),
 sampling, remap) with the argument types of a real run, so numba compiles and caches each one; a user's
 first ``breachflow run`` then loads them from the cache instead of compiling (most of the CPU time of a
 first run on an empty cache; see docs/performance.md). Where the cache lives is numba's choice (``NUMBA_CACHE_DIR``,
@@ -56,7 +56,7 @@ def warm_up() -> float:
 def warm_up_dem() -> None:
     """Two spheres on a plane without force models: the many-steps-per-call DEM kernel of dry scenes with
     planes (:mod:`breachflow.dem.steploop`), which a closure run (terrain and fluid forces:
-    :mod:`breachflow.dem.steploop_fluid`) does not use."""
+    :mod:`breachflow.coupling.steploop`) does not use."""
     from .dem import DemSimulation, Material, Plane
 
     rock = Material(density=2650, kn=1e7, friction=0.5, c_cn=4e4)

@@ -5,7 +5,7 @@ import xarray as xr
 from typer.testing import CliRunner
 
 from breachflow.cli import app
-from breachflow.output import RunDirectory
+from breachflow.io import RunDirectory
 
 runner = CliRunner()
 
@@ -77,7 +77,7 @@ def _hand_seepage(rd, man, half=6.0):
     from scipy.optimize import brentq
 
     from breachflow.cycle.remap import pile_columns
-    from breachflow.hydro.swe.porous import forchheimer_coefficients, forchheimer_dam_length
+    from breachflow.swe.porous import forchheimer_coefficients, forchheimer_dam_length
 
     ds = rd.open_cycle(rd.last_cycle())
     ds = ds.isel(cycle=0) if "cycle" in ds.dims else ds

@@ -8,7 +8,7 @@ import xarray as xr
 from breachflow.cycle import driver as driver_mod
 from breachflow.cycle.config import closure_setup
 from breachflow.cycle.driver import ClosureRun
-from breachflow.output import RunDirectory
+from breachflow.io import RunDirectory
 from breachflow.scenario.config import parse_scenario
 from breachflow.scenario.toml import scenario_with
 from breachflow.schemas import validate
@@ -83,7 +83,7 @@ def test_crash_during_a_cycle_write_recovers(tmp_path, monkeypatch):
     def failing(self, g, field, trajectories, restart, summary):
         if g == 2:
             # the field file lands, then the process dies before the manifest commit
-            from breachflow.output.atomic import atomic_write_netcdf
+            from breachflow.atomic import atomic_write_netcdf
 
             atomic_write_netcdf(field, self.cycle_path(g))
             raise Crash()

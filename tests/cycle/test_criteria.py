@@ -4,7 +4,7 @@ import pytest
 
 from breachflow import InputError, UnitError
 from breachflow.cycle.criteria import CycleContext, EndCriteria, criteria
-from breachflow.hydro.snapshot import grid_snapshot
+from breachflow.field.snapshot import grid_snapshot
 
 DX = 0.5
 

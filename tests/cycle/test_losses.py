@@ -88,12 +88,12 @@ def test_rolling_speed_balances_drag_and_rolling_resistance():
     Reynolds number (~3e7) is past the report law's cap C_D = 0.40 (docs/theory.md, *Fluid forces on a mass*), so u^2 = mu_r Delta g (2 D / 3) / 0.20
     by hand; for smaller masses the balance is checked with the law's own C_D(Re)."""
     from breachflow.cycle.losses import rolling_speed
-    from breachflow.fluid.drag import get_drag_law
+    from breachflow.fluid.drag import DRAG_LAWS
 
     g, delta = 9.80665, 1.65
     assert rolling_speed(4.0, 2650.0, 0.3) == pytest.approx(math.sqrt(0.3 * delta * g * (2 * 4.0 / 3) / 0.20), rel=1e-9)
     assert rolling_speed(4.0, 2650.0, 0.3) == pytest.approx(8.045, abs=1e-3)
-    law = get_drag_law("report")
+    law = DRAG_LAWS.create("report")
     for d in (0.05, 0.5, 2.0):
         u = rolling_speed(d, 2650.0, 0.3)
         drag = 0.5 * 1000.0 * float(law.cd(u * d / 1e-6)) * math.pi * d * d / 4 * u * u

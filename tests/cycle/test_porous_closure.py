@@ -9,7 +9,7 @@ from breachflow.cycle.criteria import CycleContext, criteria, section_discharge
 from breachflow.cycle.driver import ClosureRun
 from breachflow.cycle.main import ClosureResult
 from breachflow.errors import InputError
-from breachflow.output import RunDirectory
+from breachflow.io import RunDirectory
 from breachflow.scenario.config import parse_scenario
 
 from .test_closure_run import Crash, _same, ci_scene

@@ -13,7 +13,7 @@ from breachflow.cycle.config import closure_setup
 from breachflow.cycle.criteria import CycleContext, MaxSpeed, section_discharge
 from breachflow.cycle.driver import ClosureRun
 from breachflow.cycle.main import default_scenario_text
-from breachflow.hydro.swe import SWESimulation
+from breachflow.swe import SWESimulation
 from breachflow.scenario.config import parse_scenario
 
 

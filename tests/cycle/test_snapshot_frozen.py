@@ -10,8 +10,8 @@ import xarray as xr
 from breachflow.cycle.config import closure_setup
 from breachflow.cycle.main import run_closure
 from breachflow.errors import BreachflowWarning
-from breachflow.hydro.snapshot import grid_snapshot
-from breachflow.hydro.solvers import SnapshotSolver, get_solver
+from breachflow.field.snapshot import grid_snapshot
+from breachflow.hydro.solvers import SnapshotSolver, solvers
 from breachflow.scenario.config import parse_scenario
 
 BASE = """
@@ -59,11 +59,11 @@ def _snapshot(tmp_path):
 def test_snapshot_is_a_deprecated_alias_of_snapshot_frozen(tmp_path):
     path, ds = _snapshot(tmp_path)
     with pytest.warns(DeprecationWarning, match="'snapshot' is deprecated: it is 'snapshot_frozen'"):
-        s = get_solver("snapshot", snapshots=[ds])
+        s = solvers.create("snapshot", snapshots=[ds])
     assert isinstance(s, SnapshotSolver) and s.responds_to_pile is False
     with warnings.catch_warnings():
         warnings.simplefilter("error", DeprecationWarning)
-        out = get_solver("snapshot_frozen", snapshots=[ds]).solve()
+        out = solvers.create("snapshot_frozen", snapshots=[ds]).solve()
     assert out.attrs["hydro_mode"] == "snapshot_frozen" and out.attrs["flow_responds_to_pile"] == 0
     with pytest.warns(DeprecationWarning, match=r"\[hydro\] solver = 'snapshot' is deprecated"):
         parse_scenario(BASE.format(solver="snapshot", snap=path))

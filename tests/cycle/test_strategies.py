@@ -200,7 +200,7 @@ def test_closure_strategies_resume_bit_identically(tmp_path, positions):
     the strategy reads is rebuilt from the restart record (masses rest after cycle 2, so it matters)."""
     from breachflow.cycle.config import closure_setup
     from breachflow.cycle.driver import ClosureRun
-    from breachflow.output import RunDirectory
+    from breachflow.io import RunDirectory
     from breachflow.scenario.config import parse_scenario
 
     text = scenario_with(CI_CLOSURE, {"scenario.name": "ci strategies", "dem.max_time": "4 s", "placement.positions": positions,

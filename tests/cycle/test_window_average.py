@@ -22,10 +22,10 @@ import pytest
 
 from breachflow.cycle.config import closure_setup
 from breachflow.errors import ParseError
-from breachflow.hydro.section import snapshot_discharge
-from breachflow.hydro.swe.solver import SWESolver
-from breachflow.hydro.terrain import BoundaryCondition, uniform_grid
-from breachflow.hydro.window import WindowResolver
+from breachflow.swe.section import snapshot_discharge
+from breachflow.swe.solver import SWESolver
+from breachflow.swe.domain import BoundaryCondition, uniform_grid
+from breachflow.hydro.resolve_region import RegionResolver
 from breachflow.scenario.config import parse_scenario
 from breachflow.scenario.toml import scenario_with
 
@@ -60,7 +60,7 @@ def test_window_resolve_of_an_oscillating_flow_converges_on_the_running_mean(ope
     bed = dom.bed.copy()
     bed[(np.abs(X) < 2.0) & (np.abs(Y) < 1.0)] = 0.4  # a mound in the gap
     full = SWESolver(tolerance=1e-3, t_max=1500.0, section=SECTION, average=True)
-    solver = WindowResolver(full, margin=16.0)
+    solver = RegionResolver(full, margin=16.0)
     ds = solver.solve(wide_tidal_gap(bed), initial=open_state)
     assert solver.last_info["mode"] == "window" and solver.last_info["fraction"] < 0.5, solver.last_info
     hist = solver.last.history
@@ -82,7 +82,7 @@ def test_a_window_that_falls_back_gives_the_full_resolve_from_the_previous_state
     mask = (X > x0) & (X < 0.5 * (x0 + x1)) & (np.abs(Y - setup.levee_y) < 2.0)
     piled = dom.with_raised_bed(mask, float(dom.bed.min()) + 0.6 * (setup.flood_level - float(dom.bed.min())))
     # a small window whose edge level must not move by 0.1 mm and may not grow: it is solved, then falls back
-    window = WindowResolver(setup.solver.warm, margin=2.0, edge_level=1e-4, max_grow=0)
+    window = RegionResolver(setup.solver.warm, margin=2.0, edge_level=1e-4, max_grow=0)
     got = window.solve(piled, initial=snap)
     assert window.last_info["mode"] == "full" and window.last_info["grown"] == 1, window.last_info
     want = setup.solver.warm.solve(piled, initial=snap)

@@ -1,12 +1,12 @@
-"""The far field of the window re-solve (:mod:`breachflow.hydro.window_far`): the coarse model of the
+"""The far field of the window re-solve (:mod:`breachflow.hydro.far_field`): the coarse model of the
 domain against exact block averages, and the far-field level change against a lake at rest (no change)."""
 import numpy as np
 import pytest
 
 from breachflow.errors import InputError
-from breachflow.hydro.swe.porous import PorousPile
-from breachflow.hydro.terrain import BoundaryCondition, uniform_grid
-from breachflow.hydro.window_far import CoarseFarField, coarse_domain, far_fields
+from breachflow.swe.porous import PorousPile
+from breachflow.swe.domain import BoundaryCondition, uniform_grid
+from breachflow.hydro.far_field import CoarseFarField, coarse_domain, far_fields
 
 
 def _domain(nx=40, ny=30, dx=1.5, x0=-31.0, y0=-17.3):
@@ -82,8 +82,8 @@ def test_the_coarse_far_field_keeps_a_lake_at_rest():
     re-solve with it returns the lake at rest."""
     import xarray as xr
 
-    from breachflow.hydro.swe.solver import SWESolver
-    from breachflow.hydro.window import WindowResolver
+    from breachflow.swe.solver import SWESolver
+    from breachflow.hydro.resolve_region import RegionResolver
 
     d = _domain(nx=36, ny=28, dx=1.3, x0=-23.1, y0=-18.5)
     X, Y = np.meshgrid(d.x, d.y)
@@ -103,7 +103,7 @@ def test_the_coarse_far_field_keeps_a_lake_at_rest():
     d_eta = far.level_change(piled, prev, None, (jj.min(), jj.max() + 1, ii.min(), ii.max() + 1))
     assert np.max(np.abs(d_eta)) < 1e-9
     assert far.scale(0.0, 0.0) is None  # no discharge to scale by
-    win = WindowResolver(full, margin=4.0, far="coarse", far_factor=2)
+    win = RegionResolver(full, margin=4.0, far="coarse", far_factor=2)
     ds = win.solve(piled, initial=prev)
     wet = ds.depth.values > 1e-3
     np.testing.assert_allclose((ds.bed_elevation.values + ds.depth.values)[wet], level, atol=1e-9)

@@ -1,4 +1,4 @@
-"""Warm re-solve in a local window vs the full domain (issue 16; :mod:`breachflow.hydro.window`).
+"""Warm re-solve in a local window vs the full domain (issue 16; :mod:`breachflow.hydro.resolve_region`).
 
 The default scene's breach (12 m in a 3 m levee) in a domain larger than the default (54 m of levee each
 side, 60 m flood side, 48 m polder, 1.5 m cells) so that a window is a real part of it. A pile is
@@ -78,13 +78,13 @@ def test_window_resolve_matches_the_full_resolve_after_an_asymmetric_pile(scene,
 
 
 def test_window_resolve_falls_back_to_the_full_domain_when_the_window_would_cover_most_of_it(scene):
-    from breachflow.hydro.window import WindowResolver
+    from breachflow.hydro.resolve_region import RegionResolver
 
     setup, snap = scene
     dom = setup.domain
     X, Y = np.meshgrid(dom.x, dom.y)
     piled = dom.with_raised_bed((np.abs(X) < 2.0) & (np.abs(Y) < 1.0), setup.flood_level - 1.0)
-    wide = WindowResolver(setup.solver.warm, margin=40.0)
+    wide = RegionResolver(setup.solver.warm, margin=40.0)
     ds = wide.solve(piled, initial=snap)
     assert wide.last_info["mode"] == "full" and "of the domain" in wide.last_info["why"]
     assert ds.attrs["hydro_window"].startswith("full domain")

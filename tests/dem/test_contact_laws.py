@@ -12,8 +12,9 @@ import math
 import numpy as np
 import pytest
 
-from breachflow.dem import DemSimulation, Material, Plane, contacts
-from breachflow.dem.contact_laws import contact_laws, resolve
+from breachflow.dem import DemSimulation, Material, Plane
+from breachflow.dem import pair_contacts as contacts
+from breachflow.dem.contact_law import contact_laws, resolve
 from breachflow.errors import InputError
 
 from . import impact_cases

@@ -6,9 +6,10 @@ and both contact laws."""
 import numpy as np
 import pytest
 
-from breachflow.dem import DemSimulation, Material, Plane, contacts, steploop
+from breachflow.dem import DemSimulation, Material, Plane, steploop
+from breachflow.dem import pair_contacts as contacts
 from breachflow.dem.contact_law import HOOKE_HISTORY, WINDOW_AVERAGED
-from breachflow.dem.contact_laws import contact_laws
+from breachflow.dem.contact_law import contact_laws
 
 from .test_steploop import assert_same
 
@@ -97,7 +98,7 @@ def call_plane(a, law, lo, hi):
 def test_sphere_exactly_at_contact_distance(vz):
     """overlap = r - z = 0 exactly. hooke_history (point values): no contact, no force, histories cleared.
     Window-averaged law over [-dt/2, dt/2]: approaching or receding at 0.4 m/s it overlaps for half the
-    window, so the force is the law's (registry :class:`~breachflow.dem.contact_laws.WindowAveraged`) with
+    window, so the force is the law's (registry :class:`~breachflow.dem.contact_law.WindowAveraged`) with
     phi = 1/2; at rest: none."""
     a = one_sphere_on_floor(R, vz, (1e-4, -2e-4, 0.0))
     assert call_plane(a, HOOKE_HISTORY, 0.0, 0.0) == 0

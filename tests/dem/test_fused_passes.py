@@ -8,7 +8,8 @@ mixed calls, a restart from a saved state after a compiled call)."""
 import numpy as np
 import pytest
 
-from breachflow.dem import DemSimulation, Material, Plane, steploop, walls
+from breachflow.dem import DemSimulation, Material, Plane, steploop
+from breachflow.dem import wall_contacts as walls
 from breachflow.dem.forces import _add_gravity, add_global_damping, zero_rows
 from breachflow.dem.integrators import drift, kick, predict_extrapolated
 from breachflow.dem.neighbours import displacement_since, wrap_and_check

@@ -5,7 +5,8 @@ import numpy as np
 import pytest
 
 from breachflow.dem import DemSimulation, Material, ParticleState
-from breachflow.dem import contacts, neighbours
+from breachflow.dem import neighbours
+from breachflow.dem import pair_contacts as contacts
 
 
 def brute_pairs(pos, radius, reach_extra, periods=(None, None)):

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from breachflow.dem import contacts
+from breachflow.dem import pair_contacts as contacts
 from breachflow.dem.contact_law import HOOKE_HISTORY, WINDOW_AVERAGED
 
 DT = 1e-4

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from breachflow.dem import contact_law as cl
-from breachflow.dem import contacts
+from breachflow.dem import pair_contacts as contacts
 from breachflow.dem.contact_law import HOOKE_HISTORY, WINDOW_AVERAGED
 
 from .test_pair_fast_path import DT, random_pile

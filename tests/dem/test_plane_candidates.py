@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from breachflow.dem import DemSimulation, Material, Plane, steploop
-from breachflow.dem.walls import CANDIDATE_RESERVE, candidates_hold, plane_candidates
+from breachflow.dem.wall_contacts import CANDIDATE_RESERVE, candidates_hold, plane_candidates
 
 from .test_steploop import assert_same
 

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from breachflow.dem import DemSimulation, Material, Plane, sphere_mass
-from breachflow.dem.contacts import ROLLING_STIFFNESS
+from breachflow.dem.pair_contacts import ROLLING_STIFFNESS
 
 G = 9.80665
 R = 0.5
@@ -146,7 +146,7 @@ def test_pair_rolling_moment_is_an_elastic_plastic_spring_on_the_relative_spin()
     about an axis tangent to the contact (+ a twist about the normal, which must be ignored): the moment
     on i grows by k_r |w_t| dt per step opposite to w_t, j gets the opposite, and it saturates at
     mu_r R_r F_N; reversing the spin unloads it elastically."""
-    from breachflow.dem import contacts
+    from breachflow.dem import pair_contacts as contacts
 
     ri, rj, mu_r, kn, dt = 0.5, 0.3, 0.25, 1e7, 1e-5
     overlap = 1e-3

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from breachflow.dem import DemSimulation, HeightField, Material, ParticleState, Plane, sphere_mass
-from breachflow.dem.integrators import AdaptiveFreeFlight
+from breachflow.coupling.integrators import AdaptiveFreeFlight
 from breachflow.errors import InputError
 from breachflow.fluid.forces import FluidForces
 

@@ -11,10 +11,11 @@ import pytest
 
 from breachflow.cycle.config import closure_setup
 from breachflow.cycle.driver import ClosureRun
-from breachflow.dem import DemSimulation, HeightField, Material, Plane, steploop, steploop_fluid
+from breachflow.coupling import steploop as steploop_fluid
+from breachflow.dem import DemSimulation, HeightField, Material, Plane, steploop
 from breachflow.fluid.forces import FluidForces
-from breachflow.hydro.sampling import FieldSampler
-from breachflow.hydro.snapshot import grid_snapshot
+from breachflow.field.sampling import FieldSampler
+from breachflow.field.snapshot import grid_snapshot
 from breachflow.scenario.config import parse_scenario
 from breachflow.scenario.toml import scenario_with
 
@@ -53,7 +54,7 @@ def scene(compiled, integrator, fluid_kw, wall, seed):
 
 
 def settle(sim, seconds):
-    """As the cycle's ``_settle``: equilibrium runs in record-interval chunks (here never stopping early)."""
+    """As the cycle's ``CycleDem.settle``: equilibrium runs in record-interval chunks (here never stopping early)."""
     chunk = int(round(0.1 / sim.dt))
     for _ in range(int(seconds / 0.1)):
         sim.run_to_equilibrium(1e-5, max_steps=chunk, consecutive=min(chunk, 50))

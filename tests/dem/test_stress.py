@@ -115,7 +115,7 @@ def test_sphere_on_terrain_slope_accelerates_as_coulomb_predicts(mu, rolls):
 
 
 def test_terrain_from_snapshot_grid_and_elevation():
-    from breachflow.hydro.snapshot import grid_snapshot
+    from breachflow.field.snapshot import grid_snapshot
 
     x = np.linspace(0, 10, 11)
     y = np.linspace(0, 4, 5)

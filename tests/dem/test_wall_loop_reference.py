@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 
 from breachflow.dem import contact_law as cl
-from breachflow.dem import walls
+from breachflow.dem import wall_contacts as walls
 from breachflow.dem.contact_law import HOOKE_HISTORY, WINDOW_AVERAGED
 
 DT = 1e-3

@@ -432,7 +432,7 @@ class StampingRunner:
     outputs = {}
 
     def run(self, member, run_dir, seed):
-        from breachflow.output.provenance import stamp
+        from breachflow.provenance import stamp
 
         stamp(xr.Dataset({"x": ((), 1.0)})).to_netcdf(Path(run_dir) / "member.nc")
         return {"one": (1.0, "m")}
@@ -442,7 +442,7 @@ member_runners.register("stamping_test_runner", StampingRunner, overwrite=True)
 
 
 def test_member_files_record_the_ensemble_command_not_the_workers(client, tmp_path):
-    from breachflow.output import provenance
+    from breachflow import provenance
 
     spec = write_spec(tmp_path, '"breach.length" = ["20 m", "40 m"]', runner="stamping_test_runner")
     provenance.set_command(["ensemble", str(spec), "--out", str(tmp_path / "o")])

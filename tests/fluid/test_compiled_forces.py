@@ -10,7 +10,7 @@ import pytest
 from breachflow.dem.state import Material, ParticleState
 from breachflow.errors import PhysicsError
 from breachflow.fluid.forces import FluidForces
-from breachflow.hydro.snapshot import grid_snapshot
+from breachflow.field.snapshot import grid_snapshot
 
 
 def breach_like_field(spacing=0.7, level=2.5):
@@ -90,7 +90,7 @@ def profile_state(rng, snap, n=80):
     """Particles over the field at heights chosen relative to the local bed and surface: exactly at the bed,
     inside the log law's dead layer (z < k_s/30), in the water column, straddling and above the surface,
     on the dry bank and outside the field."""
-    from breachflow.hydro.sampling import FieldSampler
+    from breachflow.field.sampling import FieldSampler
 
     x = rng.uniform(-11.0, 11.0, n)
     y = rng.uniform(-8.5, 8.5, n)
@@ -145,7 +145,7 @@ def test_fused_profile_uses_the_one_profile_definition():
     uniform profile's drag in a field scaled by that factor (constant C_D: drag ∝ |u| u)."""
     from breachflow.fluid.profile import factors
 
-    from breachflow.hydro.sampling import FieldSampler
+    from breachflow.field.sampling import FieldSampler
 
     snap = breach_like_field()
     st = ParticleState.spheres([[-2.0, 0.5, 0.0]], 0.05, Material(density=2650.0))

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from breachflow.errors import InputError
-from breachflow.fluid.drag import DRAG_LAWS, REPORT_CAP_RE, get_drag_law
+from breachflow.fluid.drag import DRAG_LAWS, REPORT_CAP_RE
 
 # Table 3.2 as printed in docs/theory.md, *Fluid forces on a mass*, transcribed independently of the package (branch upper bounds inclusive)
 TABLE = [
@@ -27,7 +27,7 @@ def table_cd(r):
 
 
 def test_report_law_matches_table_at_and_between_table_points():
-    law = get_drag_law("report")
+    law = DRAG_LAWS.create("report")
     points = [0.01, 0.5, 1.0, 1.0001, 10, 100, 700, 700.001, 3000, 1.04e4, 1.04e4 * 1.0001, 5e4, 1.5e5,
               1.5e5 * 1.0001, 2e5, 2.6e5, 2.8e5, 3.0e5, 3.4e5, 3.79e5, 1e6, 5e6, 1e7, 1e9]
     got = law.cd(np.array(points))
@@ -37,13 +37,13 @@ def test_report_law_matches_table_at_and_between_table_points():
 
 def test_report_law_multiplies_in_the_intermediate_branch():
     # the report's program divided by (1 + 0.15 R^0.687) (docs/theory.md, *Fluid forces on a mass*); the table multiplies
-    cd = get_drag_law("report").cd(100.0)
+    cd = DRAG_LAWS.create("report").cd(100.0)
     assert cd == pytest.approx(0.24 * (1 + 0.15 * 100**0.687), rel=1e-12)
     assert cd > 1.0  # the divided form would give 0.13
 
 
 def test_report_cap_is_continuous_at_040():
-    law = get_drag_law("report")
+    law = DRAG_LAWS.create("report")
     left, right = law.cd(REPORT_CAP_RE * (1 - 1e-9)), law.cd(REPORT_CAP_RE * (1 + 1e-9))
     assert left == pytest.approx(0.40, abs=1e-8) and right == pytest.approx(0.40, abs=1e-12)
     assert REPORT_CAP_RE == pytest.approx(5.77e6, rel=1e-3)
@@ -51,7 +51,7 @@ def test_report_cap_is_continuous_at_040():
 
 
 def test_report_law_jumps_only_where_the_printed_fits_do_not_meet():
-    law = get_drag_law("report")
+    law = DRAG_LAWS.create("report")
     r = np.logspace(-2, 8, 400_001)
     step = np.abs(np.diff(np.log(law.cd(r))))
     # a jump is a step much larger than both neighbouring steps (the curve's own slope)
@@ -69,7 +69,7 @@ def test_report_law_jumps_only_where_the_printed_fits_do_not_meet():
 
 @pytest.mark.parametrize("name", ["clift_gauvin", "morrison", "stokes", "constant"])
 def test_smooth_laws_are_continuous(name):
-    law = get_drag_law(name)
+    law = DRAG_LAWS.create(name)
     r = np.logspace(-3, 7, 200_001)
     dlr = np.log(r[1] / r[0])
     step = np.abs(np.diff(np.log(law.cd(r))))
@@ -77,7 +77,7 @@ def test_smooth_laws_are_continuous(name):
 
 
 def test_schiller_naumann_values():
-    law = get_drag_law("schiller_naumann")
+    law = DRAG_LAWS.create("schiller_naumann")
     for r in (0.1, 1.0, 50.0, 999.0):
         assert law.cd(r) == pytest.approx(24 / r * (1 + 0.15 * r**0.687), rel=1e-12)
     assert law.cd(1e3) == pytest.approx(0.44) and law.cd(1e6) == pytest.approx(0.44)
@@ -104,28 +104,28 @@ def clift_grace_weber(r):
 def test_standard_curve_against_the_published_correlation(name, r_max, tol):
     r = np.logspace(np.log10(20), np.log10(r_max), 500)
     ref = np.array([clift_grace_weber(x) for x in r])
-    assert np.max(np.abs(get_drag_law(name).cd(r) / ref - 1)) < tol
+    assert np.max(np.abs(DRAG_LAWS.create(name).cd(r) / ref - 1)) < tol
 
 
 def test_drag_crisis_present_or_absent():
     r = np.logspace(5, 6.5, 2000)
     crisis_min = -3.0144e-6 * 3.79e5 + 1.2350
-    assert get_drag_law("report").cd(3.79e5) == pytest.approx(crisis_min, rel=1e-12)
-    assert get_drag_law("report").cd(r).min() >= crisis_min * (1 - 1e-3)
-    assert get_drag_law("morrison").cd(r).min() < 0.15
-    assert get_drag_law("clift_gauvin").cd(r).min() > 0.40  # no crisis
-    assert get_drag_law("schiller_naumann").cd(r).min() == pytest.approx(0.44)
+    assert DRAG_LAWS.create("report").cd(3.79e5) == pytest.approx(crisis_min, rel=1e-12)
+    assert DRAG_LAWS.create("report").cd(r).min() >= crisis_min * (1 - 1e-3)
+    assert DRAG_LAWS.create("morrison").cd(r).min() < 0.15
+    assert DRAG_LAWS.create("clift_gauvin").cd(r).min() > 0.40  # no crisis
+    assert DRAG_LAWS.create("schiller_naumann").cd(r).min() == pytest.approx(0.44)
 
 
 def test_cd_times_re_is_finite_at_rest():
     for name in ("report", "schiller_naumann", "clift_gauvin", "morrison", "stokes"):
-        assert get_drag_law(name).cd_re(0.0) == pytest.approx(24.0)
-    assert get_drag_law("constant", value=0.3).cd_re(0.0) == 0.0
+        assert DRAG_LAWS.create(name).cd_re(0.0) == pytest.approx(24.0)
+    assert DRAG_LAWS.create("constant", value=0.3).cd_re(0.0) == 0.0
 
 
 def test_constant_and_tabulated_laws():
-    np.testing.assert_allclose(get_drag_law("constant", value=0.47).cd([1e-2, 1, 1e6]), 0.47, rtol=1e-14)
-    tab = get_drag_law("tabulated", reynolds=[1, 10, 100], cd=[24.0, 4.0, 1.0])
+    np.testing.assert_allclose(DRAG_LAWS.create("constant", value=0.47).cd([1e-2, 1, 1e6]), 0.47, rtol=1e-14)
+    tab = DRAG_LAWS.create("tabulated", reynolds=[1, 10, 100], cd=[24.0, 4.0, 1.0])
     np.testing.assert_allclose(tab.cd([1, 10, 100, 1e4]), [24, 4, 1, 1], rtol=1e-12)
     assert tab.cd(math.sqrt(10)) == pytest.approx(math.sqrt(24 * 4), rel=1e-12)  # log-log midpoint
     assert tab.cd(0.5) == pytest.approx(48.0)  # C_D R frozen below the table
@@ -134,10 +134,10 @@ def test_constant_and_tabulated_laws():
 def test_registry_and_errors():
     assert {"report", "schiller_naumann", "clift_gauvin", "morrison", "stokes", "constant", "tabulated"} <= set(DRAG_LAWS)
     with pytest.raises(InputError, match="unknown drag law 'nope'"):
-        get_drag_law("nope")
+        DRAG_LAWS.create("nope")
     with pytest.raises(InputError, match="value"):
-        get_drag_law("constant", value=-1)
+        DRAG_LAWS.create("constant", value=-1)
     with pytest.raises(InputError, match="increase"):
-        get_drag_law("tabulated", reynolds=[10, 1], cd=[1, 2])
+        DRAG_LAWS.create("tabulated", reynolds=[10, 1], cd=[1, 2])
     with pytest.raises(InputError, match="Reynolds"):
-        get_drag_law("report").cd_re(np.nan)
+        DRAG_LAWS.create("report").cd_re(np.nan)

@@ -10,8 +10,8 @@ from breachflow.errors import PhysicsError
 from breachflow.fluid.field import UniformWater
 from breachflow.fluid.forces import AIR, WATER, FluidForces
 from breachflow.fluid.kernels import cap_volume, submerged_fraction
-from breachflow.hydro.sampling import uniform_snapshot
-from breachflow.hydro.snapshot import grid_snapshot
+from breachflow.field.sampling import uniform_snapshot
+from breachflow.field.snapshot import grid_snapshot
 
 G = 9.80665
 

@@ -8,7 +8,7 @@ import pytest
 from breachflow.dem.state import Material, ParticleState
 from breachflow.fluid.forces import FluidForces
 from breachflow.hydro.nested import FramedSampler
-from breachflow.hydro.sampling import FieldSampler, uniform_snapshot
+from breachflow.field.sampling import FieldSampler, uniform_snapshot
 from breachflow.site.frame import GridFrame
 
 

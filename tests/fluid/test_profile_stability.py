@@ -119,7 +119,7 @@ IZB = lambda D: math.sqrt(2 * 9.80665 * 1.65 * D)  # noqa: E731
 def test_critical_velocity_uniform_profile_between_izbash_exposed_and_embedded(D):
     """Rough-stone drag (Clift–Gauvin, no drag crisis), uniform profile: U_c / sqrt(2 g Delta D) lies between
     Izbash's exposed (0.86) and embedded (1.2) coefficients (measured 0.905–0.952)."""
-    from breachflow.fluid.stability import critical_velocity
+    from breachflow.studies.stability import critical_velocity
 
     c = critical_velocity(D, 3.0 if D <= 0.5 else 10.0, velocity_profile="uniform", drag_law="clift_gauvin") / IZB(D)
     assert 0.86 <= c <= 1.2, c
@@ -129,7 +129,7 @@ def test_critical_velocity_uniform_profile_between_izbash_exposed_and_embedded(D
 def test_critical_velocity_report_drag_law(D):
     """The default (report) drag law has the smooth-sphere drag crisis (C_D ~ 0.1 near R ~ 4e5): stones of
     0.2–0.5 m are harder to move than Izbash says. Band measured 0.92–1.80 (README)."""
-    from breachflow.fluid.stability import critical_velocity
+    from breachflow.studies.stability import critical_velocity
 
     c = critical_velocity(D, 3.0 if D <= 0.5 else 10.0, velocity_profile="uniform") / IZB(D)
     assert 0.86 <= c <= 1.9, c
@@ -144,7 +144,7 @@ def test_critical_velocity_log_profile_follows_shields(D, h):
     critical u_b / sqrt(2 g Delta D) lies in 1.1–1.35 at every depth (measured 1.19–1.26, about Izbash's
     embedded 1.2); the depth-averaged U_c / sqrt(2 g Delta D) grows with h/D and is in 1.4–1.95 where
     h/D is in Izbash's range 5–10 (measured 1.48–1.85; 1.09–2.78 over h/D = 2–100)."""
-    from breachflow.fluid.stability import critical_velocity, near_bed_velocity
+    from breachflow.studies.stability import critical_velocity, near_bed_velocity
 
     uc = critical_velocity(D, h, velocity_profile="log", drag_law="clift_gauvin")
     ratio = uc / shields_velocity(D, h)
@@ -160,7 +160,7 @@ def test_critical_velocity_power_profile_near_bed_is_izbash(D, h):
     """Power (1/7) profile, Clift–Gauvin drag: the velocity at z = D at the critical U_c lies between
     Izbash's exposed and embedded coefficients, 0.86–1.2 sqrt(2 g Delta D) (measured 0.99–1.05 over
     D = 0.1–2 m, h = 1–10 m)."""
-    from breachflow.fluid.stability import critical_velocity, near_bed_velocity
+    from breachflow.studies.stability import critical_velocity, near_bed_velocity
 
     uc = critical_velocity(D, h, velocity_profile="power", drag_law="clift_gauvin")
     c_b = near_bed_velocity(uc, D, h, velocity_profile="power") / IZB(D)
@@ -169,7 +169,7 @@ def test_critical_velocity_power_profile_near_bed_is_izbash(D, h):
 
 def test_near_bed_velocity_is_the_profile_at_one_diameter():
     """u_b = U u(z = D)/U of the profile with k_s = 2 D: closed forms of the log and power laws."""
-    from breachflow.fluid.stability import near_bed_velocity
+    from breachflow.studies.stability import near_bed_velocity
 
     D, h, U = 0.5, 4.0, 3.0
     assert near_bed_velocity(U, D, h, velocity_profile="log") == pytest.approx(
@@ -180,7 +180,7 @@ def test_near_bed_velocity_is_the_profile_at_one_diameter():
 
 
 def test_critical_velocity_grows_with_depth_only_with_a_profile():
-    from breachflow.fluid.stability import critical_velocity
+    from breachflow.studies.stability import critical_velocity
 
     u1, u10 = (critical_velocity(0.2, h, velocity_profile="uniform") for h in (1.0, 10.0))
     assert u10 == pytest.approx(u1, rel=0.02)
@@ -217,7 +217,7 @@ def test_closure_cycle_runs_with_the_log_profile(tmp_path):
     run = ClosureRun(closure_setup(parse_scenario(text)), tmp_path / "log", text)
     (rep,) = run.run()
     assert rep.masses == 3
-    fluid = run._live[1].models[0]
+    fluid = run.dem.live[1].models[0]
     assert fluid.velocity_profile == "log"
     assert fluid.roughness == pytest.approx(roughness_from_manning(0.025))
 
@@ -262,8 +262,8 @@ def test_drag_on_a_resting_mass_matches_the_log_law_by_hand(compiled, where, zc,
     on the pile, clipped to the surface), times the drag law and the submerged fraction. On the pile the
     height and the depth are measured from the pile's top (2.5 m), not from the terrain."""
     from breachflow.dem.state import ParticleState
-    from breachflow.fluid.drag import get_drag_law
-    from breachflow.hydro.snapshot import grid_snapshot
+    from breachflow.fluid.drag import DRAG_LAWS
+    from breachflow.field.snapshot import grid_snapshot
 
     x = np.arange(-20.0, 20.01, 1.0)
     X, Y = np.meshgrid(x, x)
@@ -287,6 +287,6 @@ def test_drag_on_a_resting_mass_matches_the_log_law_by_hand(compiled, where, zc,
     cap = lambda t: math.pi * t * t * (3 * a - t) / 3  # noqa: E731
     phi = (cap(min(max(b0 + h0 - (zc - a), 0.0), D)) - cap(min(max(b0 - (zc - a), 0.0), D))) / (4 / 3 * math.pi * a ** 3)
     assert 0 < phi <= 1
-    cd = float(get_drag_law("report").cd(u * D / 1e-6))
+    cd = float(DRAG_LAWS.create("report").cd(u * D / 1e-6))
     drag = phi * 0.5 * 1000.0 * cd * math.pi * D * D / 4 * u * u
     assert f[0, 0] == pytest.approx(drag, rel=1e-9), where

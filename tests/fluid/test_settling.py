@@ -11,11 +11,11 @@ from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
 from breachflow.dem import DemSimulation, Gravity, Material, ParticleState, Plane
-from breachflow.fluid.drag import get_drag_law
+from breachflow.fluid.drag import DRAG_LAWS
 from breachflow.fluid.field import UniformWater
 from breachflow.fluid.forces import FluidForces
 from breachflow.fluid.freeflight import integrate
-from breachflow.hydro.sampling import uniform_snapshot
+from breachflow.field.sampling import uniform_snapshot
 
 G = 9.80665
 RHO_W, NU_W = 1000.0, 1.0e-6
@@ -72,7 +72,7 @@ def test_constant_drag_coefficient_tanh(method, dt):
     gp = G * (STEEL - RHO_W) / (STEEL + xi * RHO_W)
     v_t = math.sqrt(4 * G * d * (STEEL - RHO_W) / (3 * RHO_W * cd))
     t = np.linspace(0.0, 1.0, 201)
-    model = FluidForces(0.0, air=None, xi=xi, drag_law=get_drag_law("constant", value=cd))
+    model = FluidForces(0.0, air=None, xi=xi, drag_law=DRAG_LAWS.create("constant", value=cd))
     res = integrate(sphere(d, STEEL, z=-10.0), [Gravity(), model], t, method=method, dt=dt, rtol=1e-9, atol=1e-12)
     exact = v_t * np.tanh(gp * t / v_t)
     rel = np.abs(-res.vel[1:, 0, 2] - exact[1:]) / exact[1:]
@@ -132,7 +132,7 @@ def test_sphere_on_the_bed_in_a_uniform_current(ratio, moves):
     vol, area = math.pi * d**3 / 6, math.pi * d**2 / 4
     u_crit = math.sqrt(2 * beta * (rho_s - RHO_W) * vol * G / (cd * RHO_W * area))  # hand calculation
     snap = uniform_snapshot(1.0, u=ratio * u_crit, extent=(-5, 5, -5, 5), spacing=0.5)
-    fluid = FluidForces(snap, drag_law=get_drag_law("constant", value=cd), air=None)
+    fluid = FluidForces(snap, drag_law=DRAG_LAWS.create("constant", value=cd), air=None)
     mat = Material(density=rho_s, kn=1e6, friction=beta, c_cn=200.0, c_cs=200.0)
     st = ParticleState.spheres([[0.0, 0.0, d / 2]], d / 2, mat)
     sim = DemSimulation(st, boundaries=[Plane((0, 0, 0), (0, 0, 1), mat)], models=[fluid], sleeping=False)
@@ -151,7 +151,7 @@ def test_free_sphere_on_the_bed_rolls_without_slipping_below_the_sliding_thresho
     """With rotation free the same current rolls the sphere: v = w r, a = F / (m + m_A + I/r^2)."""
     d, rho_s, beta, cd, u = 0.1, 2650.0, 0.5, 0.45, 0.3
     snap = uniform_snapshot(1.0, u=u, extent=(-5, 5, -5, 5), spacing=0.5)
-    fluid = FluidForces(snap, drag_law=get_drag_law("constant", value=cd), air=None, xi=0.5)
+    fluid = FluidForces(snap, drag_law=DRAG_LAWS.create("constant", value=cd), air=None, xi=0.5)
     mat = Material(density=rho_s, kn=1e6, friction=beta, c_cn=200.0, c_cs=200.0)
     st = ParticleState.spheres([[0.0, 0.0, d / 2]], d / 2, mat)
     sim = DemSimulation(st, boundaries=[Plane((0, 0, 0), (0, 0, 1), mat)], models=[fluid], sleeping=False)

@@ -7,11 +7,11 @@ import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 
 from breachflow.errors import BreachflowWarning, InputError, ParseError
-from breachflow.hydro import open_snapshot
-from breachflow.hydro.io.adh import read_dat, read_mesh
-from breachflow.hydro.io.asc import read_asc
-from breachflow.hydro.io.sdf import read_sdf
-from breachflow.hydro.snapshot import validate_snapshot
+from breachflow.io import open_snapshot
+from breachflow.io.adh import read_dat, read_mesh
+from breachflow.io.asc import read_asc
+from breachflow.io.sdf import read_sdf
+from breachflow.field.snapshot import validate_snapshot
 
 NASTY = ["", "nan", "inf", "-1", "0", "1e309", "x", "ND", "TS", "E3T", "END:", "ENDDS", "BEGSCL", "NULL",
          "99999999999999999999", "1.5", "-", ",", ":", "\t", '"', "TS 1 0", "ND 3", "NC 99", "MESH2D",

@@ -12,9 +12,9 @@ pytest.importorskip("rashdf")
 
 from breachflow import InputError  # noqa: E402
 from breachflow.errors import ParseError  # noqa: E402
-from breachflow.hydro import open_snapshot  # noqa: E402
-from breachflow.hydro.io import READERS, guess_format  # noqa: E402
-from breachflow.hydro.snapshot import mesh_face_nodes, node_coordinates  # noqa: E402
+from breachflow.io import open_snapshot  # noqa: E402
+from breachflow.io import READERS, guess_format  # noqa: E402
+from breachflow.field.snapshot import mesh_face_nodes, node_coordinates  # noqa: E402
 
 AREAS = "Geometry/2D Flow Areas"
 SERIES = "Results/Unsteady/Output/Output Blocks/Base Output/Unsteady Time Series"
@@ -216,7 +216,7 @@ def test_cli_ingests_a_hecras_hdf(tmp_path, mesh):
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_face_velocity_reconstruction_is_exact_for_uniform_flow_on_any_polygon(seed):
-    from breachflow.hydro.io.hecras_hdf import cell_velocity_lsq
+    from breachflow.io.hecras_hdf import cell_velocity_lsq
 
     rng = np.random.default_rng(seed)
     counts = rng.integers(3, 9, size=50)                       # polygon cells with 3..8 faces

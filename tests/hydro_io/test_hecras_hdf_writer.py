@@ -9,9 +9,10 @@ h5py = pytest.importorskip("h5py")
 pytest.importorskip("rashdf")
 
 from breachflow.errors import InputError  # noqa: E402
-from breachflow.hydro import grid_snapshot, open_snapshot, write_snapshot  # noqa: E402
-from breachflow.hydro.io import to_unaligned_mesh, write_hecras_hdf  # noqa: E402
-from breachflow.hydro.snapshot import mesh_face_nodes, node_coordinates  # noqa: E402
+from breachflow.field import grid_snapshot, write_snapshot
+from breachflow.io import open_snapshot  # noqa: E402
+from breachflow.io import to_unaligned_mesh, write_hecras_hdf  # noqa: E402
+from breachflow.field.snapshot import mesh_face_nodes, node_coordinates  # noqa: E402
 
 FT = 0.3048
 BED = lambda x, y: 30.0 + 0.002 * x - 0.004 * y  # noqa: E731

@@ -7,8 +7,8 @@ import pytest
 
 from breachflow import InputError
 from breachflow.errors import ParseError
-from breachflow.hydro import open_snapshot
-from breachflow.hydro.io.adh import read_dat, read_mesh
+from breachflow.io import open_snapshot
+from breachflow.io.adh import read_dat, read_mesh
 
 
 def _write(tmp_path, name, text):

@@ -6,10 +6,10 @@ import pytest
 
 from breachflow import InputError
 from breachflow.errors import BreachflowWarning, ParseError
-from breachflow.hydro import open_snapshot
-from breachflow.hydro.io.adh import read_dat, read_mesh
-from breachflow.hydro.io.asc import read_asc
-from breachflow.hydro.io.sdf import read_sdf
+from breachflow.io import open_snapshot
+from breachflow.io.adh import read_dat, read_mesh
+from breachflow.io.asc import read_asc
+from breachflow.io.sdf import read_sdf
 
 
 def _write(tmp_path, name, text):

@@ -11,9 +11,10 @@ from typer.testing import CliRunner
 
 from breachflow import InputError
 from breachflow.errors import BreachflowWarning, ParseError
-from breachflow.hydro import FieldSampler, open_snapshot, read_snapshot, write_snapshot
-from breachflow.hydro.io import READERS, guess_format
-from breachflow.hydro.snapshot import mesh_face_nodes, validate_snapshot
+from breachflow.field import FieldSampler, read_snapshot, write_snapshot
+from breachflow.io import open_snapshot
+from breachflow.io import READERS, guess_format
+from breachflow.field.snapshot import mesh_face_nodes, validate_snapshot
 
 FT = 0.3048
 

@@ -9,8 +9,8 @@ import pytest
 
 from breachflow import InputError
 from breachflow.errors import BreachflowWarning, ParseError
-from breachflow.hydro import open_snapshot
-from breachflow.hydro.io.adh import read_dat, read_mesh
+from breachflow.io import open_snapshot
+from breachflow.io.adh import read_dat, read_mesh
 
 
 def _write(tmp_path, name, text):
@@ -249,7 +249,7 @@ def test_grids_with_other_extensions_nan_nodata_and_nan_cells(formats, tmp_path)
 # ---------------------------------------------------------------- HEC-RAS sdf
 
 def test_sdf_keywords_without_spaces_and_water_surface_extents(formats, tmp_path):
-    from breachflow.hydro.io.sdf import read_sdf
+    from breachflow.io.sdf import read_sdf
 
     text = (formats / "RASExport.sdf").read_text()
     ref = open_snapshot(formats / "RASExport.sdf")
@@ -268,7 +268,7 @@ def test_sdf_keywords_without_spaces_and_water_surface_extents(formats, tmp_path
 
 
 def test_sdf_unknown_keyword_is_named_with_its_line(formats, tmp_path):
-    from breachflow.hydro.io.sdf import read_sdf
+    from breachflow.io.sdf import read_sdf
 
     text = (formats / "RASExport.sdf").read_text()
     bad = text.replace("      0.740, 0.00\n  END:", "      0.740, 0.00\n    MYSTERY RECORD:\n      1.0, 2.0, 3.0\n  END:")

@@ -7,8 +7,8 @@ from scipy.interpolate import LinearNDInterpolator, RegularGridInterpolator
 from scipy.spatial import Delaunay
 
 from breachflow import InputError
-from breachflow.hydro import DRY_DEPTH, FieldSampler, grid_snapshot, mesh_snapshot, uniform_snapshot
-from breachflow.hydro.sampling import SAMPLING_METHODS, grid_bilinear_point
+from breachflow.field import DRY_DEPTH, FieldSampler, grid_snapshot, mesh_snapshot, uniform_snapshot
+from breachflow.field.sampling import SAMPLING_METHODS, grid_bilinear_point
 from breachflow.schemas import validate
 
 

@@ -10,9 +10,10 @@ import pytest
 from typer.testing import CliRunner
 
 from breachflow.errors import InputError
-from breachflow.hydro import grid_snapshot, open_snapshot, write_snapshot
-from breachflow.hydro.io import grid_to_mesh, to_unaligned_mesh, write_adh, write_esri, write_sdf
-from breachflow.hydro.snapshot import mesh_face_nodes, node_coordinates
+from breachflow.field import grid_snapshot, write_snapshot
+from breachflow.io import open_snapshot
+from breachflow.io import grid_to_mesh, to_unaligned_mesh, write_adh, write_esri, write_sdf
+from breachflow.field.snapshot import mesh_face_nodes, node_coordinates
 
 FT = 0.3048
 
@@ -151,7 +152,7 @@ def test_adh_dates_dry_nodes_and_a_grid_snapshot(tmp_path):
 
 
 def test_adh_writer_leaves_nothing_half_written(tmp_path, monkeypatch):
-    from breachflow.hydro.io import writers
+    from breachflow.io import writers
 
     m = to_unaligned_mesh(_analytic_grid(), 200, 0)
     texts = writers.adh_texts(m, tmp_path / "x")
@@ -265,8 +266,8 @@ def test_cli_export_adh_esri_sdf_and_ingest_back(tmp_path):
 
 @pytest.fixture(scope="module")
 def breach_steady():
-    from breachflow.hydro.swe import SWEOptions, SWESimulation
-    from breachflow.hydro.terrain import breach_domain, breach_vicinity
+    from breachflow.swe import SWEOptions, SWESimulation
+    from breachflow.swe.domain import breach_domain, breach_vicinity
     from breachflow.scenario import geometry
 
     sc = geometry.typical_breach()

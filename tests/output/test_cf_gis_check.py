@@ -119,7 +119,7 @@ def test_gdal_reads_the_crs_and_geotransform_of_the_cycle_grid(checker, cycle_fi
 def test_default_crs_cycle_grid_lands_at_the_documented_local_crs(checker, tmp_path):
     """No [site] crs: the grid still has a definite CRS (the documented local transverse Mercator),
     GDAL reads it, and the cycle file passes the checker's CRS test."""
-    from breachflow.hydro.crs import LOCAL_CRS_NAME
+    from breachflow.field.crs import LOCAL_CRS_NAME
 
     mod, table = checker
     text = SCENARIO.replace(f'crs = "{EPSG}"\n', "")
@@ -147,8 +147,8 @@ def test_ingested_mesh_snapshots_pass_the_cf_checker(checker, tmp_path, name):
     """UGRID mesh snapshots as `breachflow ingest` writes them: no vlen strings (HEC-RAS profile names are
     CF char arrays), and the UGRID variables pass the UGRID-1.0 rules that replace cfchecker's CF-§9.5-only
     cf_role check."""
-    from breachflow.hydro.io import open_snapshot
-    from breachflow.hydro.snapshot import read_snapshot, write_snapshot
+    from breachflow.io import open_snapshot
+    from breachflow.field.snapshot import read_snapshot, write_snapshot
 
     if name.startswith("hecras_hdf"):
         pytest.importorskip("rashdf")
@@ -167,8 +167,8 @@ def test_the_ugrid_check_catches_broken_meshes(checker, tmp_path):
     """The replacement check is not a blanket pass: bad connectivity and missing attributes are errors."""
     import netCDF4
 
-    from breachflow.hydro.io import open_snapshot
-    from breachflow.hydro.snapshot import write_snapshot
+    from breachflow.io import open_snapshot
+    from breachflow.field.snapshot import write_snapshot
 
     mod, table = checker
     good = write_snapshot(open_snapshot(INGESTS["adh_mesh"]), tmp_path / "good.nc")

@@ -15,8 +15,8 @@ from typer.testing import CliRunner
 from breachflow.cli import app
 from breachflow.cycle.config import closure_setup
 from breachflow.errors import InputError, ParseError
-from breachflow.hydro.crs import LOCAL_CRS, resolve_crs
-from breachflow.hydro.io import open_snapshot
+from breachflow.field.crs import LOCAL_CRS, resolve_crs
+from breachflow.io import open_snapshot
 from breachflow.scenario.config import parse_scenario
 
 ROOT = Path(__file__).resolve().parents[2]

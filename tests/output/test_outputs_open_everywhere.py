@@ -18,10 +18,10 @@ import xarray as xr
 
 from breachflow.cycle.config import closure_setup
 from breachflow.cycle.driver import ClosureRun
-from breachflow.hydro.derived import add_derived
-from breachflow.hydro.io import open_snapshot
-from breachflow.hydro.snapshot import write_snapshot
-from breachflow.output import RunDirectory
+from breachflow.field.derived import add_derived
+from breachflow.io import open_snapshot
+from breachflow.field.snapshot import write_snapshot
+from breachflow.io import RunDirectory
 from breachflow.scenario import closure_window
 from breachflow.scenario.config import parse_scenario
 from breachflow.scenario.io import write_netcdf

@@ -13,9 +13,11 @@ import xarray as xr
 
 import breachflow
 from breachflow.errors import DiskFullError
-from breachflow.hydro.snapshot import grid_snapshot, write_snapshot
-from breachflow.output import RunDirectory, atomic_write_netcdf, provenance
-from breachflow.output import atomic as atomic_mod
+from breachflow.field.snapshot import grid_snapshot, write_snapshot
+from breachflow.atomic import atomic_write_netcdf
+from breachflow import provenance
+from breachflow.io import RunDirectory
+from breachflow import atomic as atomic_mod
 
 from .test_rundir import _field, _traj
 

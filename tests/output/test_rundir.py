@@ -5,9 +5,9 @@ import xarray as xr
 
 from breachflow import InputError
 from breachflow.dem.state import ParticleState
-from breachflow.hydro.snapshot import grid_snapshot
-from breachflow.output import RunDirectory, particles_dataset, trajectories_dataset
-from breachflow.output import atomic as atomic_mod
+from breachflow.field.snapshot import grid_snapshot
+from breachflow.io import RunDirectory, particles_dataset, trajectories_dataset
+from breachflow import atomic as atomic_mod
 
 
 def _field(g):

@@ -4,8 +4,8 @@ obstacle cell (the intact levee) left out as holes, as the report's ADH mesh has
 import numpy as np
 from scipy.spatial import Delaunay
 
-from breachflow.hydro.sampling import FieldSampler
-from breachflow.hydro.snapshot import mesh_snapshot
+from breachflow.field.sampling import FieldSampler
+from breachflow.field.snapshot import mesh_snapshot
 
 
 def unaligned_mesh(grid, spacing: float, *, angle_deg: float = 17.0, jitter: float = 0.3, seed: int = 0):

@@ -14,11 +14,11 @@ import xarray as xr
 
 from breachflow.cycle.config import closure_setup, demo_breach
 from breachflow.cycle.main import run_closure
-from breachflow.hydro.io import write_adh, write_hecras_hdf
+from breachflow.io import write_adh, write_hecras_hdf
 from breachflow.hydro.nested import NestedSolver, breach_window, consistency
-from breachflow.hydro.snapshot import read_snapshot, write_snapshot
-from breachflow.hydro.solvers import get_solver
-from breachflow.hydro.terrain import breach_domain, breach_vicinity
+from breachflow.field.snapshot import read_snapshot, write_snapshot
+from breachflow.hydro.solvers import solvers
+from breachflow.swe.domain import breach_domain, breach_vicinity
 from breachflow.scenario.config import load_scenario
 from breachflow.scenario.geometry import typical_breach
 
@@ -27,7 +27,7 @@ from .meshing import unaligned_mesh
 
 def _steady(scene, res):
     dom = breach_domain(scene, res)
-    return get_solver("swe", tolerance=1e-4, t_max=900.0, region=breach_vicinity(dom, scene)).solve(dom)
+    return solvers.create("swe", tolerance=1e-4, t_max=900.0, region=breach_vicinity(dom, scene)).solve(dom)
 
 
 @pytest.fixture(scope="module")
@@ -136,7 +136,7 @@ def test_nested_from_a_hecras_sdf_recovers_the_breach_discharge(typical_grid, tm
     Cut into sections parallel to the levee every 4 m (normal to the jet), the local model re-solved in
     it rebuilds the jet: its breach discharge is within 5 % of the 2-D steady state's."""
     from breachflow.cycle.criteria import section_discharge
-    from breachflow.hydro.io import write_sdf
+    from breachflow.io import write_sdf
 
     scene, grid = typical_grid
     x0, x1 = float(grid.x[0]), float(grid.x[-1])
@@ -273,7 +273,7 @@ def test_a_mass_just_outside_the_nested_window_feels_the_regional_flow(compiled,
     from breachflow.cycle.driver import dem_view
     from breachflow.dem.state import ParticleState
     from breachflow.fluid.forces import FluidForces
-    from breachflow.hydro.sampling import FieldSampler, uniform_snapshot
+    from breachflow.field.sampling import FieldSampler, uniform_snapshot
 
     regional = uniform_snapshot(3.0, u=1.2, v=-0.4, bed=0.0, extent=(-60.0, 60.0, -60.0, 60.0), spacing=2.0)
     ns = NestedSolver([regional], (-20.0, 20.0, -16.0, 16.0), 1.0, t_max_initial=5.0)
@@ -356,7 +356,7 @@ def test_nested_hecras_seed_sweep_holds_the_energy_bound(demo_grid_wide, tmp_pat
     """The HEC-RAS closure of :func:`test_nested_closure_from_the_users_adh_and_hecras_files` at placement
     seeds 1-12: the steady local flow of every cycle holds the energy bound (:func:`head_excess` < 0.1 m).
     Prints per seed: closed, cycles, tonnage, the largest head excess. Before the implied-bed bracket of
-    :func:`breachflow.hydro.swe.fluxes.slopes` seeds 3, 6, 7, 9 and 12 broke it (by up to 2.36 m)."""
+    :func:`breachflow.swe.fluxes.slopes` seeds 3, 6, 7, 9 and 12 broke it (by up to 2.36 m)."""
     pytest.importorskip("h5py")
     res = run_closure(_wide_scenario(demo_grid_wide, tmp_path, "hecras_hdf", seed), tmp_path / "run", plots=False)
     ex = [head_excess(tmp_path / "run", g) for g in range(1, res.cycles + 1)]

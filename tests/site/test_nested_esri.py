@@ -17,12 +17,12 @@ import xarray as xr
 
 from breachflow.cycle.config import closure_setup, demo_breach
 from breachflow.cycle.main import run_closure
-from breachflow.hydro.crs import local_crs_wkt
-from breachflow.hydro.io import write_esri
+from breachflow.field.crs import local_crs_wkt
+from breachflow.io import write_esri
 from breachflow.hydro.nested import NestedSolver, fill_obstacles
 from breachflow.hydro.regional_grid import infer_no_flow, with_no_flow
-from breachflow.hydro.sampling import FieldSampler
-from breachflow.hydro.snapshot import grid_snapshot, set_crs
+from breachflow.field.sampling import FieldSampler
+from breachflow.field.snapshot import grid_snapshot, set_crs
 from breachflow.scenario.config import load_scenario
 
 from .test_nested import (NESTED_SCENARIO, TYPICAL_NESTED, _closure_print, check_consistency,  # noqa: F401

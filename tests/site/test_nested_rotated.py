@@ -21,8 +21,8 @@ from breachflow.cycle.config import closure_setup, demo_breach
 from breachflow.cycle.main import run_closure
 from breachflow.errors import InputError
 from breachflow.hydro.nested import NestedSolver, consistency
-from breachflow.hydro.snapshot import mesh_snapshot, mesh_triangles
-from breachflow.hydro.terrain import levee_bed
+from breachflow.field.snapshot import mesh_snapshot, mesh_triangles
+from breachflow.swe.domain import levee_bed
 from breachflow.scenario.config import load_scenario
 from breachflow.scenario.geometry import typical_breach
 
@@ -56,7 +56,7 @@ def turned_mesh(mesh, angle):
 
 def write_dem(scene, angle, path, half=260.0, spacing=2.0):
     """A north-up NetCDF DEM (EPSG:32615) of the intact levee of *scene* turned by *angle*, ± *half* m
-    around the breach centre: the scene's analytic bed (:func:`~breachflow.hydro.terrain.levee_bed`) at
+    around the breach centre: the scene's analytic bed (:func:`~breachflow.swe.domain.levee_bed`) at
     each cell centre turned back into the scene."""
     intact = replace(scene, breach=replace(scene.breach, depth=1e-9, scour_depth=0.0))  # no cut
     x = ORIGIN[0] + np.arange(-half, half + 1e-9, spacing)
@@ -213,7 +213,7 @@ def test_a_mass_just_outside_a_turned_nested_window_feels_the_regional_flow_turn
     from breachflow.cycle.driver import dem_view
     from breachflow.fluid.forces import FluidForces
     from breachflow.dem.state import ParticleState
-    from breachflow.hydro.sampling import FieldSampler, uniform_snapshot
+    from breachflow.field.sampling import FieldSampler, uniform_snapshot
     from breachflow.site import GridFrame
 
     angle = 37.0
@@ -339,11 +339,11 @@ def test_nested_on_the_crs_axes_is_unchanged_and_a_box_window_is_refused_when_tu
     ``[hydro] window`` (a box on the CRS axes) is refused with a clear error."""
     scene = replace(demo_breach(), levee_length_each_side=20.0, flood_side_extent=20.0, protected_side_extent=20.0)
     X, Y = np.meshgrid(np.arange(-25.5, 26.0, 1.0), np.arange(-19.5, 20.0, 1.0))
-    from breachflow.hydro.snapshot import grid_snapshot
+    from breachflow.field.snapshot import grid_snapshot
 
     bed = levee_bed(scene, X, Y)
     regional = grid_snapshot(X[0], Y[:, 0], bed, np.maximum(3.0 - bed, 0.0), np.zeros_like(bed), np.zeros_like(bed))
-    mesh = __import__("breachflow.hydro.io", fromlist=["grid_to_mesh"]).grid_to_mesh(regional)
+    mesh = __import__("breachflow.io", fromlist=["grid_to_mesh"]).grid_to_mesh(regional)
     for angle in (0.0, 31.0):
         d = tmp_path / f"a{angle:g}"
         d.mkdir()
@@ -365,8 +365,8 @@ def test_a_regional_model_in_another_crs_than_the_terrain_is_refused(tmp_path):
     breach in the wrong place: a clear InputError naming both; the same files with the terrain's CRS run."""
     scene = replace(demo_breach(), levee_length_each_side=20.0, flood_side_extent=20.0, protected_side_extent=20.0)
     X, Y = np.meshgrid(np.arange(-25.5, 26.0, 1.0), np.arange(-19.5, 20.0, 1.0))
-    from breachflow.hydro.io import grid_to_mesh
-    from breachflow.hydro.snapshot import grid_snapshot
+    from breachflow.io import grid_to_mesh
+    from breachflow.field.snapshot import grid_snapshot
 
     bed = levee_bed(scene, X, Y)
     regional = grid_snapshot(X[0], Y[:, 0], bed, np.maximum(3.0 - bed, 0.0), np.zeros_like(bed), np.zeros_like(bed))

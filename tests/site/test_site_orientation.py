@@ -196,7 +196,7 @@ def test_turned_site_closes_ci_sized_and_its_cycle_files_land_on_the_map(make_si
     assert flux > 0
     # the plan view shows the breach (grid coordinates: the breach centre is the same point)
     from breachflow.cycle.plots import plan_view_figure
-    from breachflow.output import RunDirectory
+    from breachflow.io import RunDirectory
 
     fig = plan_view_figure(RunDirectory(tmp_path / "run"))
     for ax in fig.axes[:2]:

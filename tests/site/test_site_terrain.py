@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from breachflow.errors import InputError
-from breachflow.hydro.terrain import levee_bed
+from breachflow.swe.domain import levee_bed
 from breachflow.scenario.geometry import BreachGeometry
 from breachflow.cycle.config import demo_breach
 from breachflow.site import SiteSpec, build_site, load_levee, load_terrain

@@ -14,7 +14,7 @@ from scipy.interpolate import RegularGridInterpolator
 
 from breachflow.cycle.config import closure_setup, demo_breach
 from breachflow.cycle.main import run_closure
-from breachflow.hydro.snapshot import grid_snapshot
+from breachflow.field.snapshot import grid_snapshot
 from breachflow.scenario.config import load_scenario
 
 from .test_nested import _steady

@@ -3,8 +3,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from breachflow.hydro.swe import SWEOptions, SWESimulation
-from breachflow.hydro.terrain import BoundaryCondition as BC, uniform_grid
+from breachflow.swe import SWEOptions, SWESimulation
+from breachflow.swe.domain import BoundaryCondition as BC, uniform_grid
 
 
 def channel(n, length, surface, bed=0.0, width=1.0, west=None, east=None, **kwargs):

@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 from breachflow.errors import InputError
-from breachflow.hydro.swe import SWEOptions, SWESimulation
-from breachflow.hydro.terrain import BoundaryCondition as BC, uniform_grid
+from breachflow.swe import SWEOptions, SWESimulation
+from breachflow.swe.domain import BoundaryCondition as BC, uniform_grid
 
 from ._util import channel
 

@@ -7,7 +7,7 @@ like those a ``raised_bed`` remap of a rock pile makes, with pits lower than the
 above the water — swept over seeds, plateau slopes and grid orientations; and 1-D plateaus with pits of
 1-2 cells at several depths and offsets.
 
-Before the fix in :func:`breachflow.hydro.swe.fluxes.slopes`, the second-order reconstruction took a dry
+Before the fix in :func:`breachflow.swe.fluxes.slopes`, the second-order reconstruction took a dry
 bank's bed as the surface of the pit next to it; the spurious surface slope drove the pit's water against
 faces that hydrostatic reconstruction leaves without reaction, until friction balanced it: heads 0.4-4.8 m
 above the reservoir's (seed 1, slopes 0-0.2; 10.4 m/s in 0.95 m of water), speeds up to 4.7 m/s above the
@@ -16,8 +16,8 @@ speed bound. (The 1-D pits never broke the bound, before or after.)
 import numpy as np
 import pytest
 
-from breachflow.hydro.swe import SWEOptions, SWESimulation
-from breachflow.hydro.terrain import BoundaryCondition as BC, uniform_grid
+from breachflow.swe import SWEOptions, SWESimulation
+from breachflow.swe.domain import BoundaryCondition as BC, uniform_grid
 
 G = 9.81
 H = 3.0  # reservoir level (m)
@@ -145,7 +145,7 @@ def pile_column(z_up, z_c, drop, dx, row, axis):
 def test_a_pile_column_spilling_onto_a_dry_cell_gains_no_head(z_up, z_c, drop, dx, row, axis):
     """A one-cell pile column fed over a 0.58-1.1 m step and spilling onto a lower dry cell: no cell
     deeper than 1 cm carries more head than the reservoir's (+0.1 m for the discretisation). Before the
-    dry-neighbour fade of :func:`breachflow.hydro.swe.fluxes.slopes` the limiter took the dry cell's bed
+    dry-neighbour fade of :func:`breachflow.swe.fluxes.slopes` the limiter took the dry cell's bed
     as the column's surface slope: 4.6-5.7 m/s on the column, heads 0.13-0.69 m above the reservoir's (16
     of these 24 cases; the (2.45, 1.5, 0.5) column held the bound before too)."""
     dom = pile_column(z_up, z_c, drop, dx, row, axis)
@@ -195,7 +195,7 @@ def foot_of_fall(z_d, open_cols, dx, axis):
 def test_a_pile_cell_at_the_foot_of_a_fall_gains_no_head(z_d, open_cols, dx, axis):
     """A pile cell below a crest carrying a thin film (its bed above the cell's surface: a fall), spilling
     onto a lower, shallow cell: no cell deeper than 1 cm carries more head than the reservoir's (+0.1 m).
-    Before the bound on the implied bed slope in :func:`breachflow.hydro.swe.fluxes.slopes`, the limiter
+    Before the bound on the implied bed slope in :func:`breachflow.swe.fluxes.slopes`, the limiter
     took the film's surface 1.3 m above the cell's bed and the lower cell's surface as one surface slope
     of the pile cell (its bed is flat): 0.30-2.76 m of head above the reservoir's (all 24 cases; 20 of them
     with only the dry-neighbour fade)."""

@@ -9,10 +9,10 @@ from scipy.optimize import brentq
 
 from breachflow.cycle.remap import porous_pile
 from breachflow.errors import InputError
-from breachflow.hydro.swe import SWEOptions, SWESimulation
-from breachflow.hydro.swe.porous import (PorousPile, _darcy_velocity, column_discharge, forchheimer_coefficients,
+from breachflow.swe import SWEOptions, SWESimulation
+from breachflow.swe.porous import (PorousPile, _darcy_velocity, column_discharge, forchheimer_coefficients,
                                          forchheimer_dam_length, seepage_field)
-from breachflow.hydro.terrain import BoundaryCondition as BC, uniform_grid
+from breachflow.swe.domain import BoundaryCondition as BC, uniform_grid
 
 
 def _dam(law, d, h1=3.0, h2=2.0, L=20.0, dx=0.5, order=2, pile_height=10.0, manning=0.0):

@@ -14,9 +14,9 @@ import pytest
 from breachflow.cycle.config import closure_setup
 from breachflow.cycle.criteria import section_discharge
 from breachflow.cycle.main import default_scenario_text
-from breachflow.hydro.swe import SWEOptions, SWESimulation
-from breachflow.hydro.swe import kernels as K
-from breachflow.hydro.swe.porous import PorousPile
+from breachflow.swe import SWEOptions, SWESimulation
+from breachflow.swe import kernels as K
+from breachflow.swe.porous import PorousPile
 from breachflow.scenario.config import parse_scenario
 
 
@@ -72,7 +72,7 @@ def test_skipping_quiet_cells_in_the_porous_resolve_matches_the_full_computation
 
 
 def test_the_porous_path_marches_in_one_compiled_call(default_scene, monkeypatch):
-    """The pile's resistance is applied inside :func:`~breachflow.hydro.swe.kernels.advance`: one call per
+    """The pile's resistance is applied inside :func:`~breachflow.swe.kernels.advance`: one call per
     ``advance_to``, so the quiet ranges carry over between steps (the former path called it per step)."""
     setup, snap, piled = default_scene
     calls = []

@@ -2,10 +2,10 @@
 import numpy as np
 import pytest
 
-from breachflow.hydro.swe import SWEOptions, SWESimulation
-from breachflow.hydro.swe import kernels as K
-from breachflow.hydro.swe.step import activity, primitives
-from breachflow.hydro.terrain import BoundaryCondition as BC, uniform_grid
+from breachflow.swe import SWEOptions, SWESimulation
+from breachflow.swe import kernels as K
+from breachflow.swe.step import activity, primitives
+from breachflow.swe.domain import BoundaryCondition as BC, uniform_grid
 
 
 def _ranges(sim, tol=1e-14):

@@ -7,10 +7,10 @@ import pytest
 import xarray as xr
 
 from breachflow.errors import InputError, PhysicsError
-from breachflow.hydro import derived
-from breachflow.hydro.solvers import HydroSolver, SnapshotSolver, get_solver, solvers
-from breachflow.hydro.swe import SWEOptions, SWESimulation, SWESolver
-from breachflow.hydro.terrain import BoundaryCondition as BC, breach_domain, levee_bed, uniform_grid
+from breachflow.field import derived
+from breachflow.hydro.solvers import HydroSolver, SnapshotSolver, solvers
+from breachflow.swe import SWEOptions, SWESimulation, SWESolver
+from breachflow.swe.domain import BoundaryCondition as BC, breach_domain, levee_bed, uniform_grid
 from breachflow.schemas import validate
 from breachflow.scenario import typical_breach
 
@@ -101,7 +101,7 @@ def test_non_finite_initial_state_is_a_clear_error():
 
 def test_snapshot_output_is_schema_valid_with_derived_fields_and_history():
     dom = channel(40, 40.0, 1.0, bed=lambda X, Y: -0.001 * X, west=BC.inflow(1.0), east=BC.outflow(), manning=0.03)
-    solver = get_solver("swe", tolerance=1e-3, t_max=300.0)
+    solver = solvers.create("swe", tolerance=1e-3, t_max=300.0)
     ds = solver.solve(dom)
     validate(ds, "snapshot_grid")
     for name in ("speed", "froude_number", "unit_discharge", "total_head", "bed_shear_stress", "incipient_grain_size"):
@@ -131,16 +131,16 @@ def test_derived_fields_hand_values():
 
 def test_registry_has_swe_and_snapshot_and_third_party_solvers_plug_in():
     assert {"swe", "snapshot"} <= set(solvers.available())
-    assert isinstance(get_solver("swe"), HydroSolver)
+    assert isinstance(solvers.create("swe"), HydroSolver)
 
     class Still:
         def solve(self, domain, obstacles=None, initial=None):
             return "still water"
 
     solvers.register("still-test", Still)
-    assert get_solver("still-test").solve(None) == "still water"
+    assert solvers.create("still-test").solve(None) == "still water"
     with pytest.raises(InputError, match="unknown hydrodynamic solver"):
-        get_solver("adh-live")
+        solvers.create("adh-live")
 
 
 def test_snapshot_solver_serves_a_sequence_one_per_cycle(tmp_path):
@@ -150,7 +150,7 @@ def test_snapshot_solver_serves_a_sequence_one_per_cycle(tmp_path):
     second["depth"] = second.depth * 2
     path = tmp_path / "b.nc"
     second.to_netcdf(path)
-    s = get_solver("snapshot", snapshots=[first, path])
+    s = solvers.create("snapshot", snapshots=[first, path])
     assert s.solve(dom) is first
     np.testing.assert_allclose(s.solve(dom).depth.values, 2.0)
     with pytest.warns(UserWarning, match="reuses the last"):

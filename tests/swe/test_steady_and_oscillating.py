@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from breachflow.hydro.swe import SWEOptions, SWESimulation
-from breachflow.hydro.terrain import BoundaryCondition as BC, uniform_grid
+from breachflow.swe import SWEOptions, SWESimulation
+from breachflow.swe.domain import BoundaryCondition as BC, uniform_grid
 
 from .analytic import G, bernoulli_depth, bump_bed, swashes, swashes_parameters, thacker_period, thacker_planar
 from ._util import channel, observed_orders

@@ -16,9 +16,9 @@ import numpy as np
 import pytest
 
 from breachflow.errors import InputError
-from breachflow.hydro.steady_mean import BatchMeans
-from breachflow.hydro.swe import SWESimulation
-from breachflow.hydro.terrain import BoundaryCondition, uniform_grid
+from breachflow.swe.steady_mean import BatchMeans
+from breachflow.swe import SWESimulation
+from breachflow.swe.domain import BoundaryCondition, uniform_grid
 
 PERIOD = 6.0
 SECTION = (-6.0, 6.0, 0.0)

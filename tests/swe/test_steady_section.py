@@ -3,8 +3,8 @@ import numpy as np
 import pytest
 
 from breachflow.errors import InputError
-from breachflow.hydro.swe import SWESimulation
-from breachflow.hydro.terrain import BoundaryCondition as BC, uniform_grid
+from breachflow.swe import SWESimulation
+from breachflow.swe.domain import BoundaryCondition as BC, uniform_grid
 
 
 def _channel():

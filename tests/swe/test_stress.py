@@ -5,8 +5,8 @@ import math
 
 import numpy as np
 
-from breachflow.hydro.swe import SWEOptions, SWESimulation
-from breachflow.hydro.terrain import BoundaryCondition as BC, uniform_grid
+from breachflow.swe import SWEOptions, SWESimulation
+from breachflow.swe.domain import BoundaryCondition as BC, uniform_grid
 
 from ._util import channel
 

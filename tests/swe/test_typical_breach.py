@@ -10,9 +10,9 @@ import math
 import numpy as np
 import pytest
 
-from breachflow.hydro.derived import peak_speed
-from breachflow.hydro.swe import SWESimulation
-from breachflow.hydro.terrain import breach_domain, breach_vicinity
+from breachflow.field.derived import peak_speed
+from breachflow.swe import SWESimulation
+from breachflow.swe.domain import breach_domain, breach_vicinity
 from breachflow.scenario import typical_breach
 
 

@@ -9,8 +9,8 @@ the outlet: +100 % depth there, +87 % mid-reach) nor drain it. Flow along +x, -x
 import numpy as np
 import pytest
 
-from breachflow.hydro.swe import SWEOptions, SWESimulation
-from breachflow.hydro.terrain import BoundaryCondition as BC, uniform_grid
+from breachflow.swe import SWEOptions, SWESimulation
+from breachflow.swe.domain import BoundaryCondition as BC, uniform_grid
 
 DIRECTION = {"east": (1, 0), "west": (-1, 0), "north": (0, 1), "south": (0, -1)}
 OPPOSITE = {"east": "west", "west": "east", "north": "south", "south": "north"}

@@ -2,8 +2,8 @@
 import numpy as np
 import pytest
 
-from breachflow.hydro.swe import SWEOptions, SWESimulation
-from breachflow.hydro.terrain import BoundaryCondition as BC, uniform_grid
+from breachflow.swe import SWEOptions, SWESimulation
+from breachflow.swe.domain import BoundaryCondition as BC, uniform_grid
 
 
 def bumpy_bed(X, Y):

@@ -33,7 +33,7 @@ app = typer.Typer(
 def _version(value: bool) -> None:
     if value:
         from .. import __version__
-        from ..output.provenance import git_commit
+        from ..provenance import git_commit
 
         commit = git_commit()
         typer.echo(f"breachflow {__version__}" + (f" (git {commit})" if commit else ""))
@@ -70,7 +70,7 @@ def main(argv: list[str] | None = None) -> None:
     import sys
 
     from ..errors import BreachflowError, DiskFullError
-    from ..output import provenance
+    from .. import provenance
     from . import _common
 
     argv = list(sys.argv[1:] if argv is None else argv)

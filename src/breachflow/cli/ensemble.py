@@ -28,13 +28,10 @@ def register(app: typer.Typer) -> None:
         ensemble.members) and write one NetCDF Dataset with a dimension per varied parameter; member outputs
         stay in their own run directories, failed members are recorded, reruns resume."""
         from ..ensemble import member_runners, run
-        from ..ensemble.runners import RUNNER_PROVIDERS, runner_available
         from ._common import console as _console
 
         console = _console()
         if list_runners:
-            for name in RUNNER_PROVIDERS:  # built-in runners living in other subpackages register on import
-                runner_available(name)
             for name in member_runners.available():
                 doc = (member_runners.get(name).__doc__ or "").strip().splitlines()
                 console.print(f"[bold]{name}[/]: {doc[0] if doc else ''}", highlight=False)

@@ -27,11 +27,11 @@ def register(app: typer.Typer) -> None:
         """Write a snapshot as ADH/SMS (.3dm, _dep.dat, _vel.dat, .bc), ESRI ASCII grids, a HEC-RAS RASExport.sdf
         or a HEC-RAS 6 2-D plan HDF (triangles as cells, face velocities)."""
         from ..errors import InputError
-        from ..hydro.io.meshing import to_unaligned_mesh
-        from ..hydro.io.sdf_writer import write_sdf
-        from ..hydro.io.writers import write_adh, write_esri
-        from ..hydro.snapshot import is_mesh
-        from ..output.runfiles import read_grid_file
+        from ..field.snapshot import is_mesh
+        from ..io.meshing import to_unaligned_mesh
+        from ..io.runfiles import read_grid_file
+        from ..io.sdf_writer import write_sdf
+        from ..io.writers import write_adh, write_esri
         from ._common import console, pick_out
 
         output = pick_out(out, output)
@@ -52,7 +52,7 @@ def register(app: typer.Typer) -> None:
             if fmt == "adh":
                 paths = write_adh(ds, output, units=units)
             else:
-                from ..hydro.io.hecras_hdf_writer import write_hecras_hdf
+                from ..io.hecras_hdf_writer import write_hecras_hdf
 
                 hdf = output if output.suffix.lower() in (".hdf", ".h5") else output.with_name(output.name + ".p01.hdf")
                 paths = [write_hecras_hdf(ds, hdf, units=units)]

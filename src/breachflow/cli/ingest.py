@@ -11,7 +11,7 @@ def summary_rows(ds) -> list[tuple[str, str]]:
     """(label, text) rows describing a snapshot: kind, size, extent, time steps and value ranges."""
     import numpy as np
 
-    from ..hydro.snapshot import is_mesh, node_coordinates
+    from ..field.snapshot import is_mesh, node_coordinates
 
     rows = []
     if is_mesh(ds):
@@ -73,8 +73,8 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         """Read hydrodynamic model exports, check them and write one SI snapshot NetCDF (CF, UGRID for meshes)."""
         from ..errors import InputError
-        from ..hydro.io import open_snapshot
-        from ..hydro.snapshot import write_snapshot
+        from ..io import open_snapshot
+        from ..field.snapshot import write_snapshot
 
         options = {}
         if strict:
@@ -96,7 +96,7 @@ def register(app: typer.Typer) -> None:
                 roles[f] = v
             options["roles"] = roles
         if crs and Path(crs).is_file():
-            from ..hydro.io import read_prj
+            from ..io import read_prj
 
             crs = read_prj(crs)
         from ..errors import BreachflowError
@@ -118,7 +118,7 @@ def register(app: typer.Typer) -> None:
                 cycle: Optional[int] = typer.Option(None, "--cycle", help="cycle of a run's file to inspect "
                                                     "[default: the last one in the file]")) -> None:
         """Validate a snapshot NetCDF and print its summary."""
-        from ..output.runfiles import read_grid_file
+        from ..io.runfiles import read_grid_file
 
         ds = read_grid_file(snapshot, cycle)
         _print(str(snapshot), ds)

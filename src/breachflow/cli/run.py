@@ -110,8 +110,8 @@ def check_run_target(scenario: Path | None, out: Path, resume: bool, overwrite: 
     replace it. ``--resume`` needs a run."""
     from ..cycle.main import default_scenario_text
     from ..errors import InputError
-    from ..output import RunDirectory
-    from ..output.rundir import scenario_hash
+    from ..io import RunDirectory
+    from ..io.rundir import scenario_hash
 
     rd = RunDirectory(out)
     if resume and overwrite:
@@ -288,7 +288,7 @@ def register(app: typer.Typer) -> None:
         output: Optional[Path] = typer.Option(None, "--output", hidden=True),
     ) -> None:
         """Combine a closure run's cycles into one NetCDF archive (trajectories in group 'trajectories')."""
-        from ..output import RunDirectory
+        from ..io import RunDirectory
         from ._common import console, pick_out
 
         out = pick_out(out, output)

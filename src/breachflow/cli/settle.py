@@ -24,7 +24,7 @@ def register(app: typer.Typer) -> None:
         from ..output.progress import Progress
         from ._common import QUIET, console, level
 
-        from ..fluid.validation import drag_crisis_time, save_settling, settling_curves
+        from ..studies.validation import drag_crisis_time, save_settling, settling_curves
         from ..units import to_si
 
         ds_ = [to_si(d, name="--diameter", kind="length", default_unit="m", positive=True) for d in diameter]

@@ -14,7 +14,7 @@ from typing import Optional
 
 import typer
 
-from ..output.atomic import atomic_write as _atomic_write
+from ..atomic import atomic_write as _atomic_write
 
 SCENES = ("typical_breach", "demo_breach")  #: the presets of ``[site] preset`` (breachflow.cycle.config.SITE_PRESETS)
 
@@ -29,7 +29,7 @@ def plot_speed(ds, path: Path, title: str = "") -> None:
     import matplotlib.pyplot as plt
     import numpy as np
 
-    from ..hydro.derived import peak_speed
+    from ..field.derived import peak_speed
 
     s = np.hypot(ds.u.values, ds.v.values)
     s = np.where(ds.wet.values > 0, s, np.nan)
@@ -79,9 +79,9 @@ def register(app: typer.Typer) -> None:
         from rich.table import Table
 
         from ..errors import InputError
-        from ..hydro.derived import peak_speed
-        from ..hydro.swe import SWEOptions, SWESimulation
-        from ..hydro.terrain import breach_domain, breach_vicinity
+        from ..field.derived import peak_speed
+        from ..swe import SWEOptions, SWESimulation
+        from ..swe.domain import breach_domain, breach_vicinity
         from ..units import to_si
         from ._common import QUIET, console, level, pick_out
 
@@ -121,7 +121,7 @@ def register(app: typer.Typer) -> None:
             hist = sim.run_to_steady(tol, tmax, region=region, progress=progress)
         wall = time.perf_counter() - wall0
         ds = sim.snapshot()
-        from ..output.atomic import atomic_write_netcdf
+        from ..atomic import atomic_write_netcdf
 
         atomic_write_netcdf(ds, output)
         near = peak_speed(ds, x_range=(-sc.breach.length, sc.breach.length), y_range=(-50.0, 50.0))

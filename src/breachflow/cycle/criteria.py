@@ -33,8 +33,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import InputError
-from ..hydro.section import open_wet as _open_wet
-from ..hydro.section import snapshot_discharge
+from ..swe.section import open_wet as _open_wet
+from ..swe.section import snapshot_discharge
 from ..registry import Registry
 from ..units import to_si
 
@@ -112,7 +112,7 @@ def _speed(ds):
 def section_discharge(ds, x_range, y: float) -> float:
     """Discharge (m³/s) through the breach between ``x_range``, positive towards the protected side: the
     median over the breach channel's rows of ``Σ h v Δx`` over the open wet cells
-    (:func:`breachflow.hydro.section.channel_discharge`, also the ``swe`` solver's steady-state monitor)."""
+    (:func:`breachflow.swe.section.channel_discharge`, also the ``swe`` solver's steady-state monitor)."""
     return snapshot_discharge(ds, x_range, y)
 
 

@@ -2,8 +2,8 @@
 of the current snapshot, the masses' material), continued from the previous cycle or restored from its
 restart record, and the settle loop that steps it until the assembly is at rest or the safety cap.
 
-:class:`CycleDem` is the base of :class:`~breachflow.cycle.driver.ClosureRun`; it reads ``self.setup``
-(a :class:`~breachflow.cycle.driver.ClosureSetup`) and keeps ``self._live``.
+:class:`CycleDem` is the part of a :class:`~breachflow.cycle.driver.ClosureRun` (``ClosureRun.dem``) that holds
+it, built from the run's :class:`~breachflow.cycle.driver.ClosureSetup`.
 """
 from __future__ import annotations
 
@@ -15,8 +15,8 @@ import xarray as xr
 from ..dem import DemSimulation, HeightField
 from ..fluid.forces import FluidForces
 from ..fluid.profile import roughness_from_manning
-from ..hydro.sampling import FieldSampler
-from ..hydro.snapshot import DRY_DEPTH
+from ..field.sampling import FieldSampler
+from ..field.snapshot import DRY_DEPTH
 from .rest import RestWindow
 
 
@@ -53,15 +53,21 @@ def dem_view(snapshot: xr.Dataset) -> xr.Dataset:
 
 
 class CycleDem:
-    """The DEM of the closure cycles (the methods of :class:`~breachflow.cycle.driver.ClosureRun` that build,
-    continue and settle it)."""
+    """The DEM of the closure cycles of one run (``ClosureRun.dem``): builds it from a
+    :class:`~breachflow.cycle.driver.ClosureSetup`, continues it from cycle to cycle (``live``) or
+    restores it from a restart record, inserts the masses and settles it."""
+
+    def __init__(self, setup):
+        self.setup = setup
+        self.live = None  # (cycle, DemSimulation) of the last cycle, continued by the next one
 
     @staticmethod
-    def _dem_part(rec) -> dict | None:
+    def state_of(rec) -> dict | None:
+        """The DEM's saved state in the restart record *rec* (its ``dem.`` entries), or None."""
         dem = {k[4:]: v for k, v in rec.items() if k.startswith("dem.")}
         return dem or None
 
-    def _fluid(self, snapshot) -> FluidForces:
+    def fluid(self, snapshot) -> FluidForces:
         """The frozen fluid field of *snapshot* as the DEM's force model."""
         d = self.setup.dem
         field = dem_view(snapshot)
@@ -70,65 +76,65 @@ class CycleDem:
             field = FieldSampler(field, d.sampling, fallback=fallback(d.sampling))
         bed = d.bed
         return FluidForces(field, drag_law=d.drag_law, sampling=d.sampling, xi=d.xi, outside="air",
-                           velocity_profile=d.velocity_profile, roughness=self._fluid_roughness(),
+                           velocity_profile=d.velocity_profile, roughness=self.fluid_roughness(),
                            manning=float(np.median(self.setup.domain.manning)),
                            near_bed=None if bed is None else bed.near_bed)
 
-    def _cycle_dem(self, g, snapshot, rec):
+    def for_cycle(self, g, snapshot, rec):
         """The DEM of cycle *g*: the previous cycle's simulation continued in the field of *snapshot*, or
         (first cycle, or after a resume) restored from the restart record *rec*; both are the same state."""
-        live, self._live = self._live, None  # a cycle that fails half-way leaves no half-advanced DEM behind
+        live, self.live = self.live, None  # a cycle that fails half-way leaves no half-advanced DEM behind
         if live is not None and live[0] == g - 1:
             sim = live[1]
-            sim.set_models([self._fluid(snapshot)])
+            sim.set_models([self.fluid(snapshot)])
             return sim
-        return self._make_dem(snapshot, self._dem_part(rec))
+        return self.make(snapshot, self.state_of(rec))
 
-    def _make_dem(self, snapshot, dem_state=None):
+    def make(self, snapshot, dem_state=None):
         """The DEM of a cycle: terrain height field + the frozen fluid field of *snapshot*; continued
         bit-identically from *dem_state* (``save_state`` of the previous cycle) when given."""
         s = self.setup
         d = s.dem
         dom = s.domain
-        terrain = HeightField(dom.x, dom.y, dom.bed, self._terrain_material(),
+        terrain = HeightField(dom.x, dom.y, dom.bed, self.terrain_material(),
                               roughness=None if d.bed is None else d.bed.roughness)
         x0, x1, y0, y1 = s.area if s.area is not None else (dom.x[0] - 0.5 * dom.dx, dom.x[-1] + 0.5 * dom.dx,
                                                                dom.y[0] - 0.5 * dom.dy, dom.y[-1] + 0.5 * dom.dy)
         # masses leaving this box (the breach area) are retired by the DEM and counted as lost
         box = (x0, x1, y0, y1, float(dom.bed.min()) - 50.0, float(dom.bed.max()) + 200.0)
-        fluid = self._fluid(snapshot)
+        fluid = self.fluid(snapshot)
         kw = dict(boundaries=[terrain], models=[fluid], integrator=d.integrator, domain=box, sleeping=d.sleeping,
                   static_models=True)
         if dem_state is not None:
             return DemSimulation.from_state(dem_state, **kw)
         return DemSimulation(**kw)
 
-    def _material(self, density, mass_ref):
+    def material(self, density, mass_ref):
         """The configured material at *density*, its normal dashpot giving the configured restitution
         for a wall impact of *mass_ref* (docs/theory.md, *DEM contact*: e = exp(-zeta pi / sqrt(1 - zeta^2)))."""
         d = self.setup.dem
         m = replace(d.material, density=float(density), c_gn=d.global_damping)
         return m.with_restitution(d.restitution, mass_ref)
 
-    def _terrain_material(self):
+    def terrain_material(self):
         """Terrain contact properties: pair values are the minimum of the partners' (docs/theory.md, *DEM contact*), so the
         terrain's dashpot is sized for the heaviest possible mass and the particle's own value governs."""
         p = self.setup.placement
         heaviest = p.density[1] * 4.0 / 3.0 * np.pi * (0.5 * p.diameter[1]) ** 3
-        return self._material(p.density[1], heaviest)
+        return self.material(p.density[1], heaviest)
 
-    def _add(self, sim, pos, radius, density, vel=None, omega=None):
+    def add(self, sim, pos, radius, density, vel=None, omega=None):
         """Insert masses, one call per distinct density (no per-particle Python work for big piles)."""
         idx = np.zeros(len(radius), int)
         for rho in np.unique(density):
             sel = np.flatnonzero(density == rho)
             mass_ref = rho * 4.0 / 3.0 * np.pi * float(np.median(radius[sel])) ** 3
-            idx[sel] = sim.add_particles(pos[sel], radius[sel], self._material(rho, mass_ref),
+            idx[sel] = sim.add_particles(pos[sel], radius[sel], self.material(rho, mass_ref),
                                          vel=None if vel is None else vel[sel],
                                          omega=None if omega is None else omega[sel])
         return idx
 
-    def _settle(self, sim, max_time, record_ids=None):
+    def settle(self, sim, max_time, record_ids=None):
         """Step to equilibrium; returns (converged, times, positions and velocities of *record_ids* at those
         times, the :class:`~breachflow.cycle.rest.RestWindow` of every mass's positions over the last
         ``rest_time``)."""
@@ -167,8 +173,8 @@ class CycleDem:
             return converged, np.asarray(times), None, None, window
         return converged, np.asarray(times), np.stack(frames, axis=1), np.stack(vframes, axis=1), window
 
-    def _fluid_roughness(self) -> float:
-        """The log law's roughness height of the DEM's fluid forces (as :meth:`_fluid` sets it)."""
+    def fluid_roughness(self) -> float:
+        """The log law's roughness height of the DEM's fluid forces (as :meth:`fluid` sets it)."""
         d = self.setup.dem
         if d.roughness is not None:
             return float(d.roughness)

@@ -28,12 +28,13 @@ import xarray as xr
 
 from ..dem import Material
 from ..errors import InputError
+from ..fluid.profile import DEFAULT_PROFILE
 from ..fluid.profile import factors as profile_factors
-from ..hydro.sampling import FieldSampler
+from ..field.sampling import FieldSampler
 from ..schemas import validate
-from ..output import RunDirectory, particles_dataset, trajectories_dataset
-from ..output.cf import pad_particles
-from ..output.cycle_variables import cycle_coordinate, cycle_variables
+from ..io import RunDirectory, particles_dataset, trajectories_dataset
+from ..io.cf import pad_particles
+from ..io.cycle_variables import cycle_coordinate, cycle_variables
 from .dem_cycle import CycleDem, dem_view  # noqa: F401  (dem_view: re-exported, the nested tests import it here)
 from .criteria import CycleContext, EndCriteria, gap_section_speeds, section_discharge, seepage_in_section
 from .losses import (LOSS_LIMIT, cannot_close, carried_away_faster, cycle_losses, gap_speed, gap_speed_and_depth,
@@ -69,7 +70,7 @@ class DemSettings:
     drag_law: str = "report"
     sampling: str = "bilinear"
     xi: float = 0.5
-    velocity_profile: str = "uniform"
+    velocity_profile: str = DEFAULT_PROFILE
     roughness: float | None = None
     stability_time: float = 5.0
     rest_time: float = 0.5
@@ -92,7 +93,7 @@ class DemSettings:
 class ClosureSetup:
     """Everything a closure run needs (SI).
 
-    ``domain`` the hydrodynamic :class:`~breachflow.hydro.terrain.Domain`; ``solver`` a HydroSolver;
+    ``domain`` the hydrodynamic :class:`~breachflow.swe.domain.Domain`; ``solver`` a HydroSolver;
     ``breach_x`` the breach extent along the levee at ``levee_y``; ``flood_level`` flood-side water
     elevation; ``bottom`` the breach bottom elevation (for the cross-section criteria); ``area`` the
     breach area ``(x0, x1, y0, y1)`` outside which masses are removed and counted as lost (None: the
@@ -192,7 +193,7 @@ class CycleReport:
         return d
 
 
-class ClosureRun(CycleDem):
+class ClosureRun:
     """Drive a closure run in a run directory: ``ClosureRun(setup, run_dir, scenario_text).run()``."""
 
     def __init__(self, setup: ClosureSetup, run_dir, scenario_text: str, *, resume: bool = False,
@@ -207,7 +208,7 @@ class ClosureRun(CycleDem):
                           metadata={"name": setup.name, **setup.metadata, **(metadata or {})})
         self.progress = progress  # callable(CycleReport) or None
         self.reports: list[CycleReport] = []
-        self._live = None  # (cycle, DemSimulation) of the last cycle, continued by the next one
+        self.dem = CycleDem(setup)  # the DEM of the cycles
         self._pile = IncrementalPileTop(setup.domain.x, setup.domain.y, setup.domain.bed,
                                         sub=subpoints(dom.dx, dom.dy, 0.5 * setup.placement.diameter[0]),
                                         cells=setup.pile_sampling == "cell_average")
@@ -297,7 +298,7 @@ class ClosureRun(CycleDem):
         # 1. the DEM continues the previous cycle's (in memory, or restored from its saved state after a
         #    resume): resting masses asleep, their wake reference the old field, so a changed flow wakes
         #    the ones it really affects
-        sim = self._cycle_dem(g, snapshot, rec)
+        sim = self.dem.for_cycle(g, snapshot, rec)
         # 2. release this cycle's masses
         sampler = FieldSampler(snapshot, method="bilinear")
 
@@ -307,7 +308,7 @@ class ClosureRun(CycleDem):
 
         sill = self._pile_view(sim, rec) if s.placement.uses_pile else None
         rel = s.placement.release(g, s.seed, surface_at, pile=sill)
-        new_ids = self._add(sim, rel.pos, rel.radius, rel.density)
+        new_ids = self.dem.add(sim, rel.pos, rel.radius, rel.density)
         placed_cycle = np.concatenate([rec["placed_cycle"], np.full(len(new_ids), g, np.int32)])
         if s.timeline is not None:  # the operation time after delivering every mass placed so far
             s.timeline.advance(float(sim.state.mass[:sim.state.n].sum()))
@@ -316,7 +317,7 @@ class ClosureRun(CycleDem):
         moving = np.flatnonzero(sim.state.awake & sim.state.active)
         active0 = sim.state.active.copy()
         t_dem, c_dem = _time.perf_counter(), _time.process_time()
-        converged, t_rec, frames, vframes, window = self._settle(sim, d.max_time, record_ids=moving)
+        converged, t_rec, frames, vframes, window = self.dem.settle(sim, d.max_time, record_ids=moving)
         t_dem, c_dem = _time.perf_counter() - t_dem, _time.process_time() - c_dem
         st = sim.state
         lost_now = np.flatnonzero(active0 & ~st.active)
@@ -432,7 +433,7 @@ class ClosureRun(CycleDem):
                 traj.attrs.update(s.frame.attrs())
         rep.time_output = _time.perf_counter() - t_out  # the summary records the time up to the write itself
         self.rundir.write_cycle(g, field_ds, traj, new_rec, _summary(rep))
-        self._live = (g, sim)
+        self.dem.live = (g, sim)
         return rep, new_rec, new_snapshot
 
     def _verdict(self, g, closed, losses, lost_now, new_ids, rel, snapshot, area) -> str:
@@ -445,7 +446,7 @@ class ClosureRun(CycleDem):
         diam = float(np.median(2.0 * rel.radius))
         rho = float(np.median(rel.density))
         speed, depth = gap_speed_and_depth(snapshot, area)
-        factor = float(profile_factors(d.velocity_profile, 0.5 * diam, depth, self._fluid_roughness()))
+        factor = float(profile_factors(d.velocity_profile, 0.5 * diam, depth, self.dem.fluid_roughness()))
         roll = rolling_speed(diam, rho, d.material.rolling_friction, d.drag_law)
         if not cannot_close(losses, s.loss_limit, speed=speed, izbash=float(izbash_speed(diam, rho)),
                             felt_speed=factor * speed, roll_speed=roll):
@@ -473,7 +474,7 @@ class ClosureRun(CycleDem):
         """Criterion 5: the assembly, every mass awake, re-run in the new flow for ``stability_time``;
         returns the largest displacement of a resting mass (inf if one left the domain)."""
         d = self.setup.dem
-        sim = self._make_dem(snapshot, self._dem_part(rec))
+        sim = self.dem.make(snapshot, self.dem.state_of(rec))
         sim.wake_all()
         start = sim.state.pos.copy()
         sim.step(int(np.ceil(d.stability_time / sim.dt)))
@@ -483,11 +484,11 @@ class ClosureRun(CycleDem):
 
     def _seepage(self, snapshot, pile) -> float:
         """Discharge through the porous pile across the breach section (m³/s), from the steady split of
-        each cell's unit discharge (:func:`~breachflow.hydro.swe.porous.seepage_field`)."""
+        each cell's unit discharge (:func:`~breachflow.swe.porous.seepage_field`)."""
         if pile is None or not pile.any:
             return 0.0
         s = self.setup
-        from ..hydro.swe.porous import seepage_field
+        from ..swe.porous import seepage_field
 
         h = np.asarray(snapshot["depth"].values, float)
         u = np.asarray(snapshot["u"].values, float)

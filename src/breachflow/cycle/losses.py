@@ -132,9 +132,9 @@ def rolling_speed(diameter: float, density: float, rolling_friction: float, drag
     """Flow speed (m/s, at the centre) that rolls a lone submerged sphere on a flat bed: the drag
     ``1/2 rho_w C_D(Re) A u^2`` equals ``rolling_friction`` times the submerged weight (module docstring);
     fixed point on ``C_D(Re)``. 0 without rolling resistance."""
-    from ..fluid.drag import get_drag_law
+    from ..fluid.drag import DRAG_LAWS
 
-    law = get_drag_law(drag_law)
+    law = DRAG_LAWS.create(drag_law)
     d = float(diameter)
     w_sub = float(rolling_friction) * (float(density) - rho_w) * g * math.pi * d ** 3 / 6.0
     if w_sub <= 0.0:

@@ -120,7 +120,7 @@ def run_closure(scenario=None, out="runs/default", *, resume: bool = False, over
     the end (:class:`~breachflow.output.lock.RunLockedError` names the holder when another process has it);
     the scenario is parsed and checked in full before anything is written. *on_start(run)* is
     called with the :class:`~breachflow.cycle.driver.ClosureRun` once its directory is started or resumed, before any work."""
-    from ..output import RunDirectory
+    from ..io import RunDirectory
 
     with RunDirectory(out).lock():  # held from before the first check until the plots are drawn
         return _run_closure_locked(scenario, out, resume=resume, overwrite=overwrite, progress=progress,

@@ -180,7 +180,7 @@ class PlacementPlan:
     @property
     def strategy(self):
         """The placement strategy object named by ``positions``."""
-        return placement_strategies.get(self.positions)()
+        return placement_strategies.create(self.positions)
 
     @property
     def uses_pile(self) -> bool:

@@ -38,8 +38,8 @@ Modes, chosen by name:
   sub-points; ``V_pile = height dx dy``), both summed over the pile cells within one stone diameter
   (a representative volume: a cell smaller than a stone is either almost solid or almost void), and its
   volume-weighted stone diameter give a
-  :class:`~breachflow.hydro.swe.porous.PorousPile`; the ``swe`` solver makes the flow pass through it with
-  Forchheimer resistance and over its crest freely (:mod:`breachflow.hydro.swe.porous`). No cell is blocked.
+  :class:`~breachflow.swe.porous.PorousPile`; the ``swe`` solver makes the flow pass through it with
+  Forchheimer resistance and over its crest freely (:mod:`breachflow.swe.porous`). No cell is blocked.
 """
 from __future__ import annotations
 
@@ -371,7 +371,7 @@ def _rev_average(a, sy, sx):
 
 def porous_pile(x, y, bed, pos, radius, resting, law: str = "ergun", sub: int = 8, min_porosity: float = 0.2,
                 rev: float | None = None):
-    """The :class:`~breachflow.hydro.swe.porous.PorousPile` of the resting spheres (see the module docstring).
+    """The :class:`~breachflow.swe.porous.PorousPile` of the resting spheres (see the module docstring).
 
     Porosity and stone size are volume averages over a representative elementary volume (Bear 1972,
     *Dynamics of fluids in porous media*, §1.3): ``n = 1 - sum w V_solid / sum w V_pile`` and
@@ -384,7 +384,7 @@ def porous_pile(x, y, bed, pos, radius, resting, law: str = "ergun", sub: int = 
     Dupuit-Forchheimer discharge of its packing, ``tests/swe/test_porous.py``). The porosity is then
     clipped to ``[min_porosity, 0.95]``. The pile height stays per cell (the crest the water flows over).
     """
-    from ..hydro.swe.porous import PorousPile
+    from ..swe.porous import PorousPile
 
     x, y, bed, pos, radius, resting = _contiguous(x, y, bed, pos, radius, resting)
     top = np.full(bed.shape, -np.inf)

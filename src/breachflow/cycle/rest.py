@@ -96,4 +96,4 @@ class WindowRule:
 
 def pile_members(rule: str, s: RestSample, rest_speed: float) -> np.ndarray:
     """The masses the remap counts as the pile under the rest rule called *rule* (:data:`REST_RULES`)."""
-    return REST_RULES.get(rule)().members(s, rest_speed)
+    return REST_RULES.create(rule).members(s, rest_speed)

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InputError
-from . import contacts
+from . import pair_contacts
 from .state import Material
 
 
@@ -75,10 +75,10 @@ class Plane(Boundary):
 
     def forces(self, idx, state, dt, force, torque, lo=0.0, hi=0.0, law=0) -> int:
         """Add the contact forces on particles *idx*, averaged over the force window ``[lo, hi]`` (s,
-        :func:`.contact_law.contact_law`; *law*: kernel code of the contact law, :mod:`.contact_laws`);
-        returns the number of contacts."""
+        :func:`.contact_law.contact_law`; *law*: kernel code of the contact law, :data:`.contact_law.contact_laws`);
+        returns the number of pair_contacts."""
         self.reaction[:] = 0.0
-        return contacts.plane_forces(idx, self.point, self.normal, self.velocity, self.props, self.hist,
+        return pair_contacts.plane_forces(idx, self.point, self.normal, self.velocity, self.props, self.hist,
                                      self.rhist, state.pos, state.vel, state.omega, state.radius, state.mass,
                                      state.inertia, state._props, dt, force, torque, self.reaction, lo, hi,
                                      state.vel_h, state.omega_h, law)
@@ -135,12 +135,12 @@ class HeightField(Boundary):
         """Bed elevation (m) of the bilinear surface at points (px, py)."""
         px = np.atleast_1d(np.asarray(px, float))
         py = np.atleast_1d(np.asarray(py, float))
-        return np.array([contacts._bilinear(self.x0, self.y0, self.hx, self.hy, self.bed, a, b)[0]
+        return np.array([pair_contacts._bilinear(self.x0, self.y0, self.hx, self.hy, self.bed, a, b)[0]
                          for a, b in zip(px, py)])
 
     def forces(self, idx, state, dt, force, torque, lo=0.0, hi=0.0, law=0) -> int:
         """As :meth:`Plane.forces` (no reaction is kept)."""
-        return contacts.heightfield_forces(idx, self.x0, self.y0, self.hx, self.hy, self.bed, self.props,
+        return pair_contacts.heightfield_forces(idx, self.x0, self.y0, self.hx, self.hy, self.bed, self.props,
                                            self.hist, self.rhist, state.pos, state.vel, state.omega,
                                            state.radius, state.mass, state.inertia, state._props, dt, force,
                                            torque, lo, hi, state.vel_h, state.omega_h, law)

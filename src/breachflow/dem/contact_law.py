@@ -14,12 +14,32 @@ Properties of a contact are the minimum of the partners' values.
 
 Integrators apply a force over a window around its evaluation time; :func:`contact_law` averages the
 law over that window (issue 12), so contact onset and release inside a step are resolved.
+
+The law is chosen by name from the registry ``breachflow.contact_laws`` (:data:`contact_laws`,
+``DemSimulation(contact_law=...)``); both built-ins are this spring–dashpot, computed differently:
+
+* ``"window_averaged"`` (default, :class:`WindowAveraged`) — :func:`contact_law`: the law averaged over the
+  integrator's force window, the shear history turned into the tangent plane with its length kept, the
+  Coulomb limit on the spring;
+* ``"hooke_history"`` (:class:`HookeHistory`) — :func:`hooke_history`: LAMMPS ``pair_style
+  gran/hooke/history`` exactly (point values at the evaluation time, history projected into the tangent
+  plane, Coulomb limit on the spring + dashpot force), for like-for-like comparisons with LAMMPS
+  (``benchmarks/bench_dem.py``). Less accurate where a contact begins or ends inside a step: at the default
+  step its coefficient of restitution depends on the onset phase (tests/dem/test_contact_laws.py gives the
+  measured spread).
+
+The compiled contact kernels hold both laws and select one by the class attribute ``code`` (a plug-in
+registered here cannot add a third without a kernel for it). Rolling resistance (:func:`rolling_law`) and
+the boundaries use the chosen law too.
 """
 from __future__ import annotations
 
 import math
 
 import numba
+import numpy as np
+
+from ..registry import Registry
 
 #: kernel codes
 WINDOW_AVERAGED, HOOKE_HISTORY = 0, 1
@@ -32,7 +52,7 @@ TURN_SERIES = 2.0**-14
 
 
 @numba.njit(cache=True, inline="always", error_model="numpy")
-def contact_window(u, w, lo, hi):
+def averaging_window(u, w, lo, hi):
     """Active part of the force window ``[lo, hi]`` (s, relative to the evaluation time) for the overlap
     ``u(tau) = u + w tau``: returns (fraction phi of the window in contact, midpoint m of the active part).
 
@@ -126,7 +146,7 @@ def contact_law(nx, ny, nz, overlap, vx, vy, vz, gx, gy, gz, hist, p, kn, ks, c_
     if full:
         phi, m = 1.0, 0.0
     else:
-        phi, m = contact_window(overlap, w, lo, hi)
+        phi, m = averaging_window(overlap, w, lo, hi)
     if phi <= 0.0:
         hist[p, 0] = 0.0
         hist[p, 1] = 0.0
@@ -211,7 +231,7 @@ def contact_law(nx, ny, nz, overlap, vx, vy, vz, gx, gy, gz, hist, p, kn, ks, c_
 def hooke_history(nx, ny, nz, overlap, vx, vy, vz, gx, gy, gz, hist, p, kn, ks, c_cn, c_cs, alpha, beta, dt):
     """LAMMPS ``pair_style gran/hooke/history`` (and ``fix wall/gran hooke/history``), evaluated at the
     point ``t`` (no force window): the law of :func:`contact_law` as LAMMPS computes it, for like-for-like
-    comparisons (``contact_law = "hooke_history"``, :mod:`.contact_laws`). Arguments as :func:`contact_law`;
+    comparisons (``contact_law = "hooke_history"``, :data:`contact_laws`). Arguments as :func:`contact_law`;
     *overlap* must be > 0 (the caller skips pairs not in contact now). Returns 1.
 
     Differences from the default law (LAMMPS' ``compute``, Silbert et al. 2001): the shear displacement
@@ -316,3 +336,59 @@ def rolling_law(nx, ny, nz, wx, wy, wz, fn, r_eff, mu_r, kn, i_eff, rhist, p, dt
     out[0] = mx
     out[1] = my
     out[2] = mz
+
+
+# --------------------------------------------------------------------------------------------------
+# the choice of law
+
+#: the contact laws, by name (entry-point group ``breachflow.contact_laws``)
+contact_laws: Registry = Registry("DEM contact law", "breachflow.contact_laws")
+
+
+def _props(kn, ks, c_cn, c_cs, c_cf, alpha, beta):
+    return float(kn), float(ks), float(c_cn), float(c_cs), float(c_cf), float(alpha), float(beta)
+
+
+@contact_laws.register("window_averaged")
+class WindowAveraged:
+    """The default law, averaged over the force window ``[lo, hi]`` (:func:`contact_law`)."""
+
+    code = WINDOW_AVERAGED
+
+    def force(self, n, overlap, v, g, hist, kn, ks, c_cn, c_cs, c_cf, alpha, beta, dt, lo=0.0, hi=0.0):
+        """Force (on the particle n points away from) of one contact with history *hist* (3,), updated in
+        place; returns (window fraction in contact, force (3,), tangential force (3,), compressive ``|f_N|``)."""
+        h = np.asarray(hist, float).reshape(1, 3)
+        kn, ks, c_cn, c_cs, c_cf, alpha, beta = _props(kn, ks, c_cn, c_cs, c_cf, alpha, beta)
+        r = contact_law(*map(float, n), float(overlap), *map(float, v), *map(float, g), h, 0, kn, ks, c_cn, c_cs,
+                        c_cf, alpha, beta, float(dt), float(lo), float(hi))
+        hist[:] = h[0]
+        return r[0], np.array(r[1:4]), np.array(r[4:7]), r[7]
+
+
+@contact_laws.register("hooke_history")
+class HookeHistory(WindowAveraged):
+    """LAMMPS ``gran/hooke/history`` at points (:func:`hooke_history`; ``c_cf`` unused)."""
+
+    code = HOOKE_HISTORY
+
+    def force(self, n, overlap, v, g, hist, kn, ks, c_cn, c_cs, c_cf, alpha, beta, dt, lo=0.0, hi=0.0):
+        """As :meth:`WindowAveraged.force`, at the evaluation time (*lo*, *hi* ignored; *overlap* > 0)."""
+        h = np.asarray(hist, float).reshape(1, 3)
+        kn, ks, c_cn, c_cs, c_cf, alpha, beta = _props(kn, ks, c_cn, c_cs, c_cf, alpha, beta)
+        r = hooke_history(*map(float, n), float(overlap), *map(float, v), *map(float, g), h, 0, kn, ks, c_cn, c_cs,
+                          alpha, beta, float(dt))
+        hist[:] = h[0]
+        return r[0], np.array(r[1:4]), np.array(r[4:7]), r[7]
+
+
+def resolve(law) -> object:
+    """A contact-law instance from a registry name or an instance; InputError for an unknown name or a
+    law without a kernel code."""
+    from ..errors import InputError
+
+    obj = contact_laws.create(law)
+    if getattr(obj, "code", None) not in (WINDOW_AVERAGED, HOOKE_HISTORY):
+        raise InputError(f"contact law {law!r} has no compiled kernel (choose one of: window_averaged, "
+                         f"hooke_history)")
+    return obj

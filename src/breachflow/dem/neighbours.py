@@ -1,4 +1,4 @@
-"""Neighbour search of the DEM (docs/theory.md, *DEM contact*): a cell grid and the pair list (split out of :mod:`.contacts`).
+"""Neighbour search of the DEM (docs/theory.md, *DEM contact*): a cell grid and the pair list (split out of :mod:`.pair_contacts`).
 
 Each particle is inserted in every cell its bounding box (radius + skin/2) overlaps, so the cell size can
 follow the *typical* diameter while a 10:1 size ratio only costs the few large particles more insertions;

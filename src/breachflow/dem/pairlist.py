@@ -1,13 +1,13 @@
 """The DEM driver's neighbour list (:class:`~breachflow.dem.simulation.DemSimulation`, docs/theory.md, *DEM contact*): the pair
 list, its rebuild and the pair histories it carries; the wrap / retirement check after each drift.
 
-Pairs closer than ``skin`` are listed (hashed cell grid, :mod:`.contacts`; dense bins, :mod:`.neighbours`)
+Pairs closer than ``skin`` are listed (hashed cell grid, :mod:`.pair_contacts`; dense bins, :mod:`.neighbours`)
 and reused until some awake particle has moved more than ``skin/2`` (less the window-averaged law's reach
 ``dt/2 max|v|``: ``relist_after_drift``) or particles fell asleep / woke / were inserted. Each pair keeps its shear history across steps and across rebuilds; when both partners
 sleep the history is parked in a sorted "frozen" store and restored when one wakes (:mod:`.sleeping`).
 Each listed pair keeps a shear history (``_hist``, m) and a rolling-moment history (``_rhist``, N m, for
 ``rolling_friction`` > 0, :func:`.contact_law.rolling_law`); both are parked and restored together.
-The numba kernels are in :mod:`.neighbours` and :mod:`.contacts`; this module holds the driver's
+The numba kernels are in :mod:`.neighbours` and :mod:`.pair_contacts`; this module holds the driver's
 bookkeeping around them, as a mixin of :class:`~breachflow.dem.simulation.DemSimulation`.
 """
 from __future__ import annotations
@@ -17,7 +17,7 @@ import math
 import numpy as np
 
 from ..errors import PhysicsError
-from . import contacts, neighbours
+from . import neighbours, pair_contacts
 from .contact_law import WINDOW_AVERAGED
 
 _EMPTY_I = np.zeros(0, np.int64)
@@ -160,7 +160,7 @@ class PairListMixin:
         while True:
             pa = np.empty(cap, np.int64)
             pb = np.empty(cap, np.int64)
-            n = contacts.find_pairs(search, s.pos, s.radius, 0.5 * self.skin, self.geom, self.periodic, self.ncell,
+            n = pair_contacts.find_pairs(search, s.pos, s.radius, 0.5 * self.skin, self.geom, self.periodic, self.ncell,
                                     *grid_a, *grid_s, self.single_bin, pa, pb)
             if n <= cap:
                 return pa[:n], pb[:n]
@@ -169,6 +169,6 @@ class PairListMixin:
     def _grid(self, idx):
         est = max(1024, 16 * idx.size)
         bits = int(math.ceil(math.log2(est)))
-        start, ep, ec = contacts.build_grid(idx, self.state.pos, self.state.radius, 0.5 * self.skin, self.geom,
+        start, ep, ec = pair_contacts.build_grid(idx, self.state.pos, self.state.radius, 0.5 * self.skin, self.geom,
                                             self.periodic, self.ncell, bits, self.single_bin)
         return start, ep, ec, bits

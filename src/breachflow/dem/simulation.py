@@ -29,10 +29,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError
-from . import contacts, neighbours, steploop
+from . import neighbours, pair_contacts, steploop
 from .boundaries import Boundary, Plane  # Plane: the example above
-from .checkpoint import CheckpointMixin
-from .contact_laws import resolve as resolve_contact_law
+from . import checkpoint
+from .contact_law import resolve as resolve_contact_law
 from .forces import G, ForceModel, Gravity, add_global_damping, zero_rows
 from .integrators import integrators
 from .pairlist import _EMPTY_I, PairListMixin
@@ -52,7 +52,7 @@ class EquilibriumResult:
     particle_steps: int  # sum over steps of the number of integrated (awake) particles
 
 
-class DemSimulation(PairListMixin, SleepingMixin, CheckpointMixin):
+class DemSimulation(PairListMixin, SleepingMixin):
     """A DEM scene of spheres.
 
     Parameters (SI): ``boundaries`` planes / height fields; ``models`` extra :class:`~breachflow.dem.forces.ForceModel` s (fluid);
@@ -64,7 +64,7 @@ class DemSimulation(PairListMixin, SleepingMixin, CheckpointMixin):
     median diameter + skin); ``sleeping`` on/off; ``plane_2d`` restricts motion to the x–z plane
     (translation in x, z and rotation about y; the report's 2-D setting; out-of-plane components of
     inserted velocities are dropped); ``contact_law`` name in ``breachflow.contact_laws``
-    (:mod:`.contact_laws`: ``window_averaged``, the default, or LAMMPS' ``hooke_history``).
+    (:data:`.contact_law.contact_laws`: ``window_averaged``, the default, or LAMMPS' ``hooke_history``).
     """
 
     def __init__(self, state: ParticleState | None = None, *, boundaries=(), models=(), gravity=(0.0, 0.0, -G),
@@ -81,7 +81,7 @@ class DemSimulation(PairListMixin, SleepingMixin, CheckpointMixin):
             if not isinstance(m, ForceModel):
                 raise InputError(f"force model {m!r} lacks added_mass/accumulate (ForceModel protocol)")
         self.gravity = Gravity(gravity)
-        self.integrator = integrators.get(integrator)() if isinstance(integrator, str) else integrator
+        self.integrator = integrators.create(integrator)
         self.contact_law = resolve_contact_law(contact_law)
         self._law = int(self.contact_law.code)  # kernel code of the contact law
         self._user_dt = dt
@@ -289,7 +289,7 @@ class DemSimulation(PairListMixin, SleepingMixin, CheckpointMixin):
         split = vel_h is not None and vel_h is not vel
         vel_h = vel if vel_h is None else vel_h
         omega_h = omega if omega_h is None else omega_h
-        n = contacts.pair_forces_window(self._pa, self._pb, self._hist, self._rhist, self._touch, pos, vel, omega,
+        n = pair_contacts.pair_forces_window(self._pa, self._pb, self._hist, self._rhist, self._touch, pos, vel, omega,
                                         vel_h, omega_h, split, s.radius, s.mass, s.inertia, s._props, s.awake,
                                         s.active, self.geom, self.periodic, self._dt, self.wake_velocity, force,
                                         torque, self._wake_flag, self._wake_ids, self._n_wake, lo, hi, self._law)
@@ -452,6 +452,24 @@ class DemSimulation(PairListMixin, SleepingMixin, CheckpointMixin):
             if ok >= consecutive:
                 return EquilibriumResult(True, self.steps - st0, self.t, disp[k], self.particle_steps - ps0)
         return EquilibriumResult(False, self.steps - st0, self.t, disp[k], self.particle_steps - ps0)
+
+    # ------------------------------------------------------------------ checkpoints (:mod:`.checkpoint`)
+    def save_state(self) -> dict[str, np.ndarray]:
+        """Everything a bit-identical continuation needs, as a flat dict of numpy arrays (copies;
+        :func:`.checkpoint.save_state`). Save with e.g. ``np.savez(path, **sim.save_state())``."""
+        return checkpoint.save_state(self)
+
+    @classmethod
+    def from_state(cls, data, *, boundaries=(), models=(), **kwargs) -> "DemSimulation":
+        """A simulation continuing exactly from ``data`` (:meth:`save_state`, or an ``np.load`` of it;
+        :func:`.checkpoint.from_state`: *boundaries* the same kinds in the same order, *models* and the other
+        keyword arguments those of the constructor)."""
+        return checkpoint.from_state(cls, data, boundaries=boundaries, models=models, **kwargs)
+
+    def memory_bytes(self) -> int:
+        """Bytes held by the particle state, work arrays, neighbour list and histories
+        (:func:`.checkpoint.memory_bytes`)."""
+        return checkpoint.memory_bytes(self)
 
 
 def _accepts_idx(method) -> bool:

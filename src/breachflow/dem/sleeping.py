@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InputError
-from . import contacts
+from . import pair_contacts
 from .boundaries import Plane
 from .pairlist import _EMPTY_GRID
 
@@ -90,7 +90,7 @@ class SleepingMixin:
         if self.models and not self.static_models:
             self._wake_by_force()
         # transitions to sleep only every sleep_check steps: one O(N) regrid per batch of sleepers
-        ns = contacts.sleep_update(self.idx, s.vel, s.omega, s.vel_prev, s.omega_prev, s.radius, self.sleep_velocity,
+        ns = pair_contacts.sleep_update(self.idx, s.vel, s.omega, s.vel_prev, s.omega_prev, s.radius, self.sleep_velocity,
                                    self.sleep_steps, self._sleep_count, s.awake, self._tmp_ids,
                                    self.steps % self.sleep_check == 0)
         if ns:

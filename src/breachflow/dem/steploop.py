@@ -1,6 +1,6 @@
 """Many DEM steps inside one compiled call (issue 16): the pieces of the step loop and the driver's side.
 
-The loop itself is :func:`.steploop_fluid.fluid_verlet_steps`, one loop for the dry scenes of this module
+The loop itself is :func:`breachflow.coupling.steploop.fluid_verlet_steps`, one loop for the dry scenes of this module
 (spheres, fixed planes, gravity, global damping: :func:`eligible`, :func:`run`) and for the closure cycle's
 scene (a height field and fluid forces). It runs the steps of the two Verlet integrators
 (``velocity_verlet``, ``predicted_verlet``, :mod:`.integrators`) with the same kernels in the same order as
@@ -23,15 +23,17 @@ opened in one pass over the particles (:func:`close_and_first_pass`; otherwise :
 from __future__ import annotations
 
 import math
+from typing import Protocol
 
 import numba
 import numpy as np
 
-from .contacts import sleep_update
+from ..registry import Registry
+from .pair_contacts import sleep_update
 from .neighbours import displacement_since
 from .periodic import min_image, outside, wrapped
 
-#: why the compiled loop (:func:`.steploop_fluid.fluid_verlet_steps`) returned
+#: why the compiled loop (:func:`breachflow.coupling.steploop.fluid_verlet_steps`) returned
 DONE, LEFT, BAD, WAKE, SLEEP, CONVERGED = range(6)
 
 
@@ -62,7 +64,7 @@ def first_pass(idx, pos, vel, omega, force, torque, fp, tp, vp, wp, inv_m, inv_i
     the drift: this step's rebuild check, as :func:`.neighbours.displacement_since`). Returns
     (bad id or -1, #left, idx, the kicked idx, ve, we, max and sum step displacement, max displacement
     since the build, the largest predicted speed ``|vp|`` of the active particles if *predict*, else 0: the
-    plane lists' check, :func:`.walls.candidates_hold`). :func:`close_and_first_pass` without its closing
+    plane lists' check, :func:`.wall_contacts.candidates_hold`). :func:`close_and_first_pass` without its closing
     part.
 
     Each particle's rows are loaded once into scalars and stored once (numba cannot tell that the arrays do
@@ -85,7 +87,7 @@ def close_and_first_pass(idx, pos, vel, omega, force, torque, fp, tp, vp, wp, in
     their order (two half kicks ``v += h a``, two roundings), so bit-identical to them. The force and torque
     rows of a particle retired or non-finite in the first part keep the closing pass's sums, as after
     :func:`second_pass`. Only where the closing pass's particles are the first pass's (no leaver in the
-    closing step) and no event ends the call after it (:func:`.steploop_fluid.fluid_verlet_steps`).
+    closing step) and no event ends the call after it (:func:`breachflow.coupling.steploop.fluid_verlet_steps`).
     Returns as :func:`first_pass`."""
     mx = 0.0
     sm = 0.0
@@ -320,23 +322,41 @@ def eligible(sim) -> bool:
             and all(type(b) is Plane and b.control == "fixed" for b in sim.boundaries))
 
 
+class StepLoop(Protocol):
+    """A compiled many-steps loop (registry ``breachflow.step_loops``): :func:`eligible` says which
+    simulations it can advance, :func:`run` advances one by up to ``nmax`` steps in one call."""
+
+    def eligible(self, sim) -> bool: ...
+
+    def run(self, sim, nmax: int, e_tol: float = -1.0, crit: int = 0, consecutive: int = 1, ok: int = 0): ...
+
+
+#: The compiled step loops, by name. The built-in ``fluid_verlet``
+#: (:mod:`breachflow.coupling.steploop`: the DEM step with the fluid forces inside it) lives above the DEM
+#: and is found through its entry point, as a third-party loop would be.
+step_loops: Registry[StepLoop] = Registry("compiled step loop", "breachflow.step_loops")
+#: the loop that runs the dry scenes of this module (:func:`run`)
+DRY_LOOP = "fluid_verlet"
+
+
 def runner(sim):
-    """The compiled many-steps runner that can advance *sim* (this module's :func:`run`, or
-    :func:`.steploop_fluid.run` for height fields and fluid forces), or None (step in Python)."""
+    """The compiled many-steps runner that can advance *sim* (this module's :func:`run`, or the ``run`` of
+    the first loop in :data:`step_loops` whose ``eligible(sim)`` holds: height fields and fluid forces), or
+    None (step in Python)."""
     if eligible(sim):
         return run
-    from . import steploop_fluid
-
-    return steploop_fluid.run if steploop_fluid.eligible(sim) else None
+    for name in step_loops.available():
+        loop = step_loops.get(name)
+        if loop.eligible(sim):
+            return loop.run
+    return None
 
 
 def run(sim, nmax: int, e_tol: float = -1.0, crit: int = 0, consecutive: int = 1, ok: int = 0):
     """Advance *sim* (:func:`eligible`) by up to *nmax* steps in one compiled call: the cycle's loop
-    (:func:`.steploop_fluid.run`) without height field and fluid forces; returns (steps done, last (max,
-    sum) displacement, ok)."""
-    from . import steploop_fluid
-
-    return steploop_fluid.run(sim, nmax, e_tol, crit, consecutive, ok)
+    (:func:`breachflow.coupling.steploop.run`, :data:`DRY_LOOP`) without height field and fluid forces;
+    returns (steps done, last (max, sum) displacement, ok)."""
+    return step_loops.get(DRY_LOOP).run(sim, nmax, e_tol, crit, consecutive, ok)
 
 
 def current_list(sim):
@@ -362,7 +382,7 @@ def relist_args(sim):
 
 def finish(sim, planes, pl_hist, pl_rhist, reaction, done, why, t, stats, n0, e_tol, ok):
     """The driver's bookkeeping after a compiled many-steps call (this module's or
-    :mod:`.steploop_fluid`'s) that ended with reason *why*; returns (steps done, last (max, sum)
+    :mod:`breachflow.coupling.steploop`'s) that ended with reason *why*; returns (steps done, last (max, sum)
     displacement, ok)."""
     from ..errors import PhysicsError
 

@@ -2,7 +2,7 @@
 
 A spec file is also a scenario file (its other tables are the base scenario), so
 ``breachflow.scenario.load_scenario("spec.toml")`` works: the loader imports this module for the
-``[ensemble]`` section (``SECTION_PROVIDERS``), which checks its keys and keeps it for
+``[ensemble]`` section (an entry point of ``breachflow.scenario_sections``), which checks its keys and keeps it for
 :func:`breachflow.ensemble.run`.
 """
 from __future__ import annotations

@@ -22,9 +22,9 @@ import numpy as np
 import xarray as xr
 
 from .. import __version__
+from ..atomic import atomic_path
 from ..errors import InputError, SchemaError
 from ..schemas import validate
-from .io import atomic_path
 from .spec import EnsembleSpec
 
 STATUS_OK, STATUS_FAILED, STATUS_NOT_RUN = 0, 1, 2
@@ -290,7 +290,7 @@ def write_result(ds: xr.Dataset, path) -> Path:
     """Validate and write the result Dataset to NetCDF atomically (never a half-written file)."""
     path = Path(path)
     validate_result(ds, source=str(path))
-    from ..output.provenance import stamp
+    from ..provenance import stamp
 
     ds = stamp(ds)  # breachflow version, git commit, command (one helper for every writer)
     from ..output.cf import cf_text_coordinates, string_encoding

@@ -24,10 +24,11 @@ from pathlib import Path
 
 import xarray as xr
 
+from ..atomic import atomic_write_text
 from ..errors import InputError
 from .dataset import build_dataset, write_result
-from .io import atomic_write_json, atomic_write_text, read_json
-from .runners import MemberScenario, normalise_results, resolve_runner
+from .io import read_json, write_record
+from .runners import MemberScenario, member_runners, normalise_results
 from .spec import EnsembleSpec, Member, as_spec
 
 RESULT_FILE = "result.json"
@@ -55,7 +56,7 @@ def execute_member(task: MemberTask) -> dict:
     errors (they are recorded with their type and message). The member's files record the ensemble's
     command (``task.command``), not the worker process's command line."""
     from ..numba_cache import serialise_cache_saves
-    from ..output.provenance import using_command
+    from ..provenance import using_command
 
     serialise_cache_saves()  # workers compiling into one cache at once (breachflow.numba_cache)
     run_dir = Path(task.run_dir)
@@ -78,7 +79,7 @@ def execute_member(task: MemberTask) -> dict:
     record["elapsed"] = time.perf_counter() - t0
     record["cpu_time"] = time.thread_time() - c0   # CPU time of this thread: elapsed - cpu = waiting for a core
     record["worker"] = _worker_name()
-    atomic_write_json(run_dir / RESULT_FILE, record)
+    write_record(run_dir / RESULT_FILE, record)
     return record
 
 
@@ -127,14 +128,14 @@ def plan(spec, out=None) -> tuple[EnsembleSpec, Path, list[Member], list[MemberT
     """Members and their tasks (no execution): useful to inspect an ensemble before running it."""
     spec = as_spec(spec)
     out_dir = Path(out) if out is not None else default_output_dir(spec)
-    runner_cls = resolve_runner(spec.runner)
+    runner_cls = member_runners.get(spec.runner)
     try:  # options are checked once here rather than failing every member
         runner_cls(**spec.options)
     except TypeError as exc:
         raise InputError(f"[ensemble.options]: member runner {spec.runner!r} does not accept them ({exc})") from None
     members = spec.members()
     fp = spec.fingerprint()
-    from ..output.provenance import command
+    from ..provenance import command
 
     cmd = command()
     paths = {p.name: p.dotted for p in spec.parameters}
@@ -229,7 +230,7 @@ def run(spec, *, out=None, scheduler: str | None = None, workers: int | None = N
     console = console or Console(stderr=True)
     member_warnings = check_members(tasks)  # before the output directory exists
     out_dir.mkdir(parents=True, exist_ok=True)
-    atomic_write_text(out_dir / "spec.toml", spec.to_toml())
+    atomic_write_text(spec.to_toml(), out_dir / "spec.toml")
     for note in unused_parameters(spec, tasks[0].runner_cls if tasks else None):
         console.print(f"note: {note}", highlight=False, markup=False)
     for w in member_warnings:
@@ -342,7 +343,7 @@ def _client_side_failure(task: MemberTask, exc: BaseException) -> dict:
     rec.update(status="failed", error_type=type(exc).__name__, error_message=str(exc) or repr(exc),
                elapsed=float("nan"), worker="")
     try:
-        atomic_write_json(Path(task.run_dir) / RESULT_FILE, rec)
+        write_record(Path(task.run_dir) / RESULT_FILE, rec)
     except OSError:
         pass
     return rec

@@ -1,24 +1,17 @@
-"""Atomic file writes for ensemble outputs: a temp file in the target directory, then ``os.replace``."""
+"""Ensemble records on disk: written atomically with :mod:`breachflow.atomic` (:func:`write_record`), read back
+with :func:`read_json`."""
 from __future__ import annotations
 
 import json
-import os
 from pathlib import Path
 
-from ..output.atomic import atomic_path
+from ..atomic import atomic_write_json
 
 
-def atomic_write_text(path, text: str) -> Path:
-    with atomic_path(path) as tmp:
-        with open(tmp, "w", encoding="utf-8") as fh:
-            fh.write(text)
-            fh.flush()
-            os.fsync(fh.fileno())
-    return Path(path)
-
-
-def atomic_write_json(path, data) -> Path:
-    return atomic_write_text(path, json.dumps(data, indent=1, sort_keys=True, default=str) + "\n")
+def write_record(path, data) -> Path:
+    """Write the JSON record *data* (a member's result) to *path* atomically: one space indent, sorted keys,
+    values JSON does not know written as their ``str``."""
+    return atomic_write_json(data, path, indent=1, default=str)
 
 
 def read_json(path) -> dict | None:

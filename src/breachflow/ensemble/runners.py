@@ -28,9 +28,9 @@ message and carries on with the other members. ``outputs`` declares the results'
 undeclared results are added as they come. Runners are instantiated on the worker, once per member, and
 are shipped to workers by reference: the class must live in an importable module.
 
-A runner is found by name in the registry; a built-in one living in another subpackage is imported on
-demand through :data:`RUNNER_PROVIDERS` (``"closure"`` → ``breachflow.cycle.runner``); third-party
-packages use the entry-point group ``breachflow.member_runners``.
+A runner is found by name in the registry (``member_runners.get(name)``); the built-in ``closure`` runner
+(``breachflow.ensemble.closure``, which builds on this module) is declared as an entry point of the group
+``breachflow.member_runners``, as third-party runners are.
 """
 from __future__ import annotations
 
@@ -48,32 +48,6 @@ from ..units import Q_
 from .spec import SI_UNIT_TEXT, dump_toml
 
 member_runners: Registry = Registry("member runner", "breachflow.member_runners")
-
-#: Runner name -> module that registers it when imported (built-in runners living in other subpackages).
-RUNNER_PROVIDERS: dict[str, str] = {"closure": "breachflow.cycle.runner"}
-
-
-def resolve_runner(name: str):
-    """The runner class registered as *name*, importing its provider module first if needed."""
-    key = str(name).lower()
-    if key not in member_runners and key in RUNNER_PROVIDERS:
-        import importlib
-
-        try:
-            importlib.import_module(RUNNER_PROVIDERS[key])
-        except ModuleNotFoundError as exc:
-            if exc.name is None or not RUNNER_PROVIDERS[key].startswith(exc.name):
-                raise
-    return member_runners.get(key)
-
-
-def runner_available(name: str) -> bool:
-    try:
-        resolve_runner(name)
-    except InputError:
-        return False
-    return True
-
 
 #: Results the "closure" runner (closure-cycle issue) returns besides the window's (:func:`window_scalars`);
 #: their names and units are fixed in ``data_schemas/ensemble_result.json``.
@@ -139,10 +113,10 @@ class MemberScenario:
 
     def write(self, path: Path, sections=None) -> Path:
         """Write the scenario TOML (runner sections first, so parse errors name the right line)."""
-        from .io import atomic_write_text
+        from ..atomic import atomic_write_text
 
         order = self._ordered(sections)
-        atomic_write_text(path, dump_toml(self.table, order))
+        atomic_write_text(dump_toml(self.table, order), path)
         self.path = Path(path)
         return self.path
 

@@ -2,9 +2,9 @@
 fluid torque, free-flight integration and the settling-sphere validation (docs/validation.md, *Settling spheres*)."""
 from __future__ import annotations
 
-from .drag import DRAG_LAWS, DragLaw, get_drag_law
+from .drag import DRAG_LAWS, DragLaw
 from .field import NoWater, SnapshotField, UniformWater
 from .forces import AIR, WATER, Fluid, FluidForces
 
-__all__ = ["DRAG_LAWS", "DragLaw", "get_drag_law", "NoWater", "SnapshotField", "UniformWater", "AIR", "WATER",
+__all__ = ["DRAG_LAWS", "DragLaw", "NoWater", "SnapshotField", "UniformWater", "AIR", "WATER",
            "Fluid", "FluidForces"]

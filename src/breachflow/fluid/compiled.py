@@ -6,8 +6,8 @@ convective apparent-mass term, the gridpoint torque), each a numpy or numba call
 moving masses, the Python and numpy overhead of that sequence costs far more than the arithmetic.
 
 :func:`grid_fluid_forces` does the same per particle inside one numba kernel: the field is read directly
-from the grid arrays (:func:`~breachflow.hydro.sampling.grid_bilinear_point` or
-:func:`~breachflow.hydro.sampling.grid_neighbourhood_point`, the sampler's own point kernels), and
+from the grid arrays (:func:`~breachflow.field.sampling.grid_bilinear_point` or
+:func:`~breachflow.field.sampling.grid_neighbourhood_point`, the sampler's own point kernels), and
 buoyancy, drag, the convective apparent-mass force (Fig 4.3 Step 7H) and the gridpoint torque (Step 7E)
 use the per-term kernels of :mod:`breachflow.fluid.kernels`, and the water velocity a particle feels is
 the sampled depth-averaged one times :func:`~breachflow.fluid.profile.profile_factor` at its centre
@@ -25,7 +25,7 @@ import math
 import numba
 import numpy as np
 
-from ..hydro.sampling import grid_bilinear_point, grid_neighbourhood_point
+from ..field.sampling import grid_bilinear_point, grid_neighbourhood_point
 from . import kernels as K
 from .nearbed import ON, lift_force, near_bed
 from .profile import profile_factor
@@ -120,7 +120,7 @@ def grid_fluid_forces_phi(idx, pos, vel, omega, state_pos, awake, radius, method
                           params, xi, time_step, do_torque, force, torque, phi):
     """:func:`grid_fluid_forces`, leaving the submerged fraction of particle ``idx[k]`` in ``phi[k]`` (0 outside
     the field or in the air): with :func:`apparent_mass` the next step's apparent mass at the same positions
-    without sampling the field again (the DEM's compiled step loop, :mod:`breachflow.dem.steploop_fluid`)."""
+    without sampling the field again (the DEM's compiled step loop, :mod:`breachflow.coupling.steploop`)."""
     n = idx.size
     px = np.empty((n, 3))
     pv = np.empty((n, 3))

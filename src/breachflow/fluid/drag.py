@@ -212,14 +212,3 @@ class TabulatedDragLaw(DragLaw):
         if np.any(np.diff(re) <= 0):
             raise InputError("tabulated drag law: 'reynolds' must increase strictly")
         self.params = np.concatenate([[re.size], np.log(re), np.log(c)])
-
-
-def get_drag_law(law="report", **params) -> DragLaw:
-    """A drag-law instance from a name (with keyword parameters) or an instance (returned as is)."""
-    if isinstance(law, DragLaw):
-        return law
-    cls = DRAG_LAWS.get(law)
-    try:
-        return cls(**params)
-    except TypeError as exc:
-        raise InputError(f"drag law {law!r}: bad parameters {params!r} ({exc})") from None

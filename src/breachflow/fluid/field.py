@@ -1,6 +1,6 @@
 """Where the fluid forces read the water: a snapshot sampler or an analytic uniform field.
 
-``FluidField`` wraps either a :class:`~breachflow.hydro.sampling.FieldSampler` (a hydrodynamic
+``FluidField`` wraps either a :class:`~breachflow.field.sampling.FieldSampler` (a hydrodynamic
 snapshot, bilinear or the report's neighbourhood averaging, docs/theory.md, *Fluid forces on a mass* / Fig 4.4) or
 :class:`UniformWater` (still or uniformly flowing water of unbounded extent, for validations such as the
 report's settling tube, docs/validation.md, *Settling spheres*).  Both answer ``sample(px, py, radius) -> FieldSample``.
@@ -11,7 +11,7 @@ import numpy as np
 import xarray as xr
 
 from ..errors import InputError
-from ..hydro.sampling import FieldSample, FieldSampler
+from ..field.sampling import FieldSample, FieldSampler
 
 
 class UniformWater:
@@ -54,7 +54,7 @@ class NoWater(UniformWater):
 
 
 class SnapshotField:
-    """A hydrodynamic snapshot seen through a :class:`~breachflow.hydro.sampling.FieldSampler` (method ``bilinear`` or ``neighbourhood``)."""
+    """A hydrodynamic snapshot seen through a :class:`~breachflow.field.sampling.FieldSampler` (method ``bilinear`` or ``neighbourhood``)."""
 
     def __init__(self, sampler: FieldSampler):
         self.sampler = sampler

@@ -12,7 +12,7 @@ Per particle, with ``V_sub`` the submerged volume (spherical cap while straddlin
 * fluid torque from the gridpoints in the particle's neighbourhood (Step 7E, Fig 4.4);
 * the water velocity at a particle is the depth-averaged one times the vertical profile factor at the
   particle's centre height (``velocity_profile``: ``uniform`` (this class's default, the report), ``log``
-  (the closure run's default, ``[fluid] velocity_profile``), ``power``;
+  (the closure run's default, ``[fluid] velocity_profile``, :data:`~breachflow.fluid.profile.DEFAULT_PROFILE`), ``power``;
   :mod:`breachflow.fluid.profile`; the drag, the Basset history and the convective apparent-mass term use
   it; buoyancy and apparent mass do not depend on it, and the gridpoint torque still uses the
   depth-averaged gridpoint velocities);
@@ -47,7 +47,7 @@ import numpy as np
 from ..errors import InputError, PhysicsError
 from . import kernels as K
 from .basset import BassetHistory, basset_coefficient
-from .drag import DragLaw, get_drag_law
+from .drag import DRAG_LAWS, DragLaw
 from .field import as_field
 from . import nearbed as NB
 from .profile import factors as profile_factors_np
@@ -140,7 +140,7 @@ class FluidForces:
         self.near_bed_on = bool(self.bedp[NB.ON] != 0.0)
         self._lam = None
         self.field = as_field(field, sampling)
-        self.drag_law = get_drag_law(drag_law)
+        self.drag_law = DRAG_LAWS.create(drag_law)
         self.water = water
         self.air = air
         self.xi = float(xi)

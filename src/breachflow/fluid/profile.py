@@ -6,7 +6,7 @@ definition of that vertical profile, ``u(z) = U * profile_factor(code, z, h, k_s
 :class:`~breachflow.fluid.forces.FluidForces` (and by any fused force kernel: call
 :func:`profile_factor` from numba).
 
-Profiles (by name, :data:`PROFILES`):
+Profiles (by name, :data:`velocity_profiles`):
 
 ``uniform`` (code 0)
     ``u(z)/U = 1`` at every height: the report's (and breachflow's earlier) behaviour.
@@ -28,14 +28,50 @@ gives ``n = k_s^(1/6) / (8.1 sqrt(g))`` (Parker 1991; Garcia (ed.) 2008, ASCE Ma
 from __future__ import annotations
 
 import math
+from typing import Protocol
 
 import numba
 import numpy as np
 
 from ..errors import InputError
+from ..registry import Registry
+
+#: the velocity profiles, by name (entry-point group ``breachflow.velocity_profiles``); a profile is a class
+#: whose ``code`` is the integer :func:`profile_factor` takes (a plug-in cannot add a profile without a kernel)
+velocity_profiles: Registry = Registry("velocity profile", "breachflow.velocity_profiles")
+#: the profile of a closure run (``[fluid] velocity_profile``) unless the scenario names another
+DEFAULT_PROFILE = "log"
+
+
+class VelocityProfile(Protocol):
+    """A vertical velocity profile: its kernel code (the numba kernels select the formula by it)."""
+
+    code: int
+
+
+@velocity_profiles.register("uniform")
+class Uniform:
+    """``u(z)/U = 1``: the report's setting."""
+
+    code = 0
+
+
+@velocity_profiles.register("log")
+class Log:
+    """The rough-wall log law over the roughness height ``k_s``."""
+
+    code = 1
+
+
+@velocity_profiles.register("power")
+class Power:
+    """The one-seventh power law."""
+
+    code = 2
+
 
 #: profile names and the integer codes :func:`profile_factor` takes
-PROFILES = {"uniform": 0, "log": 1, "power": 2}
+PROFILES = {name: velocity_profiles.get(name).code for name in ("uniform", "log", "power")}
 
 #: Manning–Strickler coefficient (Parker 1991): ``U/u* = 8.1 (h/k_s)^(1/6)``
 STRICKLER_A = 8.1
@@ -43,10 +79,9 @@ STRICKLER_A = 8.1
 
 def profile_code(name: str) -> int:
     """The integer code of a profile name (``uniform``, ``log``, ``power``); InputError otherwise."""
-    try:
-        return PROFILES[name]
-    except (KeyError, TypeError):
-        raise InputError(f"velocity profile {name!r} unknown; use one of {sorted(PROFILES)}") from None
+    if not isinstance(name, str):
+        raise InputError(f"velocity profile {name!r} unknown; use one of {velocity_profiles.available()}")
+    return velocity_profiles.get(name).code
 
 
 def roughness_from_manning(n, gravity: float = 9.80665):

@@ -4,7 +4,7 @@ The regional field is an ingested snapshot (ADH/SMS mesh, HEC-RAS sdf or HDF mes
 grid snapshot of our own solver). Around the breach a local structured-grid model is built from it:
 
 * terrain: the regional bed interpolated at the local cell centres (bilinear on grids, barycentric on
-  triangles — :class:`~breachflow.hydro.sampling.FieldSampler`); cells outside the regional field (mesh
+  triangles — :class:`~breachflow.field.sampling.FieldSampler`); cells outside the regional field (mesh
   holes such as an intact levee modelled as no-flow, or the regional model's obstacle cells) are local
   obstacles; a grid without an obstacle mask (ESRI grids: the levee is dry terrain) gets one from its
   dry cells that the wet cells' water surface would flood (:mod:`~breachflow.hydro.regional_grid`);
@@ -31,7 +31,7 @@ Each ``solve`` re-solves the local model to steady state with the pile (obstacle
 the previous state; outside the local window the regional field stays as ingested. The snapshots it
 returns are the local grid with ``hydro_mode = "nested"``; the DEM samples the local field where it
 exists and the regional one outside the window (:meth:`NestedSolver.fallback_sampler`, the
-``fallback`` of :class:`~breachflow.hydro.sampling.FieldSampler`).
+``fallback`` of :class:`~breachflow.field.sampling.FieldSampler`).
 """
 from __future__ import annotations
 
@@ -42,9 +42,9 @@ import xarray as xr
 
 from ..errors import InputError
 from .regional_grid import with_no_flow
-from .sampling import FieldSample, FieldSampler
-from .snapshot import DRY_DEPTH
-from .terrain import BoundaryCondition, Domain, uniform_grid
+from ..field.sampling import FieldSample, FieldSampler
+from ..field.snapshot import DRY_DEPTH
+from ..swe.domain import BoundaryCondition, Domain, uniform_grid
 
 GRAVITY = 9.81
 
@@ -57,7 +57,7 @@ def load_regional(snapshots) -> xr.Dataset:
     """One regional snapshot from a Dataset / NetCDF path / list of them (a time series: its last step),
     or from model export files that together form one snapshot (ADH/SMS ``.3dm`` + ``.dat`` + ``.bc``,
     a HEC-RAS ``.sdf`` or 6.x plan ``.hdf``, ESRI grids), read with
-    :func:`~breachflow.hydro.io.open_snapshot` (format from the extensions, units from the files)."""
+    :func:`~breachflow.io.open_snapshot` (format from the extensions, units from the files)."""
     items = list(snapshots) if isinstance(snapshots, (list, tuple)) else [snapshots]
     if not items:
         raise InputError("nested solver: give the ingested regional snapshot (snapshots = [file])")
@@ -66,7 +66,7 @@ def load_regional(snapshots) -> xr.Dataset:
         if len(exports) != len(items):
             raise InputError("nested solver: snapshots = [...] mixes snapshot NetCDF files and model export files "
                              f"({', '.join(map(str, exports))}); give one or the other")
-        from .io import open_snapshot
+        from ..io import open_snapshot
 
         ds = open_snapshot(exports)
         ds.attrs.setdefault("source", ", ".join(Path(p).name for p in exports))
@@ -151,7 +151,7 @@ def _regional_obstacle(regional: xr.Dataset, X, Y) -> np.ndarray:
 
 def nested_domain(regional: xr.Dataset, window, resolution: float, manning=0.025, *, name: str = "nested",
                   leaving: str = "free", frame=None):
-    """The local :class:`~breachflow.hydro.terrain.Domain` in *window* ``(x0, x1, y0, y1)`` at *resolution* and its initial state
+    """The local :class:`~breachflow.swe.domain.Domain` in *window* ``(x0, x1, y0, y1)`` at *resolution* and its initial state
     ``(h, hu, hv)`` from *regional*; boundary conditions from the regional field (module docstring). With
     *frame* (:class:`~breachflow.site.frame.GridFrame`) the window and the domain are in its grid coordinates
     and the velocities grid components; *regional* stays on the CRS axes."""
@@ -197,7 +197,7 @@ def frame_snapshot(snapshot: xr.Dataset, domain: Domain, frame) -> xr.Dataset:
     turned *frame*'s coordinates (:class:`~breachflow.site.frame.GridFrame`): sampled at the cells' map
     positions as :func:`nested_domain` builds its local model (bed, depth, velocity turned into the grid;
     cells outside the field or in its no-flow cells are obstacles), georeferenced (``map_x``, ``u_east``, ...)."""
-    from .snapshot import grid_snapshot
+    from ..field.snapshot import grid_snapshot
 
     x, y = np.asarray(domain.x, float), np.asarray(domain.y, float)
     dx, dy = domain.dx, domain.dy
@@ -218,7 +218,7 @@ def edge_conditions(bed, h, u, v, inside, dom: Domain, relaxation=None, leaving_
     """Boundary conditions per side of *dom* from a surrounding field on its edge cells (bed, depth, velocity
     ``(ny, nx)`` arrays; *inside* False = wall): where water enters the absorbing level (supercritical: level
     and unit discharge), where it leaves free outflow (or, *leaving_level*, the level when subcritical), dry
-    cells free outflow (module docstring). Also the edges of the window re-solve (:mod:`~breachflow.hydro.window`)."""
+    cells free outflow (module docstring). Also the edges of the window re-solve (:mod:`~breachflow.hydro.resolve_region`)."""
     return _edge_conditions(bed, h, u, v, inside, dom, relaxation, leaving_level)
 
 
@@ -305,7 +305,7 @@ class NestedSolver:
                              f"(x {np.min(bx):g}..{np.max(bx):g}, y {np.min(by):g}..{np.max(by):g})")
         self.domain, self.initial_state = nested_domain(self.regional, self.window, resolution, manning,
                                                         leaving=leaving, frame=self.frame)
-        from .swe.solver import SWEOptions
+        from ..swe.solver import SWEOptions
 
         self.options = SWEOptions(order=order, courant=courant, threads=threads)
         self.tolerance, self.t_max_initial, self.t_max, self.region = tolerance, t_max_initial, t_max, region
@@ -316,7 +316,7 @@ class NestedSolver:
 
     def fallback_sampler(self, method: str = "bilinear") -> FieldSampler:
         """The regional field as ingested, sampled where a point lies outside the local window (the DEM's
-        :class:`~breachflow.hydro.sampling.FieldSampler` ``fallback``): at grid positions, velocity in grid
+        :class:`~breachflow.field.sampling.FieldSampler` ``fallback``): at grid positions, velocity in grid
         components when the grid is rotated (:class:`FramedSampler`); built once per method."""
         cache = self.__dict__.setdefault("_fallback", {})
         if method not in cache:
@@ -324,7 +324,7 @@ class NestedSolver:
         return cache[method]
 
     def solve(self, domain=None, obstacles=None, initial=None) -> xr.Dataset:
-        from .swe.solver import SWESimulation
+        from ..swe.solver import SWESimulation
 
         domain = self.domain if domain is None else domain
         cold = initial is None

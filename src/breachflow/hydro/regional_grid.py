@@ -25,7 +25,7 @@ from __future__ import annotations
 import numpy as np
 import xarray as xr
 
-from .snapshot import DRY_DEPTH, is_mesh
+from ..field.snapshot import DRY_DEPTH, is_mesh
 
 #: a dry cell this far (m) or more below a wet neighbour's water surface is a no-flow cell
 NO_FLOW_TOLERANCE = 0.01

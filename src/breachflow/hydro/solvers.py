@@ -10,7 +10,7 @@ group ``breachflow.solvers``, as xarray backends do::
     [project.entry-points."breachflow.solvers"]
     mysolver = "mypkg.hydro:MySolver"
 
->>> get_solver("swe", order=1).options.order
+>>> solvers.create("swe", order=1).options.order
 1
 """
 from __future__ import annotations
@@ -35,18 +35,9 @@ class HydroSolver(Protocol):
 solvers: Registry = Registry("hydrodynamic solver", "breachflow.solvers")
 
 
-def get_solver(name: str = "swe", **options) -> HydroSolver:
-    """Instantiate the solver registered as *name* with *options*."""
-    cls = solvers.get(name)
-    try:
-        return cls(**options)
-    except TypeError as exc:
-        raise InputError(f"hydrodynamic solver {name!r}: bad options {sorted(options)} ({exc})") from None
-
-
 @solvers.register("swe")
 def _swe(**options):
-    from .swe.solver import SWESolver
+    from ..swe.solver import SWESolver
 
     return SWESolver(**options)
 

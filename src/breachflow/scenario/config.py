@@ -17,13 +17,12 @@ Adding a section (later subsystems: ``[hydro]``, ``[dem]``, ``[placement]``, ``[
             ctx.check_keys(table, {"solver", "resolution"})
             return cls(resolution=ctx.quantity(table, "resolution", "length", required=True), ...)
 
-The loader imports the section's provider module on demand: :data:`SECTION_PROVIDERS` maps a section
-name to a module, and otherwise ``breachflow.<name>.config`` is tried; third-party packages use the
-entry-point group ``breachflow.scenario_sections``.
+Sections are found by name in :data:`sections` (entry-point group ``breachflow.scenario_sections``): the
+sections of the closure simulation and of ensembles are built-in entry points (their parsers live in the
+packages that use them), and third-party packages add theirs the same way.
 """
 from __future__ import annotations
 
-import importlib
 import re
 import tomllib
 from dataclasses import dataclass, field
@@ -35,21 +34,8 @@ from ..registry import Registry
 from .geometry import BreachGeometry, LeveeGeometry
 from .quantities import si_input
 
+#: the scenario sections, by name
 sections: Registry = Registry("scenario section", "breachflow.scenario_sections")
-
-#: Section name → module that registers it when imported (extend when a subsystem adds a section).
-SECTION_PROVIDERS: dict[str, str] = {
-    "site": "breachflow.cycle.config",
-    "closure": "breachflow.cycle.config",
-    "hydro": "breachflow.cycle.config",
-    "dem": "breachflow.cycle.config",
-    "fluid": "breachflow.cycle.config",
-    "placement": "breachflow.cycle.config",
-    "criteria": "breachflow.cycle.config",
-    "ensemble": "breachflow.ensemble.config",
-    "check": "breachflow.cycle.check",
-}
-
 
 def register_section(name: str, cls=None):
     """Register a scenario section parser under *name*; a class decorator when *cls* is omitted."""
@@ -405,12 +391,6 @@ def parse_scenario(text: str, path: Path | None = None) -> Scenario:
 
 
 def _section_class(name: str, text: str, path):
-    if name not in sections:
-        module = SECTION_PROVIDERS.get(name, f"breachflow.{name}.config")
-        try:
-            importlib.import_module(module)
-        except ModuleNotFoundError:
-            pass
     if name not in sections:
         raise ParseError(f"unknown section [{name}]; known: {', '.join('[' + s + ']' for s in sections.available())}",
                          path=path, line=_line_of(text, name, None))

@@ -2,7 +2,7 @@
 
 Plain dataclasses of SI floats. Construct them from user input with :meth:`LeveeGeometry.from_input`
 / :meth:`BreachGeometry.from_input`, which accept numbers with units. The hydrodynamic terrain builder
-(:mod:`breachflow.hydro.terrain`) turns a :class:`BreachScene` into a bed-elevation grid.
+(:mod:`breachflow.swe.domain`) turns a :class:`BreachScene` into a bed-elevation grid.
 """
 from __future__ import annotations
 

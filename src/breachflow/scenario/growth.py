@@ -345,7 +345,7 @@ def breach_length(equation="all", development_time=None, *, surge_height=None, l
                                               {"units": "s", "long_name": "breach development time t_D"}))
     p = _inputs(surge_height, levee)
     names = _names(growth_equations, equation)
-    curves = [growth_equations.get(n)().length(t, p) for n in names]
+    curves = [growth_equations.create(n).length(t, p) for n in names]
     curves = [c if isinstance(c, xr.DataArray) else xr.DataArray(c) for c in curves]
     single = isinstance(equation, str) and equation != "all"
     out = curves[0] if single else xr.concat(

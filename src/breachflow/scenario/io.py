@@ -6,7 +6,7 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from ..output.atomic import atomic_path  # noqa: F401  (re-exported for the scenario writers)
+from ..atomic import atomic_path  # noqa: F401  (re-exported for the scenario writers)
 
 
 def netcdf_ready(ds: xr.Dataset) -> xr.Dataset:
@@ -29,7 +29,7 @@ def write_netcdf(ds: xr.Dataset, path) -> Path:
         from ..schemas import validate
 
         validate(ds, "closure_window")
-    from ..output.provenance import stamp
+    from ..provenance import stamp
 
     from ..output.cf import string_encoding
 

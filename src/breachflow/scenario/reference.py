@@ -18,7 +18,7 @@ import sys
 from pathlib import Path
 
 from ..units import SI_UNITS
-from .config import SECTION_PROVIDERS, SectionContext, sections
+from .config import SectionContext, sections
 
 ROOT = Path(__file__).resolve().parents[3]
 SCHEMA_PATH = ROOT / "data_schemas" / "scenario.json"
@@ -120,10 +120,6 @@ def section_schema(name: str) -> dict:
 
 def scenario_schema() -> dict:
     """The JSON schema of a scenario file: one property per registered section."""
-    import importlib
-
-    for module in sorted(set(SECTION_PROVIDERS.values())):
-        importlib.import_module(module)
     names = sorted(sections.available())
     return {
         "$schema": "https://json-schema.org/draft/2020-12/schema",

@@ -4,7 +4,7 @@ The ``[site]`` section (registered in :mod:`breachflow.cycle.config`) hands a ta
 :meth:`SiteTerrainSection.from_table`. Keys (paths relative to the scenario file, quantities with units)::
 
     [site]
-    terrain = "dem.tif"              # GeoTIFF / ESRI ASCII (.asc + .prj) / NetCDF DEM
+    terrain = "terrain.tif"          # GeoTIFF / ESRI ASCII (.asc + .prj) / NetCDF terrain elevations
     terrain_units = "ft"             # vertical unit when the file does not declare it (default m)
     terrain_variable = "elevation"   # NetCDF only
     crs = "EPSG:26915"               # when the terrain has none (must agree when it has one)

@@ -1,7 +1,7 @@
 """The hydrodynamic domain of a real site, built around its breach (issue 13, docs/theory.md, *Breach growth*, *Shallow-water equations*).
 
 :func:`build_site` reads the terrain and the levee, places and cuts the breach, finds the flood side
-and builds a :class:`~breachflow.hydro.terrain.Domain` along the levee at the breach, in the site CRS
+and builds a :class:`~breachflow.swe.domain.Domain` along the levee at the breach, in the site CRS
 rotated about the breach centre (real coordinates: a cycle file lands on the map where the levee is).
 Defaults, all overridable in ``[site]``
 and reported in :attr:`Site.report`:
@@ -11,7 +11,7 @@ and reported in :attr:`Site.report`:
   terrain — the scaled typical breach (``demo_breach``) reaches steady state in such a box;
 * boundaries: the flood-side edge is the flood level (constant, or the stage of a hydrograph at the
   operation time of the cycle), absorbing with relaxation time ``4 L / sqrt(g h)`` as in
-  :func:`~breachflow.hydro.terrain.breach_domain`; the protected-side edge free outflow; the two other
+  :func:`~breachflow.swe.domain.breach_domain`; the protected-side edge free outflow; the two other
   edges walls;
 * initial state: the flood side of the levee at the flood level, the polder dry.
 
@@ -33,7 +33,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
-from ..hydro.terrain import BoundaryCondition, Domain, uniform_grid
+from ..swe.domain import BoundaryCondition, Domain, uniform_grid
 from .frame import GridFrame, levee_angle
 from .geometry import Breach, LeveeLine, footprint_half_width, load_levee, load_polygon, side_ground
 from .terrain import Terrain, load_terrain
@@ -108,7 +108,7 @@ class Site:
         """The domain with the flood-side level boundary at *level* (m)."""
         from dataclasses import replace
 
-        from ..hydro.terrain import _copy_spacing
+        from ..swe.domain import _copy_spacing
 
         bounds = {side: [replace(bc, level=level) if bc.kind == "level" else bc for bc in bcs]
                   for side, bcs in self.domain.boundaries.items()}

@@ -5,7 +5,7 @@ scenario). Positions along it are the chainage ``s`` (m from its first vertex) a
 ``d`` (m, positive on the left of the direction of digitisation). The breach is given by its centre
 chainage, length ``B`` at the crest, bottom elevation and wall slope (1V:m_W H), or by a polygon.
 
-The cut (docs/theory.md, *Breach growth*, the trapezoid of :func:`breachflow.hydro.terrain.levee_bed` along the real line):
+The cut (docs/theory.md, *Breach growth*, the trapezoid of :func:`breachflow.swe.domain.levee_bed` along the real line):
 ``z = min(z_terrain, z_b + max(|s − s_c| − b/2, 0) / m_W)`` (vertical walls: ``z_b`` for
 ``|s − s_c| ≤ B/2``), ``b = B − 2 m_W (z_crest − z_b)`` the bottom width, applied across the levee for
 ``|d| ≤ w`` where ``w`` is the half-width of the levee footprint above the breach bottom (from the

@@ -1,4 +1,4 @@
-"""Terrain models of a real site: GeoTIFF, ESRI ASCII grid or NetCDF DEM, with their CRS (issue 13).
+"""Terrain models of a real site: GeoTIFF, ESRI ASCII grid or NetCDF grid of terrain elevations, with their CRS (issue 13).
 
 :func:`load_terrain` reads the file once, converts the vertical unit to metres (``ft`` / ``US survey
 foot`` → m, declared by the file's band unit or by the user; both given and different is an error) and
@@ -26,7 +26,7 @@ VERTICAL_UNITS = {"m": 1.0, "metre": 1.0, "meter": 1.0, "metres": 1.0, "meters":
 
 @dataclass
 class Terrain:
-    """A DEM in SI: ``x`` (nx,), ``y`` (ny,) cell centres (increasing), ``z`` (ny, nx) m (NaN = no data)."""
+    """A terrain model in SI: ``x`` (nx,), ``y`` (ny,) cell centres (increasing), ``z`` (ny, nx) m (NaN = no data)."""
 
     x: np.ndarray
     y: np.ndarray
@@ -67,7 +67,7 @@ def _vertical_scale(declared: str | None, user: str | None, path) -> tuple[float
 
 
 def load_terrain(path, *, crs: str | None = None, vertical_units: str | None = None, variable: str | None = None) -> Terrain:
-    """Read a DEM (``.tif``/``.tiff``, ``.asc``, ``.nc``) into a :class:`Terrain` (elevations in m).
+    """Read a terrain model (``.tif``/``.tiff``, ``.asc``, ``.nc``) into a :class:`Terrain` (elevations in m).
 
     *crs* (WKT / ``EPSG:nnnn``) is used when the file has none and must agree with the file's when both
     are given; *vertical_units* likewise for the elevation unit; *variable* picks the NetCDF variable.
@@ -115,7 +115,7 @@ def _read_raster(path):
     try:
         src = rasterio.open(path)
     except Exception as exc:
-        raise InputError(f"{path}: cannot read as a raster DEM ({exc})") from None
+        raise InputError(f"{path}: cannot read as a raster terrain model ({exc})") from None
     with src:
         _check_raster_size(path, src)
         t = src.transform

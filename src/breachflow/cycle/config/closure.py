@@ -160,7 +160,7 @@ class ClosureSection:
         out = cls(ctx.raw(table, "remap", default="porous"), ctx.raw(table, "seed", types=(int,), default=0),
                   area, float(loss), ctx.raw(table, "porous_law", default="ergun"),
                   ctx.raw(table, "pile_sampling", default="centre"))
-        from ...hydro.swe.porous import FORCHHEIMER_LAWS
+        from ...swe.porous import FORCHHEIMER_LAWS
         from ..remap import PILE_SAMPLINGS, REMAP_MODES
 
         if out.pile_sampling not in PILE_SAMPLINGS:

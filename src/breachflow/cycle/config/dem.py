@@ -6,6 +6,7 @@ from dataclasses import dataclass, field
 
 from ...errors import BreachflowError, InputError
 from ...scenario.config import register_section
+from ..driver import DemSettings
 
 
 @register_section("dem")
@@ -25,7 +26,6 @@ class DemSection:
     def schema_defaults(cls) -> dict:
         """Default of every key (SI values with their unit), for the scenario reference."""
         from ...units import SI_UNITS
-        from ..driver import DemSettings
 
         d = DemSettings()
         vals = {**{k: getattr(d, k) for k in cls.KINDS if hasattr(d, k)}, **cls.MATERIAL_DEFAULTS,
@@ -70,27 +70,28 @@ class FluidSection:
     the log law follows Shields' depth dependence in the stone-stability validation, docs/validation.md) and
     ``roughness`` (k_s of the log law; default from the site's Manning n)."""
 
-    drag_law: str = "report"
-    sampling: str = "bilinear"
-    xi: float = 0.5
-    velocity_profile: str = "log"
-    roughness: float | None = None
+    # the defaults of a closure run, defined once (DemSettings)
+    drag_law: str = DemSettings.drag_law
+    sampling: str = DemSettings.sampling
+    xi: float = DemSettings.xi
+    velocity_profile: str = DemSettings.velocity_profile
+    roughness: float | None = DemSettings.roughness
 
     @classmethod
     def from_table(cls, table, ctx):
         ctx.check_keys(table, {"drag_law", "sampling", "xi", "velocity_profile", "roughness"})
-        out = cls(ctx.raw(table, "drag_law", default="report"), ctx.raw(table, "sampling", default="bilinear"),
-                  ctx.quantity(table, "xi", "dimensionless", default=0.5, default_unit="", nonnegative=True),
-                  ctx.raw(table, "velocity_profile", default="log"),
-                  ctx.quantity(table, "roughness", "length", default=None, default_unit="m", positive=True))
-        from ...fluid.drag import get_drag_law
-        from ...fluid.profile import PROFILES
+        out = cls(ctx.raw(table, "drag_law", default=cls.drag_law), ctx.raw(table, "sampling", default=cls.sampling),
+                  ctx.quantity(table, "xi", "dimensionless", default=cls.xi, default_unit="", nonnegative=True),
+                  ctx.raw(table, "velocity_profile", default=cls.velocity_profile),
+                  ctx.quantity(table, "roughness", "length", default=cls.roughness, default_unit="m", positive=True))
+        from ...fluid.drag import DRAG_LAWS
+        from ...fluid.profile import velocity_profiles
 
-        if out.velocity_profile not in PROFILES:
-            raise ctx.error(f"velocity_profile must be one of {sorted(PROFILES)}", "velocity_profile")
+        if not isinstance(out.velocity_profile, str) or out.velocity_profile not in velocity_profiles:
+            raise ctx.error(f"velocity_profile must be one of {velocity_profiles.available()}", "velocity_profile")
 
         try:
-            get_drag_law(out.drag_law)
+            DRAG_LAWS.create(out.drag_law)
         except BreachflowError as exc:
             raise ctx.error(str(exc), "drag_law") from None
         return out

@@ -34,12 +34,12 @@ class HydroSection:
     ``resolve`` (``full`` | ``window``): a warm re-solve of the ``swe`` solver over the whole domain, or
     only in a window around the cells the remap changed, ``resolve_margin`` (default 2 B) beyond them and
     the breach, the rest frozen at the previous steady state, grown when the water level at its edge moves
-    by more than ``resolve_edge_level`` (:mod:`breachflow.hydro.window`); ``resolve_far`` (``frozen`` |
-    ``coarse``, :mod:`breachflow.hydro.window_far`) how the domain outside the window follows the pile,
+    by more than ``resolve_edge_level`` (:mod:`breachflow.hydro.resolve_region`); ``resolve_far`` (``frozen`` |
+    ``coarse``, :mod:`breachflow.hydro.far_field`) how the domain outside the window follows the pile,
     ``resolve_far_factor`` the coarsening of ``coarse`` (default 2). ``steady_average`` (default false): the
     ``swe`` solves (cold, warm, window) also accept the running mean of the breach discharge when its
     batch-means error is within the tolerance (``run_to_steady(average=True)``,
-    :mod:`breachflow.hydro.steady_mean`; the state is then the time mean). ``refine`` (a length, with
+    :mod:`breachflow.swe.steady_mean`; the state is then the time mean). ``refine`` (a length, with
     ``solver = "swe"``): a nested fine grid of that cell size around the breach (``window``, default the
     breach ± (B/2 + 3 B) along the levee, ± 3 B across) inside the coarse domain at ``resolution``: the
     coarse open-breach steady state is solved once and is the regional field of the ``nested`` local model
@@ -109,7 +109,7 @@ class HydroSection:
             out.window = tuple(vals)
         if out.resolve not in RESOLVE_MODES:
             raise ctx.error(f"resolve = {out.resolve!r}; use one of {list(RESOLVE_MODES)}", "resolve")
-        from ...hydro.window_far import far_fields
+        from ...hydro.far_field import far_fields
 
         if out.resolve_far not in far_fields:
             raise ctx.error(f"resolve_far = {out.resolve_far!r}; use one of {far_fields.available()}", "resolve_far")

@@ -22,8 +22,8 @@ from .site import SiteSection, _crs_wkt
 def closure_setup(scenario, *, overrides: dict | None = None):
     """Build the :class:`~.driver.ClosureSetup` of a parsed scenario (missing sections take defaults)."""
     from ...dem import Material
-    from ...hydro.solvers import get_solver
-    from ...hydro.terrain import breach_domain
+    from ...hydro.solvers import solvers
+    from ...swe.domain import breach_domain
     from ..driver import ClosureSetup, DemSettings
 
     site = scenario.get("site") or SiteSection()
@@ -107,8 +107,8 @@ def closure_setup(scenario, *, overrides: dict | None = None):
         with warnings.catch_warnings():  # the deprecation was reported where the scenario was parsed
             warnings.simplefilter("ignore", DeprecationWarning)
             turned = built.frame if built is not None and built.frame.rotated else None
-            solver = (get_solver(hydro.solver, snapshots=hydro.snapshots, domain=dom, frame=turned)
-                      if hydro.solver in ("snapshot", "snapshot_frozen") else get_solver(hydro.solver))
+            solver = (solvers.create(hydro.solver, snapshots=hydro.snapshots, domain=dom, frame=turned)
+                      if hydro.solver in ("snapshot", "snapshot_frozen") else solvers.create(hydro.solver))
     if getattr(solver, "responds_to_pile", True) is False:
         from ...errors import BreachflowWarning
         from ...hydro.solvers import FROZEN_NOTE
@@ -224,21 +224,21 @@ class _WarmStartSWE:
     ``(x0, x1, y)``, the levee centreline across the breach)."""
 
     def __init__(self, hydro: HydroSection, region, section=None):
-        from ...hydro.solvers import get_solver
+        from ...hydro.solvers import solvers
 
         kw = dict(order=hydro.order, courant=hydro.courant, tolerance=hydro.tolerance, region=region,
                   section=section, threads=hydro.threads, average=hydro.steady_average)
-        self.cold = get_solver("swe", t_max=hydro.t_max_initial, **kw)
-        self.warm = get_solver("swe", t_max=hydro.t_max, **kw)
+        self.cold = solvers.create("swe", t_max=hydro.t_max_initial, **kw)
+        self.warm = solvers.create("swe", t_max=hydro.t_max, **kw)
         if getattr(hydro, "cold_start", "cold") == "coarse":
             from ...hydro.coarse_start import CoarseStartSWE
 
             self.cold = CoarseStartSWE(self.cold)
         self.window = None
         if hydro.resolve == "window":
-            from ...hydro.window import WindowResolver
+            from ...hydro.resolve_region import RegionResolver
 
-            self.window = WindowResolver(self.warm, margin=hydro.resolve_margin, edge_level=hydro.resolve_edge_level,
+            self.window = RegionResolver(self.warm, margin=hydro.resolve_margin, edge_level=hydro.resolve_edge_level,
                                          far=hydro.resolve_far,
                                          far_factor=hydro.resolve_far_factor if hydro.resolve_far == "coarse" else None)
 
@@ -260,7 +260,7 @@ class _StageSolver:
         t = 0.0 if self.plan is None else self.plan.operation_time(self.calls * self.plan.batch)
         self.calls += 1
         level = self.site.level_at(t)
-        from ...hydro.terrain import _copy_spacing
+        from ...swe.domain import _copy_spacing
 
         d = replace(domain, boundaries=self.site.with_level(level).boundaries)
         _copy_spacing(domain, d)

@@ -35,7 +35,7 @@ _SITE_KEYS = {
 @dataclass
 class SiteSection:
     """``[site]``: ``preset`` (``typical_breach`` | ``demo_breach``), ``crs`` (``EPSG:nnnn``, WKT or PROJ, in
-    metres; default the local transverse Mercator :data:`breachflow.hydro.crs.LOCAL_CRS`) and
+    metres; default the local transverse Mercator :data:`breachflow.field.crs.LOCAL_CRS`) and
     overrides of the scene: ground/flood elevations, extents, channel, ``polder_slope``, ``manning_n``.
     With ``terrain`` the table is a real site instead (:class:`breachflow.site.config.SiteTerrainSection`)."""
 
@@ -101,8 +101,8 @@ class SiteSection:
 
 def _crs_wkt(crs: str | None) -> str:
     """WKT of the site's CRS (``EPSG:nnnn``, WKT, PROJ; in metres: site coordinates are metres); the
-    default is the documented local projected CRS :data:`~breachflow.hydro.crs.LOCAL_CRS`."""
-    from ...hydro.crs import local_crs_wkt, resolve_crs
+    default is the documented local projected CRS :data:`~breachflow.field.crs.LOCAL_CRS`."""
+    from ...field.crs import local_crs_wkt, resolve_crs
 
     if not crs:
         return local_crs_wkt()

@@ -1,0 +1,86 @@
+"""The ``closure`` ensemble member runner (issue: scenario ensembles; docs/theory.md, *Closure window*, *The closure cycle*).
+
+Runs the member's closure simulation in its run directory (resuming a previous attempt) and its
+closure window, and reduces both to scalars: cycles, masses, tonnage, simulated closure duration at
+the placement rate, closure achieved, governing criterion, peak velocity, breach discharge before and
+after, and the feasibility flag (closure achieved before the closure window ends).
+"""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, ClassVar
+
+from .runners import CLOSURE_OUTPUTS, MemberScenario, WindowRunner, member_runners, window_scalars
+from ..errors import InputError
+from ..units import Q_
+
+@member_runners.register("closure")
+class ClosureRunner:
+    """Closure simulation + closure window of one member (options: ``plots`` = false by default)."""
+
+    sections = None
+    #: the members' cycle files, whose per-cycle figures the ensemble result carries (breachflow.ensemble.cycles)
+    cycle_files = "closure/cycle_*.nc"
+    outputs: ClassVar[dict[str, dict]] = {**WindowRunner.outputs, **CLOSURE_OUTPUTS}
+    optional_outputs: ClassVar[frozenset[str]] = WindowRunner.optional_outputs
+
+    def __init__(self, plots: bool = False, **options):
+        if options:
+            raise InputError(f"member runner 'closure' takes only 'plots', got {sorted(options)}")
+        self.plots = bool(plots)
+
+    def check(self, member: MemberScenario) -> list[str]:
+        """Refuse a member whose closure scenario cannot work (``InputError`` from
+        :func:`breachflow.cycle.sanity.check_setup`: masses lighter than water, wider than the breach,
+        released outside the domain) before any member runs; return its warnings."""
+        from ..scenario import parse_scenario
+        from ..cycle.config import closure_setup
+
+        # parsed afresh (not member.scenario(): its cache would travel to the worker with the task)
+        scenario = parse_scenario(member.text(), path=member.path)
+        warnings = list(closure_setup(scenario).warnings)
+        missing = [s for s in ("flood", "polder", "breach") if s not in scenario]
+        if missing:
+            warnings.append("no closure window: the scenario has no [" + "], [".join(missing) + "] table, so "
+                            "feasibility (closure before the window ends) cannot be judged and `feasible` is "
+                            "false for every member")
+        return warnings
+
+    def run(self, member: MemberScenario, run_dir: Path, seed: int) -> dict[str, Any]:
+        from ..scenario import closure_window
+        from ..cycle.main import run_closure
+
+        run_dir = Path(run_dir)
+        table = dict(member.table)
+        closure = dict(table.get("closure", {}))
+        if member.replicate is not None:
+            closure["seed"] = int(seed) % (2**31)  # replicates: the placement randomness varies
+        else:
+            closure.setdefault("seed", int(seed) % (2**31))
+        table["closure"] = closure
+        member.table = table
+        path = member.write(run_dir / "closure_scenario.toml")
+        out = run_dir / "closure"
+        res = run_closure(path, out, resume=(out / "manifest.json").exists(), plots=self.plots)
+        scenario = member.scenario()
+        results: dict[str, Any] = {}
+        window = None
+        if all(s in scenario for s in ("flood", "polder", "breach")):
+            ds = closure_window(**scenario.window_kwargs())
+            results.update(window_scalars(ds))
+            window = float(ds["closure_window"])
+        from ..io import RunDirectory
+
+        m = RunDirectory(res.run_dir).manifest()
+        last = m["cycles"][-1]["summary"] if m["cycles"] else {}
+        results.update(
+            cycles=res.cycles, masses_placed=res.masses, tonnage=Q_(res.tonnage * 1000.0, "kg"),
+            closure_duration=Q_(res.operation_time, "s"), closure_achieved=res.closed,
+            governing_criterion=res.governing or "none",
+            peak_velocity=Q_(m["metadata"]["initial"]["max_speed"], "m/s"),
+            initial_breach_discharge=Q_(m["metadata"]["initial"]["breach_discharge"], "m**3/s"),
+            final_breach_discharge=Q_(last.get("breach_discharge", float("nan")), "m**3/s"),
+            final_seepage_discharge=Q_(last.get("seepage_discharge", 0.0), "m**3/s"),
+            feasible=bool(res.closed and window is not None and res.operation_time <= window),
+        )
+        return results

@@ -1,0 +1,215 @@
+"""Flow through a porous rock pile in the depth-averaged solver: a Forchheimer source term.
+
+Scheme (one layer, chosen for a depth-averaged model). In a pile cell the bed stays the natural bed;
+the pile occupies the water column from the bed up to its top, ``a = min(pile_height, h)`` of the depth
+``h``; above it a free layer ``h_o = h - a`` flows over the crest. Both parts feel the same free-surface
+gradient ``S`` (quasi-steady split):
+
+* through the pile, the superficial (Darcy) velocity ``V`` obeys Forchheimer's law
+  ``S = A V + B V |V|`` with ``A = alpha nu (1-n)^2 / (g n^3 d^2)`` and ``B = beta (1-n) / (g n^3 d)``
+  (``n`` porosity, ``d`` stone diameter). Coefficients :data:`FORCHHEIMER_LAWS`: Ergun (1952)
+  ``alpha = 150, beta = 1.75``; van Gent (1995, *Wave interaction with permeable coastal structures*,
+  PhD TU Delft; stationary flow through rock) ``alpha = 1000, beta = 1.1`` (both as compiled in
+  Burcharth & Andersen 1995, Coastal Eng. 24:233–257);
+* over the crest, Manning ``q_o = h_o^(5/3) S^(1/2) / n_M``.
+
+The unit discharge of the column is ``Q(S) = a V(S) + q_o(S)``. The source term ``-g h S(q)`` of the
+momentum equation is applied implicitly after each time step (Lie splitting, like an implicit friction):
+``q' + dt g h S' = q*`` with ``q' = Q(S')`` — a monotone scalar equation solved by bisection on ``S'`` —
+so the term only reduces ``|q|``, never reverses it, and a lake at rest (``q = 0``) stays at rest. Mass
+is untouched by the term (conserved by the finite-volume fluxes); wet/dry is the solver's. Limitation:
+the over-crest flow keeps the full column's momentum flux.
+
+Pile storage: the pores of the pile hold ``n a`` of water per unit area where the depth is ``a`` in the
+pile part; the model stores ``a`` there, i.e. it treats the pore water as free water and conserves
+``sum h dx dy`` exactly (round-off; ``tests/swe/test_porous.py``), the volume the column would hold
+without the solids. The remap puts a pile into a warm start without changing ``h``, so a pile neither
+creates nor removes water in the model; the real water held in a pile cell is smaller by ``(1 - n) a dx dy``.
+This changes how fast a transient fills or drains the pile (by up to ``1/n``), not a steady state — the
+only thing the closure cycle uses.
+
+A cell with no pile (``pile_height <= 0``) is left to the solver's Manning friction; in a pile cell that
+friction is replaced by this law (the solver sets its Manning n to 0 there).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+
+from ..errors import InputError
+
+#: Forchheimer laws by name: (alpha, beta) of A = alpha nu (1-n)^2/(g n^3 d^2), B = beta (1-n)/(g n^3 d)
+FORCHHEIMER_LAWS = {"ergun": (150.0, 1.75), "van_gent": (1000.0, 1.1)}
+
+NU_WATER = 1.0e-6
+GRAVITY = 9.81
+
+
+def forchheimer_coefficients(porosity, diameter, law="ergun", nu=NU_WATER, g=GRAVITY):
+    """``(A, B)`` (s/m, s²/m²) of the hydraulic gradient ``I = A V + B V|V|`` for porosity *n* and stone
+    diameter *d* (m) by *law* (``ergun`` | ``van_gent``); arrays broadcast."""
+    if law not in FORCHHEIMER_LAWS:
+        raise InputError(f"Forchheimer law {law!r} unknown; use one of {sorted(FORCHHEIMER_LAWS)}")
+    alpha, beta = FORCHHEIMER_LAWS[law]
+    n = np.asarray(porosity, float)
+    d = np.asarray(diameter, float)
+    if np.any((n <= 0) | (n >= 1)) or np.any(d <= 0):
+        raise InputError("porosity must be in (0, 1) and the stone diameter > 0")
+    A = alpha * nu * (1 - n) ** 2 / (g * n ** 3 * d ** 2)
+    B = beta * (1 - n) / (g * n ** 3 * d)
+    return A, B
+
+
+@dataclass
+class PorousPile:
+    """Per-cell pile of a domain (arrays ``(ny, nx)``): ``height`` above the bed (m, 0 = no pile),
+    ``porosity`` (-), ``diameter`` (m, volume-weighted stone size), Forchheimer ``A``, ``B``; ``law``."""
+
+    height: np.ndarray
+    porosity: np.ndarray
+    diameter: np.ndarray
+    A: np.ndarray
+    B: np.ndarray
+    law: str = "ergun"
+
+    @classmethod
+    def build(cls, height, porosity, diameter, law="ergun", min_porosity=0.2, max_porosity=0.95):
+        """Clip the porosity to ``[min_porosity, max_porosity]`` and compute ``A``, ``B`` where the pile is."""
+        h = np.asarray(height, float)
+        where = h > 0
+        n = np.where(where, np.clip(np.asarray(porosity, float), min_porosity, max_porosity), 1.0)
+        d = np.where(where, np.asarray(diameter, float), 1.0)
+        A, B = forchheimer_coefficients(np.where(where, n, 0.5), d, law)
+        return cls(height=np.where(where, h, 0.0), porosity=n, diameter=d, A=np.where(where, A, 0.0),
+                   B=np.where(where, B, 0.0), law=law)
+
+    @property
+    def any(self) -> bool:
+        return bool(np.any(self.height > 0))
+
+
+@numba.njit(cache=True, nogil=True)
+def _darcy_velocity(S, A, B):
+    """Superficial velocity V >= 0 with ``A V + B V^2 = S``."""
+    if S <= 0.0:
+        return 0.0
+    if B > 0.0:
+        return 2.0 * S / (A + math.sqrt(A * A + 4.0 * B * S))
+    if A > 0.0:
+        return S / A
+    return math.inf
+
+
+@numba.njit(cache=True, nogil=True)
+def column_discharge(S, h, a, A, B, n_free):
+    """``(Q, q_seep)``: unit discharge of the column at gradient *S* and its part through the pile."""
+    qs = a * _darcy_velocity(S, A, B)
+    ho = h - a
+    qo = 0.0
+    if ho > 0.0:
+        if n_free > 0.0:
+            qo = ho ** (5.0 / 3.0) * math.sqrt(S) / n_free
+        else:
+            qo = math.inf
+    return qs + qo, qs
+
+
+@numba.njit(cache=True, nogil=True)
+def _solve_gradient(qstar, h, a, A, B, n_free, c):
+    """``S >= 0`` with ``Q(S) + c S = qstar`` (bisection; ``c = dt g h``, 0 for the steady split)."""
+    lo = 0.0
+    if c > 0.0:
+        hi = qstar / c
+    else:
+        hi = 1.0
+        while column_discharge(hi, h, a, A, B, n_free)[0] < qstar and hi < 1e12:
+            hi *= 4.0
+    for _ in range(80):
+        mid = 0.5 * (lo + hi)
+        if column_discharge(mid, h, a, A, B, n_free)[0] + c * mid > qstar:
+            hi = mid
+        else:
+            lo = mid
+        if hi - lo <= 1e-14 * hi:
+            break
+    return 0.5 * (lo + hi)
+
+
+@numba.njit(cache=True, nogil=True)
+def porous_resistance(h, hu, hv, pile, A, B, n_free, dt, g, h_dry):
+    """Implicit Forchheimer + over-crest Manning resistance in the pile cells (arrays of equal shape,
+    e.g. the solver's padded ones); see the module docstring."""
+    porous_resistance_box(h, hu, hv, pile, A, B, n_free, dt, g, h_dry, 0, h.shape[0], 0, h.shape[1])
+
+
+@numba.njit(cache=True, nogil=True)
+def porous_resistance_box(h, hu, hv, pile, A, B, n_free, dt, g, h_dry, j0, j1, i0, i1):
+    """:func:`porous_resistance` on the cells ``[j0:j1, i0:i1]`` (the box holding the pile; the solver's
+    time loop ``kernels.advance`` applies it after every step)."""
+    for j in range(j0, j1):
+        for i in range(i0, i1):
+            p = pile[j, i]
+            if p <= 0.0:
+                continue
+            hh = h[j, i]
+            if hh <= h_dry:
+                continue
+            qx = hu[j, i]
+            qy = hv[j, i]
+            qm = math.sqrt(qx * qx + qy * qy)
+            if qm == 0.0:
+                continue
+            a = min(p, hh)
+            if hh - a > 0.0 and n_free[j, i] <= 0.0:
+                continue  # a free layer without friction carries any flow
+            S = _solve_gradient(qm, hh, a, A[j, i], B[j, i], n_free[j, i], dt * g * hh)
+            qn = max(qm - dt * g * hh * S, 0.0)
+            f = qn / qm
+            hu[j, i] = qx * f
+            hv[j, i] = qy * f
+
+
+@numba.njit(cache=True, nogil=True)
+def seepage_unit_discharge(h, q, pile, A, B, n_free, out):
+    """Per cell, the part of the unit discharge *q* (>= 0) through the pile in the steady split."""
+    ny, nx = h.shape
+    for j in range(ny):
+        for i in range(nx):
+            out[j, i] = 0.0
+            p = pile[j, i]
+            if p <= 0.0 or h[j, i] <= 0.0 or q[j, i] <= 0.0:
+                continue
+            a = min(p, h[j, i])
+            if h[j, i] - a > 0.0 and n_free[j, i] <= 0.0:
+                continue
+            S = _solve_gradient(q[j, i], h[j, i], a, A[j, i], B[j, i], n_free[j, i], 0.0)
+            out[j, i] = min(column_discharge(S, h[j, i], a, A[j, i], B[j, i], n_free[j, i])[1], q[j, i])
+
+
+def seepage_field(depth, speed, pile: PorousPile, manning) -> np.ndarray:
+    """Seepage unit discharge (m²/s) per cell from a (steady) snapshot's depth and speed."""
+    h = np.ascontiguousarray(depth, float)
+    q = np.ascontiguousarray(np.asarray(depth, float) * np.asarray(speed, float))
+    out = np.zeros_like(h)
+    nm = np.ascontiguousarray(np.broadcast_to(np.asarray(manning, float), h.shape))
+    seepage_unit_discharge(h, q, np.ascontiguousarray(pile.height), np.ascontiguousarray(pile.A),
+                           np.ascontiguousarray(pile.B), nm, out)
+    return out
+
+
+def forchheimer_dam_length(q, h_up, h_down, A, B):
+    """Closed form of 1-D steady Dupuit–Forchheimer flow through a dam on a flat bed: the length ``L`` (m)
+    over which unit discharge *q* (m²/s) drops the water depth from *h_up* to *h_down* (pile above the water).
+
+    ``-dh/dx = A q/h + B q^2/h^2`` ⇒ ``dx = -h^2 dh / (A q h + B q^2)``; with ``c = B q / A``:
+    ``L = [ (h1^2 - h2^2)/2 - c (h1 - h2) + c^2 ln((h1 + c)/(h2 + c)) ] / (A q)``; for ``A = 0``:
+    ``L = (h1^3 - h2^3) / (3 B q^2)``.
+    """
+    h1, h2 = float(h_up), float(h_down)
+    if A == 0.0:
+        return (h1 ** 3 - h2 ** 3) / (3.0 * B * q * q)
+    c = B * q / A
+    return ((h1 ** 2 - h2 ** 2) / 2 - c * (h1 - h2) + c * c * math.log((h1 + c) / (h2 + c))) / (A * q)
