@@ -30,7 +30,7 @@ def main(argv) -> int:
     ap.add_argument("--set", action="append", default=[], help="SECTION.KEY=VALUE (TOML value)")
     a = ap.parse_args(argv)
     from breachflow.cycle.main import run_closure
-    from breachflow.hydro.swe import solver as S
+    from breachflow.swe import solver as S
     from breachflow.scenario.toml import scenario_with
 
     changes = {"hydro.resolution": f"{a.resolution:g} m", "criteria.max_cycles": a.max_cycles}

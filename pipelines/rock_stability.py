@@ -16,7 +16,7 @@ import sys
 def critical_coefficient(material, dn, angle_deg, depth=10.0, tol=0.005):
     from breachflow.dem import Material
     from breachflow.fluid.drag import get_drag_law
-    from breachflow.fluid.stability import stone_moves
+    from breachflow.studies.stability import stone_moves
 
     g = 9.80665
     ds = (6 / math.pi) ** (1 / 3) * dn

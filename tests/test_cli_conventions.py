@@ -69,7 +69,7 @@ def test_ensemble_output_holding_results_is_refused_without_resume(tmp_path):
 
 
 def test_solve_writes_no_png_unasked_and_its_snapshot_has_the_run_crs(tmp_path, monkeypatch):
-    from breachflow.hydro.crs import LOCAL_CRS_NAME
+    from breachflow.field.crs import LOCAL_CRS_NAME
 
     monkeypatch.chdir(tmp_path)
     res = runner.invoke(app, ["solve", "demo_breach", "--resolution", "4 m", "--t-max", "5 s", "--order", "1",

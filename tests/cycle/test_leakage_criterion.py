@@ -9,7 +9,7 @@ from breachflow.cycle.config import closure_setup
 from breachflow.cycle.criteria import CycleContext, criteria
 from breachflow.cycle.leakage import PolderLeakage, polder_leakage_check
 from breachflow.errors import BreachflowWarning, InputError
-from breachflow.hydro.snapshot import grid_snapshot
+from breachflow.field.snapshot import grid_snapshot
 from breachflow.scenario.config import parse_scenario
 
 DX = 0.5
@@ -90,7 +90,7 @@ def _dam_ctx(seepage):
 
 
 def test_sealed_dam_meets_the_polder_criterion_by_independent_arithmetic():
-    from breachflow.hydro.swe.porous import forchheimer_coefficients
+    from breachflow.swe.porous import forchheimer_coefficients
     from breachflow.materials import get_material
     from breachflow.materials.seal import DEFAULT_SEAL_GRADINGS as D, Grading
     from scipy.optimize import brentq

@@ -234,7 +234,7 @@ def test_storage_curve_file_is_read_and_checked(tmp_path):
 # --- boundaries and cycle variables ------------------------------------------------------------------------
 def test_solver_sets_flood_and_polder_levels_on_the_boundaries():
     from breachflow.cycle.config.timeline import shifted_boundaries
-    from breachflow.hydro.terrain import BoundaryCondition
+    from breachflow.swe.domain import BoundaryCondition
 
     base = {"south": [BoundaryCondition.water_level(lambda s: 5.0 - 0.01 * np.asarray(s))],
             "north": [BoundaryCondition.outflow()],
@@ -268,7 +268,7 @@ def test_cycle_variables_carry_cf_units_and_the_breach_date():
 
 
 def test_cold_start_with_a_filled_polder_starts_its_dry_cells_at_the_polder_level():
-    from breachflow.hydro.terrain import BoundaryCondition, uniform_grid
+    from breachflow.swe.domain import BoundaryCondition, uniform_grid
 
     dom = uniform_grid(0.0, 4.0, -2.0, 2.0, 1.0)
     Y = np.meshgrid(dom.x, dom.y)[1]

@@ -3,7 +3,7 @@ announcing 1e8 × 1e8 cells is a ParseError naming the file and line, not a Memo
 import pytest
 
 from breachflow.errors import ParseError
-from breachflow.hydro.io.asc import read_asc
+from breachflow.io.asc import read_asc
 
 
 def test_asc_header_larger_than_the_file(tmp_path):

@@ -6,8 +6,8 @@ import pytest
 import xarray as xr
 
 from breachflow.errors import InputError
-from breachflow.hydro.io import open_snapshot
-from breachflow.hydro.io.xarray_backend import BreachflowBackendEntrypoint
+from breachflow.io import open_snapshot
+from breachflow.io.xarray_backend import BreachflowBackendEntrypoint
 
 from pathlib import Path
 

@@ -10,7 +10,7 @@ import pytest
 
 from breachflow.dem import Material
 from breachflow.fluid.drag import get_drag_law
-from breachflow.fluid.stability import stone_moves
+from breachflow.studies.stability import stone_moves
 from breachflow.materials import get_material
 
 G = 9.80665

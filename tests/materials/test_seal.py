@@ -5,7 +5,7 @@ import pytest
 from scipy.optimize import brentq
 
 from breachflow.errors import InputError
-from breachflow.hydro.swe.porous import forchheimer_coefficients
+from breachflow.swe.porous import forchheimer_coefficients
 from breachflow.materials import get_material
 from breachflow.materials.seal import (DEFAULT_SEAL_GRADINGS, Grading, SealDesign, check_filter, required_thickness,
                                        sealed_leakage, series_unit_discharge)

@@ -91,7 +91,7 @@ def files(tmp_path_factory):
     run_model_problem(output=tmp / "model_problem.nc")
     out["model-problem output"] = tmp / "model_problem.nc"
 
-    from breachflow.fluid.validation import save_settling, settling_curves
+    from breachflow.studies.validation import save_settling, settling_curves
 
     ds = settling_curves([0.01, 0.08], 7800.0, ("report", "clift_gauvin"), dt=1e-4, duration=0.05)
     out["settle output"] = save_settling(ds, tmp / "settling")["netcdf"]

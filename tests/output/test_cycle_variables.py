@@ -116,7 +116,7 @@ def test_open_mfdataset_gives_each_figure_per_cycle(run_dir):
 
 
 def test_combine_archive_holds_the_figures_of_every_cycle(run_dir, tmp_path):
-    from breachflow.output import RunDirectory
+    from breachflow.io import RunDirectory
 
     out = RunDirectory(run_dir).combine(tmp_path / "archive.nc")
     with xr.open_dataset(out) as arc, xr.open_mfdataset(str(run_dir / "cycle_*.nc"), data_vars="all") as cyc:
@@ -131,7 +131,7 @@ def test_combine_archive_holds_the_figures_of_every_cycle(run_dir, tmp_path):
 
 @pytest.mark.parametrize("which", ["cycle", "archive"])
 def test_inspect_and_export_take_the_runs_own_files(run_dir, tmp_path, which):
-    from breachflow.output import RunDirectory
+    from breachflow.io import RunDirectory
 
     path = run_dir / "cycle_0002.nc" if which == "cycle" else RunDirectory(run_dir).combine(tmp_path / "archive.nc")
     runner = CliRunner()
@@ -158,7 +158,7 @@ def test_inspect_and_export_take_the_runs_own_files(run_dir, tmp_path, which):
 def test_ensemble_result_carries_the_members_per_cycle_figures(run_dir, tmp_path):
     """A closure ensemble's result has cycle_<name> along (ensemble dims, cycle): member 0's closure run is
     the 3-cycle run of this module, member 1 failed (NaN / fill)."""
-    from breachflow.cycle.runner import ClosureRunner
+    from breachflow.ensemble.closure import ClosureRunner
     from breachflow.ensemble.cycles import add_per_cycle
     from breachflow.ensemble.dataset import build_dataset, open_result, write_result
     from breachflow.ensemble.spec import parse_spec

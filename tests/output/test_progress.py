@@ -8,7 +8,7 @@ from rich.console import Console
 from typer.testing import CliRunner
 
 from breachflow.cli import app
-from breachflow.output.progress import Progress
+from breachflow.progress import Progress
 
 
 def _piped():

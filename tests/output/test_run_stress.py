@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from breachflow.output import RunDirectory
+from breachflow.io import RunDirectory
 from breachflow.scenario.toml import scenario_with
 
 CI = (Path(__file__).parents[1] / "data" / "ci_closure.toml").read_text()

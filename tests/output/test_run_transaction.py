@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 
 from breachflow.errors import InputError
-from breachflow.output import RunDirectory
-from breachflow.output.lock import LOCK, RunLock, RunLockedError, read_holder
+from breachflow.io import RunDirectory
+from breachflow.io.lock import LOCK, RunLock, RunLockedError, read_holder
 
 from .test_rundir import _field, _traj
 
@@ -174,7 +174,7 @@ def test_a_crash_during_overwrite_never_mixes_two_runs(tmp_path, monkeypatch):
     rd.start("old", seed=1)
     rd.write_cycle(1, _field(1), None, {"k": np.arange(3)}, {})
     rd.close()
-    import breachflow.output.rundir as rundir_mod
+    import breachflow.io.rundir as rundir_mod
 
     def killed(*a, **k):
         raise KeyboardInterrupt

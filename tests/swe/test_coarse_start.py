@@ -7,8 +7,8 @@ import pytest
 from breachflow.errors import BreachflowError, InputError
 from breachflow.hydro.coarse_start import CoarseStartSWE, coarse_surface
 from breachflow.hydro.solvers import get_solver
-from breachflow.hydro.terrain import uniform_grid
-from breachflow.hydro.window_far import coarse_domain
+from breachflow.swe.domain import uniform_grid
+from breachflow.hydro.far_field import coarse_domain
 from breachflow.scenario import parse_scenario
 
 

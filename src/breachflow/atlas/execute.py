@@ -24,7 +24,7 @@ from dataclasses import asdict
 from pathlib import Path
 
 from ..errors import InputError
-from ..output.atomic import atomic_write_json, atomic_write_text
+from ..atomic import atomic_write_json, atomic_write_text
 from .config import District, load_district
 from .locations import Location, locate
 
@@ -164,7 +164,7 @@ def _execute(district, locations, keys, paths, pending, records, *, scheduler, w
     from distributed import as_completed
 
     from ..ensemble.execute import _quiet_distributed
-    from ..output.progress import Progress
+    from ..progress import Progress
 
     own_client = own_cluster = None
     try:

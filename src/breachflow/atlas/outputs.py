@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from ..output.atomic import atomic_path, atomic_write, atomic_write_netcdf
+from ..atomic import atomic_path, atomic_write, atomic_write_netcdf
 from .config import District
 from .locations import Location
 from .screening import FIELDS, feasibility_class

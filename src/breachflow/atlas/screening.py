@@ -178,9 +178,9 @@ def _window(district: District, head: float, q: float) -> dict:
 
 def _swe_flow(loc: Location, district: District, B: float, *, terrain=None, levee=None) -> tuple[float, float, float]:
     """Discharge, peak speed and depth in the gap from the embedded solver on a local domain at the breach."""
-    from ..hydro.derived import peak_speed
-    from ..hydro.section import snapshot_discharge
-    from ..hydro.swe import SWEOptions, SWESimulation
+    from ..field.derived import peak_speed
+    from ..swe.section import snapshot_discharge
+    from ..swe import SWEOptions, SWESimulation
     from ..site.domain import SiteSpec, build_site
 
     spec = SiteSpec(terrain=district.terrain, levee=district.levee, crs=district.crs,

@@ -142,7 +142,7 @@ def run_closure_cli(scenario: Path | None, out: Path, resume: bool, overwrite: b
     warnings) also go to ``OUT/run.log``. With *check* (and ``[check] enabled``) the verdict is checked on
     other placement seeds and the next finer grid (:mod:`breachflow.cycle.check`)."""
     from ..cycle.main import run_closure
-    from ..output.progress import Progress
+    from ..progress import Progress
     from ._common import QUIET, VERBOSE, fmt, level
 
     # the scenario's set-up and the steady flow through the open breach come before cycle 1
@@ -219,7 +219,7 @@ def _check_cli(out: Path, overwrite: bool, console):
     """Run the verdict check of the finished run in *out* (unless ``[check] enabled = false``: None) and
     return its :class:`~breachflow.cycle.check.CheckResult`."""
     from ..cycle.check import CheckSection, run_check
-    from ..output import RunDirectory
+    from ..io import RunDirectory
     from ..scenario import parse_scenario
 
     rd = RunDirectory(out)
@@ -258,12 +258,12 @@ def register(app: typer.Typer) -> None:
             _run_calculator(scenario, plot, out, con)
             return
         out = DEFAULT_OUT if out is None else out
-        from ..output import RunDirectory
+        from ..io import RunDirectory
 
         # the lock first: nothing is checked or written in a directory another process works on
         with RunDirectory(out).lock() as lock:
             if lock.stale:
-                from ..output.lock import describe
+                from ..io.lock import describe
 
                 con.print(f"note: a previous process died holding the lock of {out} ({describe(lock.stale)}); "
                           "its lock was taken over", highlight=False)

@@ -21,7 +21,7 @@ def register(app: typer.Typer) -> None:
         """Spheres settling from rest in still water: velocity–time curves, plot, terminal velocities."""
         from rich.table import Table
 
-        from ..output.progress import Progress
+        from ..progress import Progress
         from ._common import QUIET, console, level
 
         from ..studies.validation import drag_crisis_time, save_settling, settling_curves

@@ -99,7 +99,7 @@ def register(app: typer.Typer) -> None:
         tol = to_si(tolerance, name="--tolerance", kind="1/s", default_unit="1/s", positive=True)
         tmax = to_si(t_max, name="--t-max", kind="time", positive=True)
         dom = breach_domain(sc, dx, levee_no_flow=not levee_as_bed)
-        from ..hydro.crs import local_crs_wkt, resolve_crs
+        from ..field.crs import local_crs_wkt, resolve_crs
 
         # the CRS a closure run of the scene writes (the documented local one unless --crs)
         dom.crs_wkt = resolve_crs(crs, where="--crs", data_unit="m") if crs else local_crs_wkt()
@@ -112,7 +112,7 @@ def register(app: typer.Typer) -> None:
             region = breach_vicinity(dom, sc)
         elif monitor_radius:
             region = breach_vicinity(dom, sc, to_si(monitor_radius, name="--monitor-radius", kind="length", positive=True))
-        from ..output.progress import Progress
+        from ..progress import Progress
 
         with Progress("solving", total=tmax, unit="s simulated", console=con, quiet=level() <= QUIET) as bar:
             def progress(s_, h_):

@@ -225,7 +225,7 @@ def run_check(run_dir, scenario_text: str, scenario_path=None, *, section: Check
     import shutil
 
     from ..ensemble.spec import EnsembleSpec
-    from ..output import RunDirectory
+    from ..io import RunDirectory
     from ..scenario import parse_scenario
 
     w0, c0 = _time.perf_counter(), _time.process_time()

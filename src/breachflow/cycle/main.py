@@ -128,7 +128,7 @@ def run_closure(scenario=None, out="runs/default", *, resume: bool = False, over
 
 
 def _run_closure_locked(scenario, out, *, resume, overwrite, progress, plots, on_start) -> ClosureResult:
-    from ..output import RunDirectory
+    from ..io import RunDirectory
 
     t0 = _time.perf_counter()
     source = None

@@ -296,7 +296,7 @@ class TimelineSolver:
         return getattr(self.__dict__["inner"], name)
 
     def boundaries(self):
-        from ..hydro.terrain import BoundaryCondition
+        from ..swe.domain import BoundaryCondition
 
         tl = self.timeline
         bcs = self.boundaries_at(tl.flood_level)
@@ -312,7 +312,7 @@ class TimelineSolver:
     def solve(self, domain, obstacles=None, initial=None):
         from dataclasses import replace
 
-        from ..hydro.terrain import _copy_spacing
+        from ..swe.domain import _copy_spacing
 
         d = replace(domain, boundaries=self.boundaries())
         tail = self.timeline.tailwater

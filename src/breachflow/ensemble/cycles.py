@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from ..output.cycle_variables import cycle_coordinate
+from ..io.cycle_variables import cycle_coordinate
 
 PER_CYCLE = "ensemble_per_cycle"
 PREFIX = "cycle_"

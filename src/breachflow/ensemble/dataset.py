@@ -293,7 +293,7 @@ def write_result(ds: xr.Dataset, path) -> Path:
     from ..provenance import stamp
 
     ds = stamp(ds)  # breachflow version, git commit, command (one helper for every writer)
-    from ..output.cf import cf_text_coordinates, string_encoding
+    from ..io.cf import cf_text_coordinates, string_encoding
 
     ds = cf_text_coordinates(ds)
     with atomic_path(path, suffix=".nc") as tmp:
@@ -305,7 +305,7 @@ def open_result(path) -> xr.Dataset:
     """Open an ensemble result NetCDF (loaded into memory, file closed) in the representation
     :func:`breachflow.ensemble.run` returns: integer flags with their fill value, ``str`` arrays.
     (``xr.open_dataset`` works too; it decodes masked integers to float with NaN.)"""
-    from ..output.cf import restore_text_coordinates
+    from ..io.cf import restore_text_coordinates
 
     with xr.open_dataset(path) as ds:
         ds = restore_text_coordinates(ds.load())

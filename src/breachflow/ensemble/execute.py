@@ -462,7 +462,7 @@ class _progress:
         self.ok = self.failed = 0
 
     def __enter__(self):
-        from ..output.progress import Progress
+        from ..progress import Progress
 
         self.bar = Progress("members", total=self.total, unit="members", console=self.console,
                             quiet=not self.enabled).__enter__()

@@ -17,7 +17,7 @@ import math
 import numpy as np
 
 from ..dem import DemSimulation, HeightField, Material
-from ..hydro.snapshot import grid_snapshot
+from ..field.snapshot import grid_snapshot
 from . import nearbed as NB
 from .bed import KS_PER_GRAIN, BedRoughness
 from .forces import FluidForces

@@ -69,8 +69,8 @@ class CoarseStartSWE:
         return getattr(self.__dict__["solver"], name)
 
     def solve(self, domain, obstacles=None, initial=None):
-        from .swe.solver import SWESimulation, _mask
-        from .window_far import coarse_domain
+        from ..swe.solver import SWESimulation, _mask
+        from .far_field import coarse_domain
 
         s = self.solver
         if initial is not None:

@@ -49,7 +49,7 @@ def read_grid_file(path, cycle: int | None = None) -> xr.Dataset:
     """Read *path* as a snapshot: a run's cycle file or combine archive gives the grid of *cycle* (None:
     the last one in the file; :func:`cycle_snapshot`), any other file goes to
     :func:`~breachflow.hydro.snapshot.read_snapshot`. Validated against the snapshot schema."""
-    from ..hydro.snapshot import read_snapshot, validate_snapshot
+    from ..field.snapshot import read_snapshot, validate_snapshot
 
     path = Path(path)
     if not path.exists():

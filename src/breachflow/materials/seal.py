@@ -33,7 +33,7 @@ import math
 from dataclasses import dataclass
 
 from ..errors import InputError
-from ..hydro.swe.porous import forchheimer_coefficients
+from ..swe.porous import forchheimer_coefficients
 
 #: Terzaghi's retention limit D15_filter / D85_base (a layer retains the finer one behind it below it)
 RETENTION_LIMIT = 5.0

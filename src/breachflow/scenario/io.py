@@ -31,9 +31,9 @@ def write_netcdf(ds: xr.Dataset, path) -> Path:
         validate(ds, "closure_window")
     from ..provenance import stamp
 
-    from ..output.cf import string_encoding
+    from ..io.cf import string_encoding
 
-    from ..output.cf import cf_text_coordinates
+    from ..io.cf import cf_text_coordinates
 
     ds = cf_text_coordinates(stamp(netcdf_ready(ds)))
     with atomic_path(path) as tmp:

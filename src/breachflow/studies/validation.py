@@ -160,7 +160,7 @@ def save_settling(ds: xr.Dataset, out_dir, stem: str = "settling") -> dict[str, 
     paths = {"netcdf": out / f"{stem}.nc", "csv": out / f"{stem}.csv", "png": out / f"{stem}.png"}
     from ..provenance import stamp
 
-    from ..output.cf import cf_text_coordinates, string_encoding
+    from ..io.cf import cf_text_coordinates, string_encoding
 
     disk = cf_text_coordinates(stamp(ds))
     atomic_write(paths["netcdf"], lambda tmp: disk.to_netcdf(tmp, encoding=string_encoding(disk)))
