@@ -15,7 +15,7 @@ import sys
 
 def critical_coefficient(material, dn, angle_deg, depth=10.0, tol=0.005):
     from breachflow.dem import Material
-    from breachflow.fluid.drag import get_drag_law
+    from breachflow.fluid.drag import DRAG_LAWS
     from breachflow.studies.stability import stone_moves
 
     g = 9.80665
@@ -24,7 +24,7 @@ def critical_coefficient(material, dn, angle_deg, depth=10.0, tol=0.005):
                    rolling_friction=material.rolling_friction)
     u0 = math.sqrt(2 * g * (material.density - 1000.0) / 1000.0 * dn)
     a = math.radians(angle_deg)
-    law = get_drag_law("constant", value=material.drag_coefficient)
+    law = DRAG_LAWS.create("constant", value=material.drag_coefficient)
     lo, hi = 0.3, 2.0
     while hi - lo > tol:
         mid = 0.5 * (lo + hi)

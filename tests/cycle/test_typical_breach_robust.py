@@ -2,7 +2,7 @@
 
 ``examples/typical_breach.toml`` as shipped (4 m cells, 4 m rock, porous remap) runs at 4 m, at uniform
 2 m and on a nested 2 m grid at the breach, for placement seeds 1-3 each, through the verdict check
-(:func:`breachflow.cycle.check.run_check`: the members are closures of the ensemble runner). Asserted:
+(:func:`breachflow.ensemble.check.run_check`: the members are closures of the ensemble runner). Asserted:
 
 * the same outcome (closed / not closed) for every grid and seed;
 * tonnage in place (placed minus carried away) ranges over the seeds that overlap between the grids;
@@ -24,7 +24,7 @@ SEEDS = 3
 
 @pytest.mark.slow
 def test_typical_breach_same_verdict_on_4m_2m_nested_2m_for_three_seeds(tmp_path):
-    from breachflow.cycle.check import CheckSection, run_check
+    from breachflow.ensemble.check import CheckSection, run_check
     from breachflow.cycle.main import run_closure
 
     path = ROOT / "examples" / "typical_breach.toml"

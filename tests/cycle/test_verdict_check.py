@@ -1,4 +1,4 @@
-"""The verdict check (`[check]`, breachflow.cycle.check): how its runs are planned and read.
+"""The verdict check (`[check]`, breachflow.ensemble.check): how its runs are planned and read.
 
 The reading is tested on hand-made runs whose answer is known by counting: P(closure) = k / n with the
 Wilson interval from its closed form, the tonnage range from the runs' own numbers, and the statement
@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from breachflow.cycle.check import CheckRun, CheckSection, check_members, judge
+from breachflow.ensemble.check import CheckRun, CheckSection, check_members, judge
 from breachflow.errors import BreachflowError
 from breachflow.scenario import parse_scenario
 

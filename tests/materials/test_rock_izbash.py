@@ -9,7 +9,7 @@ import math
 import pytest
 
 from breachflow.dem import Material
-from breachflow.fluid.drag import get_drag_law
+from breachflow.fluid.drag import DRAG_LAWS
 from breachflow.studies.stability import stone_moves
 from breachflow.materials import get_material
 
@@ -25,7 +25,7 @@ def _moves(rock, dn, coefficient, angle_deg):
     u = coefficient * math.sqrt(2 * G * delta * dn)
     a = math.radians(angle_deg)
     return stone_moves(u, ds, 10.0, velocity_profile="uniform", material=mat, density=rock.density,
-                       drag_law=get_drag_law("constant", value=rock.drag_coefficient),
+                       drag_law=DRAG_LAWS.create("constant", value=rock.drag_coefficient),
                        direction=(math.cos(a), math.sin(a)))
 
 

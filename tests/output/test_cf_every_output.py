@@ -118,7 +118,7 @@ def _ensemble_file(tmp: Path) -> Path:
     """ensemble.nc of a closure-runner ensemble with 2 sizes x 3 replicates (one member failed), assembled and
     written by the ensemble's own code from member records as the closure runner returns them."""
     from breachflow.ensemble.dataset import build_dataset, write_result
-    from breachflow.ensemble.runners import normalise_results, resolve_runner
+    from breachflow.ensemble.runners import member_runners, normalise_results
     from breachflow.ensemble.spec import parse_spec
 
     spec = parse_spec("""
@@ -131,7 +131,7 @@ mass_size = { parameter = "placement.diameter", values = ["4 m", "5 m"], long_na
 [placement]
 batch = 10
 """)
-    runner = resolve_runner("closure")
+    runner = member_runners.get("closure")
     rng = np.random.default_rng(1)
     records = []
     for i in range(6):

@@ -6,7 +6,7 @@ import pytest
 
 from breachflow.errors import BreachflowError, InputError
 from breachflow.hydro.coarse_start import CoarseStartSWE, coarse_surface
-from breachflow.hydro.solvers import get_solver
+from breachflow.hydro.solvers import solvers
 from breachflow.swe.domain import uniform_grid
 from breachflow.hydro.far_field import coarse_domain
 from breachflow.scenario import parse_scenario
@@ -22,7 +22,7 @@ def bumpy_lake():
 
 def test_lake_at_rest_stays_at_rest_from_the_coarse_start():
     dom = bumpy_lake()
-    solver = CoarseStartSWE(get_solver("swe", tolerance=1e-6, t_max=20.0))
+    solver = CoarseStartSWE(solvers.create("swe", tolerance=1e-6, t_max=20.0))
     out = solver.solve(dom)
     eta = out["bed_elevation"].values + out["depth"].values
     assert np.max(np.abs(eta - 1.0)) < 1e-12
@@ -46,7 +46,7 @@ def test_coarse_surface_is_the_mean_over_the_wet_cells():
 
 def test_bad_settings_are_refused():
     with pytest.raises(InputError):
-        CoarseStartSWE(get_solver("swe"), factor=1)
+        CoarseStartSWE(solvers.create("swe"), factor=1)
     with pytest.raises(BreachflowError) as err:
         parse_scenario('[scenario]\nname = "x"\n\n[hydro]\ncold_start = "warm"\n')
     assert "cold_start" in str(err.value) and ":5:" in str(err.value)

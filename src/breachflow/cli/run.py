@@ -140,7 +140,7 @@ def run_closure_cli(scenario: Path | None, out: Path, resume: bool, overwrite: b
                     check: bool = True) -> None:
     """The closure run with a live progress line per cycle and a summary table; the console output (and
     warnings) also go to ``OUT/run.log``. With *check* (and ``[check] enabled``) the verdict is checked on
-    other placement seeds and the next finer grid (:mod:`breachflow.cycle.check`)."""
+    other placement seeds and the next finer grid (:mod:`breachflow.ensemble.check`)."""
     from ..cycle.main import run_closure
     from ..progress import Progress
     from ._common import QUIET, VERBOSE, fmt, level
@@ -217,8 +217,8 @@ def run_closure_cli(scenario: Path | None, out: Path, resume: bool, overwrite: b
 
 def _check_cli(out: Path, overwrite: bool, console):
     """Run the verdict check of the finished run in *out* (unless ``[check] enabled = false``: None) and
-    return its :class:`~breachflow.cycle.check.CheckResult`."""
-    from ..cycle.check import CheckSection, run_check
+    return its :class:`~breachflow.ensemble.check.CheckResult`."""
+    from ..ensemble.check import CheckSection, run_check
     from ..io import RunDirectory
     from ..scenario import parse_scenario
 

@@ -142,9 +142,9 @@ def closure_setup(scenario, *, overrides: dict | None = None):
         upd = {k: mat_params[k] for k in ("friction", "rolling_friction") if k not in mat_keys}
         dem = replace(dem, material=replace(dem.material, **upd))
         if mat_params["drag_coefficient"] is not None:
-            from ...fluid.drag import get_drag_law
+            from ...fluid.drag import DRAG_LAWS
 
-            dem = replace(dem, drag_law=get_drag_law("constant", value=mat_params["drag_coefficient"]))
+            dem = replace(dem, drag_law=DRAG_LAWS.create("constant", value=mat_params["drag_coefficient"]))
         metadata.update(material=placement.mix.name, material_drag_coefficient=mat_params["drag_coefficient"],
                         material_friction=dem.material.friction,
                         material_rolling_friction=dem.material.rolling_friction)

@@ -224,7 +224,7 @@ def run_check(run_dir, scenario_text: str, scenario_path=None, *, section: Check
     of an earlier check (an overwritten run)."""
     import shutil
 
-    from ..ensemble.spec import EnsembleSpec
+    from .spec import EnsembleSpec
     from ..io import RunDirectory
     from ..scenario import parse_scenario
 
@@ -281,8 +281,8 @@ def run_check(run_dir, scenario_text: str, scenario_path=None, *, section: Check
 def _execute(spec, out_dir: Path, workers: int, console) -> list[dict]:
     """Run the members (the ensemble machinery: member directories, result records, resume); in this
     process with one worker, on a dask local cluster otherwise."""
-    from ..ensemble.execute import RESULT_FILE, execute_member, plan, run
-    from ..ensemble.io import read_json
+    from .execute import RESULT_FILE, execute_member, plan, run
+    from .io import read_json
 
     if workers > 1:
         from rich.console import Console
@@ -329,7 +329,7 @@ def _open_breach_cached(path: Path, text: str, sc, scenario_path, res: float, se
     import dataclasses
     import hashlib
 
-    from ..ensemble.io import atomic_write_json, read_json
+    from .io import read_json, write_record
 
     key = hashlib.sha256(text.encode()).hexdigest()
     rec = read_json(path)
@@ -337,7 +337,7 @@ def _open_breach_cached(path: Path, text: str, sc, scenario_path, res: float, se
         return CheckRun(**{k: math.nan if v is None and k != "closed" else v for k, v in rec["run"].items()})
     run = _open_breach_on(sc, scenario_path, res, section)
     path.parent.mkdir(parents=True, exist_ok=True)
-    atomic_write_json(path, {"scenario_sha256": key, "run": {k: _f(v) if isinstance(v, float) else v
+    write_record(path, {"scenario_sha256": key, "run": {k: _f(v) if isinstance(v, float) else v
                                                              for k, v in dataclasses.asdict(run).items()}})
     return run
 
@@ -371,7 +371,7 @@ def _open_breach_on(sc, scenario_path, res: float, section: CheckSection) -> Che
 # ---------------------------------------------------------------------------------------------- judging
 def judge(runs: list[CheckRun], tolerance: float) -> CheckResult:
     """Read the runs: P(closure), tonnage range, grid differences of the open breach, the statement."""
-    from ..ensemble.dataset import wilson_interval
+    from .dataset import wilson_interval
 
     out = CheckResult(runs=runs, tolerance=tolerance)
     done = [r for r in runs if r.closed is not None and not r.error]
