@@ -94,7 +94,8 @@ def main(argv):
         print(f"wall {statistics.mean(walls):.1f} ± {sd(walls):.1f} s; scheduling efficiency "
               f"{statistics.mean(effs):.2f} ± {sd(effs):.2f} on {a.workers} workers")
         if a.check and a.flow == "swe":
-            from breachflow.atlas.execute import _inputs, plan
+            from breachflow.atlas.execute import plan
+            from breachflow.atlas.locations import load_inputs as _inputs
             from breachflow.atlas.screening import screen
 
             import dataclasses

@@ -129,7 +129,7 @@ def _district(folder: Path, *, flow="weir", spacing="400 m"):
 
 def test_weir_screening_against_independent_arithmetic(small_district):
     d = load_district(_district(small_district))
-    from breachflow.atlas.execute import _inputs
+    from breachflow.atlas.locations import load_inputs as _inputs
 
     terrain, levee = _inputs(str(d.terrain), str(d.levee), None, None)
     loc = locate(levee, terrain, spacing=d.spacing, margin=d.margin)[1]
@@ -176,7 +176,7 @@ def test_weir_screening_against_independent_arithmetic(small_district):
 def test_no_head_is_not_at_risk(small_district):
     text = _district(small_district).read_text().replace('level = "5.0 m"', 'level = "-2.0 m"')
     d = parse_district(text, small_district / "low.toml")
-    from breachflow.atlas.execute import _inputs
+    from breachflow.atlas.locations import load_inputs as _inputs
 
     terrain, levee = _inputs(str(d.terrain), str(d.levee), None, None)
     r = screen(locate(levee, terrain, spacing=d.spacing, margin=d.margin)[0], d, terrain=terrain, levee=levee)

@@ -1,5 +1,5 @@
 """The rough bed in the terrain contact (breachflow.fluid.bed, dem.pocket) and incipient motion in the DEM
-(breachflow.fluid.incipient) against published data: the pocket's threshold on an incline equals the pivot
+(breachflow.studies.incipient) against published data: the pocket's threshold on an incline equals the pivot
 angle of Wiberg & Smith (1987); Shields' critical parameter of coarse grains on a bed of the same grains in
 0.03-0.06 (Shields 1936; Meyer-Peter & Mueller 1948: 0.047); Izbash's coefficient of rock (C_D = 1, no drag
 crisis) in his band 0.86-1.20 for the relative depths at which it is applied to the depth-averaged velocity."""
@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from breachflow.dem import DemSimulation, HeightField, Material
-from breachflow.fluid import incipient as I
+from breachflow.studies import incipient as I
 from breachflow.fluid import nearbed as NB
 from breachflow.fluid.bed import BedRoughness, pivot_angle
 from breachflow.fluid.drag import ConstantDrag

@@ -16,7 +16,6 @@ another worker (``distributed.scheduler.allowed-failures``).
 """
 from __future__ import annotations
 
-import functools
 import hashlib
 import json
 import time
@@ -26,7 +25,7 @@ from pathlib import Path
 from ..errors import InputError
 from ..atomic import atomic_write_json, atomic_write_text
 from .config import District, load_district
-from .locations import Location, locate
+from .locations import Location, load_inputs as _inputs, locate
 
 RECORD_FORMAT = "breachflow.atlas.location/1"
 
@@ -40,18 +39,6 @@ def plan(district: District | str | Path) -> tuple[District, list[Location]]:
                             flood_side=district.flood_side)
 
 
-@functools.lru_cache(maxsize=2)
-def _inputs(terrain_path: str, levee_path: str, crs, terrain_units):
-    """Terrain and levee line, read once per process (a worker screens many locations on one terrain)."""
-    from ..site.domain import _check_crosses, _check_crs
-    from ..site.geometry import load_levee
-    from ..site.terrain import load_terrain
-
-    terrain = load_terrain(terrain_path, crs=crs, vertical_units=terrain_units)
-    levee = load_levee(levee_path)
-    _check_crs(terrain, levee)
-    _check_crosses(terrain, levee)
-    return terrain, levee
 
 
 def location_key(district: District, loc: Location) -> str:

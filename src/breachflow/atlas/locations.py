@@ -14,6 +14,7 @@ levee on a low polder): the head that drives the breach flow is ``h_W = flood le
 """
 from __future__ import annotations
 
+import functools
 from dataclasses import asdict, dataclass
 
 import numpy as np
@@ -141,3 +142,18 @@ def locate(levee: LeveeLine, terrain: Terrain, *, spacing: float, points=(), mar
         out.append(Location(index=i, chainage=float(s), x=float(p[0]), y=float(p[1]), tangent=(float(t[0]), float(t[1])),
                             user_point=bool(u), **sec))
     return out
+
+
+@functools.lru_cache(maxsize=2)
+def load_inputs(terrain_path: str, levee_path: str, crs, terrain_units):
+    """Terrain and levee line, checked against each other, read once per process (a worker screens many
+    locations on one terrain)."""
+    from ..site.domain import _check_crosses, _check_crs
+    from ..site.geometry import load_levee
+    from ..site.terrain import load_terrain
+
+    terrain = load_terrain(terrain_path, crs=crs, vertical_units=terrain_units)
+    levee = load_levee(levee_path)
+    _check_crs(terrain, levee)
+    _check_crosses(terrain, levee)
+    return terrain, levee

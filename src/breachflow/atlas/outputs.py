@@ -96,7 +96,7 @@ def reach_lines(locations: list[Location], levee) -> list:
 
 
 def write_outputs(ds: xr.Dataset, district: District, locations: list[Location], out: Path) -> list[Path]:
-    from .execute import _inputs
+    from .locations import load_inputs as _inputs
 
     terrain, levee = _inputs(str(district.terrain), str(district.levee), district.crs, district.terrain_units)
     paths = [atomic_write_netcdf(ds, out / "atlas.nc")]

@@ -422,4 +422,3 @@ class OverflowDischarge(Criterion):
     def value(self, ctx):
         return max(abs(section_discharge(ctx.snapshot, ctx.breach_x, ctx.levee_y)) - abs(ctx.seepage_discharge), 0.0)
 
-from . import leakage as _leakage  # noqa: E402,F401  (registers ``polder_leakage``)

@@ -344,8 +344,8 @@ def _open_breach_cached(path: Path, text: str, sc, scenario_path, res: float, se
 
 def _open_breach_on(sc, scenario_path, res: float, section: CheckSection) -> CheckRun:
     """The open breach solved on the finer grid (no closure): its discharge and gap speeds."""
-    from .config import closure_setup
-    from .criteria import gap_section_speeds, section_discharge
+    from ..cycle.config import closure_setup
+    from ..cycle.criteria import gap_section_speeds, section_discharge
 
     hydro = sc["hydro"]
     old = (hydro.resolution, hydro.refine)

@@ -40,7 +40,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..dem.pocket import pocket_tangent  # noqa: F401  (the kernel's definition, re-exported)
 from ..errors import InputError
 
 #: Wiberg & Smith's (1987) offset of the grain's base, fitted to Miller & Byrne's natural sand

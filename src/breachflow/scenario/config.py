@@ -33,6 +33,7 @@ from ..errors import BreachflowError, InputError, ParseError
 from ..registry import Registry
 from .geometry import BreachGeometry, LeveeGeometry
 from .quantities import si_input
+from .toml import line_of as _line_of
 
 #: the scenario sections, by name
 sections: Registry = Registry("scenario section", "breachflow.scenario_sections")
@@ -397,25 +398,8 @@ def _section_class(name: str, text: str, path):
     return sections.get(name)
 
 
-_TABLE = re.compile(r"^\s*\[\[?\s*([^\]]+?)\s*\]\]?\s*(#.*)?$")
 
 
-def _line_of(text: str, section: str, key: str | None) -> int | None:
-    """1-based line of ``[section]`` (key None) or of ``key =`` inside it; dotted sections allowed."""
-    if not text:
-        return None
-    current = ""
-    key_re = re.compile(r'^\s*["\']?' + re.escape(key) + r'["\']?\s*=') if key else None
-    for number, line in enumerate(text.splitlines(), start=1):
-        m = _TABLE.match(line)
-        if m:
-            current = m.group(1).replace(" ", "")
-            if key is None and current == section:
-                return number
-            continue
-        if key_re is not None and current == section and key_re.match(line):
-            return number
-    return None
 
 
 def _similar(a: str, b: str) -> bool:
@@ -443,4 +427,3 @@ def _read(path) -> str:
 
 # the [polder] section lives with the polder's water balance; imported here so that it is registered
 # with the built-in sections and stays importable from this module
-from .polder import PolderSection  # noqa: E402,F401

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import BreachflowError, InputError, ParseError
+from ..limits import MAX_CELLS, MAX_PARTICLES, check_grid_size  # noqa: F401  (re-exported)
 from .quantities import si_input
 
 
@@ -113,11 +114,6 @@ RANGES: dict[tuple[str, str], Bound] = {
     ("criteria", "max_cycles"): Bound("count", 1, 100_000, "", "each cycle is a flow solve and a DEM run"),
 }
 
-#: the most particles a run may hold (``batch × max_cycles``): every cycle file stores all of them
-MAX_PARTICLES = 1_000_000
-#: the most cells of a hydrodynamic grid: each is about 20 float64 state arrays (about 0.2 kB a cell);
-#: 2e7 cells is about 4 GB
-MAX_CELLS = 20_000_000
 
 #: command-line option name → (section, key) of :data:`RANGES` (``breachflow window``)
 OPTION_KEYS = {"breach_length": ("breach", "length"), "discharge": ("breach", "discharge"),
@@ -174,7 +170,7 @@ def check_scenario(data: dict, text: str, path=None) -> None:
     """Refuse the first implausible value of the parsed TOML *data* (a :class:`~breachflow.errors.ParseError`
     naming the file, line, key and value), and a run whose particle count (``batch × max_cycles``) or grid
     could not be held in memory."""
-    from .config import _line_of
+    from .toml import line_of as _line_of
 
     for (section, key), _ in RANGES.items():
         table = data.get(section)
@@ -192,11 +188,3 @@ def check_scenario(data: dict, text: str, path=None) -> None:
                          f"every mass)", path=path, line=_line_of(text, "placement", "batch"))
 
 
-def check_grid_size(nx: int, ny: int, dx: float, dy: float, extent) -> None:
-    """Refuse a grid of more than :data:`MAX_CELLS` cells before it is allocated, naming its size."""
-    cells = float(nx) * float(ny)
-    if not cells <= MAX_CELLS:
-        x0, x1, y0, y1 = extent
-        raise InputError(f"the hydrodynamic grid would have {nx:,} × {ny:,} = {cells:.3g} cells of {dx:.4g} × {dy:.4g} m "
-                         f"over x {x0:.6g}…{x1:.6g} m, y {y0:.6g}…{y1:.6g} m; at most {MAX_CELLS:.3g} fit in memory. "
-                         f"Use a coarser [hydro] resolution or a smaller extent (check the units of the lengths)")

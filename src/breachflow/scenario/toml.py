@@ -101,3 +101,24 @@ def _value(v) -> str:
     if hasattr(v, "isoformat"):
         return v.isoformat()
     raise InputError(f"cannot write {v!r} to TOML")
+
+
+_TABLE = re.compile(r"^\s*\[\[?\s*([^\]]+?)\s*\]\]?\s*(#.*)?$")
+
+
+def line_of(text: str, section: str, key: str | None) -> int | None:
+    """1-based line of ``[section]`` (key None) or of ``key =`` inside it; dotted sections allowed."""
+    if not text:
+        return None
+    current = ""
+    key_re = re.compile(r'^\s*["\']?' + re.escape(key) + r'["\']?\s*=') if key else None
+    for number, line in enumerate(text.splitlines(), start=1):
+        m = _TABLE.match(line)
+        if m:
+            current = m.group(1).replace(" ", "")
+            if key is None and current == section:
+                return number
+            continue
+        if key_re is not None and current == section and key_re.match(line):
+            return number
+    return None

@@ -226,7 +226,7 @@ def uniform_grid(x0: float, x1: float, y0: float, y1: float, dx: float, dy: floa
     if not (x1 > x0 and y1 > y0 and dx > 0 and dy > 0):
         raise InputError(f"uniform_grid: empty extent or spacing ({x0}, {x1}, {y0}, {y1}, {dx}, {dy})")
     nx_f, ny_f = round((x1 - x0) / dx), round((y1 - y0) / dy)
-    from ..scenario.plausibility import check_grid_size
+    from ..limits import check_grid_size
 
     check_grid_size(nx_f, ny_f, dx, dy, (x0, x1, y0, y1))  # before anything of that size is allocated
     nx = max(1, int(nx_f))

@@ -18,9 +18,9 @@ import numpy as np
 
 from ..dem import DemSimulation, HeightField, Material
 from ..field.snapshot import grid_snapshot
-from . import nearbed as NB
-from .bed import KS_PER_GRAIN, BedRoughness
-from .forces import FluidForces
+from ..fluid import nearbed as NB
+from ..fluid.bed import KS_PER_GRAIN, BedRoughness
+from ..fluid.forces import FluidForces
 
 G = 9.80665
 
