@@ -19,7 +19,7 @@ class AdaptiveFreeFlight:
     While every awake particle is clear of all other particles and boundaries, the awake set moves by
     one step of an embedded Runge–Kutta pair (``method``: ``dopri5`` or ``bs32``, see
     :mod:`breachflow.fluid.freeflight`) of ``dx/dt = v``, ``(m + m_A(x)) dv/dt = F_G + sum(models) + d_GN``,
-    ``I dw/dt = sum(torques) + d_GW`` (SPEC §5, §6), with the step size set by ``rtol``/``atol`` and
+    ``I dw/dt = sum(torques) + d_GW`` (docs/theory.md, *DEM contact*, *Fluid forces on a mass*), with the step size set by ``rtol``/``atol`` and
     bounded so no particle can close its clearance within the step (checked again after the step;
     a step that would end in contact is retried shorter).  When a particle comes within ``margin``
     (default half the neighbour-list skin) of a partner, the simulation steps the fixed ``dt`` of the
