@@ -49,7 +49,8 @@ def test_a_new_page_joins_the_topics_toctree(tmp_path):
     src.mkdir()
     shutil.copy(ROOT / "docs" / "conf.py", src / "conf.py")
     index = (ROOT / "docs" / "index.md").read_text()
-    listed = ("getting-started", "tutorials", "scenario_reference", "theory", "validation", "performance", "api")
+    # every page of the guide is left out of the copied index (none is copied), so the new page is the only one
+    listed = {p.stem for p in (ROOT / "docs").iterdir() if p.suffix in (".md", ".rst")}
     index = "\n".join(line for line in index.splitlines() if line.strip() not in listed)
     index = index.replace("{doc}", "")  # no cross-references to the pages left out
     (src / "index.md").write_text(index)

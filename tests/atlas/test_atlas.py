@@ -435,6 +435,6 @@ def test_cli_atlas_follows_the_run_conventions(small_district, tmp_path):
     assert all(p.stat().st_mtime_ns > stamps[p.name] for p in (out / "locations").iterdir())
     bad = tmp_path / "bad.toml"
     bad.write_text(path.read_text().replace('spacing = "400 m"', 'spacing = "400 kg"'))
-    err = subprocess.run(cmd[:3] + [str(bad), "--out", str(tmp_path / "x")], capture_output=True, text=True, timeout=600)
+    err = subprocess.run(cmd[:4] + [str(bad), "--out", str(tmp_path / "x")], capture_output=True, text=True, timeout=600)
     assert err.returncode != 0 and "bad.toml" in err.stdout + err.stderr and "spacing" in err.stdout + err.stderr
     assert not (tmp_path / "x").exists()

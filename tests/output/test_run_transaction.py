@@ -22,7 +22,7 @@ from .test_rundir import _field, _traj
 
 HOLD = textwrap.dedent("""
     import sys, time
-    from breachflow.output.lock import RunLock
+    from breachflow.io.lock import RunLock
     with RunLock(sys.argv[1]):
         print("locked", flush=True)
         time.sleep(float(sys.argv[2]))
@@ -82,7 +82,7 @@ def test_two_starts_at_the_same_moment_exactly_one_runs(tmp_path):
     with the directory named, and the manifest and scenario.toml are the winner's."""
     code = textwrap.dedent("""
         import sys, time
-        from breachflow.output import RunDirectory
+        from breachflow.io import RunDirectory
         from breachflow.errors import InputError
         go = float(sys.argv[2])
         while time.time() < go:

@@ -44,7 +44,7 @@ class BreachflowBackendEntrypoint(BackendEntrypoint):
         """Open *filename_or_obj* (and its *companions*) as :func:`~breachflow.hydro.io.open_snapshot` does;
         *options* are the reader's own (``bed=``, ``roles=``, ``mesh_name=``, ``time_units=``, ...)."""
         from . import open_snapshot
-        from ...errors import InputError
+        from ..errors import InputError
 
         if not isinstance(filename_or_obj, (str, Path)):
             raise InputError("engine 'breachflow' opens files by path, not file objects or stores")
