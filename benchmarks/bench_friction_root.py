@@ -2,7 +2,7 @@
 
     python3 tasks.py bench friction_root [--cells 4000000] [--repeats 5]
 
-The implicit Manning friction of the SWE update (``breachflow.hydro.swe.step._update``) needs
+The implicit Manning friction of the SWE update (``breachflow.swe.step._update``) needs
 ``h^(7/3) = h² h^(1/3)`` once per wet cell and stage. Timed here in a compiled loop over random depths
 (0.5-10 m, a branch per cell as in the kernel so that the loop is not vectorised): ``pow`` (``h ** (1.0 / 3.0)``,
 the kernel's expression), ``cbrt`` (``np.cbrt``, libm's cube root), ``newton`` (one Newton step from a

@@ -4,7 +4,7 @@
 D_n = 0.5, 1, 2 m and flow directions 0°, 30°, 60°, 90°, 180° over the bed pocket, the depth-averaged velocity
 (uniform profile, 10 m of water) at which the unit — its volume-equivalent sphere with the material's drag
 coefficient, friction and rolling resistance (:mod:`breachflow.materials`) — starts to move
-(:func:`breachflow.fluid.stability.stone_moves`), and prints ``u_c / sqrt(2 g Delta D_n)`` next to Izbash's
+(:func:`breachflow.studies.stability.stone_moves`), and prints ``u_c / sqrt(2 g Delta D_n)`` next to Izbash's
 exposed (0.86) and embedded (1.2) coefficients.
 """
 from __future__ import annotations

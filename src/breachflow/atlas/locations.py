@@ -5,7 +5,7 @@ At chainage ``s`` the terrain is sampled along the normal to the line, 5 profile
 
 * crest elevation ``z_c``: the highest point within ``crest_search`` (15 m) of the centreline;
 * protected-side ground ``z_p`` and flood-side ground ``z_f``: the median ground between 1 and 3 levee
-  heights beyond the toe, where the profile has come down from the crest (:func:`_toe`);
+  heights beyond the toe, where the profile has come down from the crest (the toe: where the profile stops falling);
 * levee height ``h_L = z_c - z_p``; crown width: where the profile stays within 10 cm of the crest;
   side slopes (H per V) from the crown edges to the toes.
 
@@ -132,7 +132,7 @@ def _toe(offs, z, start: int, step: int, crest: float) -> dict:
 
 def locate(levee: LeveeLine, terrain: Terrain, *, spacing: float, points=(), margin: float = 0.0,
            flood_side: str = "left") -> list[Location]:
-    """Every candidate location along *levee* with its section (see :func:`chainages`, :func:`cross_section`)."""
+    """Every candidate location along *levee* with its section (see :func:`~breachflow.atlas.locations.chainages`, :func:`~breachflow.atlas.locations.cross_section`)."""
     s_all, user = chainages(levee.length, spacing, points, margin)
     out = []
     for i, (s, u) in enumerate(zip(s_all, user)):

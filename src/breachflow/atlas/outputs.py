@@ -107,7 +107,7 @@ def write_outputs(ds: xr.Dataset, district: District, locations: list[Location],
 
 
 def write_geopackage(ds: xr.Dataset, lines: list, path: Path, crs_wkt: str | None) -> Path:
-    """The atlas as a GeoPackage layer :data:`LAYER` of levee reaches (pyogrio)."""
+    """The atlas as a GeoPackage layer ``breach_atlas`` of levee reaches (pyogrio)."""
     import pyogrio.raw
     import shapely
 

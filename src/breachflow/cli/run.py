@@ -104,7 +104,7 @@ DEFAULT_OUT = Path("runs/default")
 def check_run_target(scenario: Path | None, out: Path, resume: bool, overwrite: bool) -> bool:
     """Decide, before anything is written, whether ``breachflow run`` may use *out*; returns *overwrite*.
 
-    The caller holds the directory's lock (:meth:`~breachflow.output.RunDirectory.lock`). A run directory
+    The caller holds the directory's lock (:meth:`~breachflow.io.RunDirectory.lock`). A run directory
     is never replaced without ``--overwrite``, whatever its scenario (the embedded default included) and
     state (finished, or stopped after some cycles): it is refused with the flags that would continue or
     replace it. ``--resume`` needs a run."""

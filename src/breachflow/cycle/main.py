@@ -116,8 +116,8 @@ def run_closure(scenario=None, out="runs/default", *, resume: bool = False, over
     *resume* and no scenario, the ``scenario.toml`` stored in the run directory) in the run directory
     *out*; returns the :class:`ClosureResult`.
 
-    The run directory's exclusive lock (:class:`~breachflow.output.lock.RunLock`) is taken first and held to
-    the end (:class:`~breachflow.output.lock.RunLockedError` names the holder when another process has it);
+    The run directory's exclusive lock (:class:`~breachflow.io.lock.RunLock`) is taken first and held to
+    the end (:class:`~breachflow.io.lock.RunLockedError` names the holder when another process has it);
     the scenario is parsed and checked in full before anything is written. *on_start(run)* is
     called with the :class:`~breachflow.cycle.driver.ClosureRun` once its directory is started or resumed, before any work."""
     from ..io import RunDirectory

@@ -4,7 +4,7 @@ dimensions and ``cycle``.
 A member runner that writes closure runs says where its members' cycle files are (class attribute
 ``cycle_files``, a glob relative to the member's run directory, e.g. ``"closure/cycle_*.nc"``).
 :func:`add_per_cycle` reads every numeric per-cycle variable of those files
-(:mod:`breachflow.output.cycle_variables`: breach discharge, gap speeds, masses and mass placed and lost,
+(:mod:`breachflow.io.cycle_variables`: breach discharge, gap speeds, masses and mass placed and lost,
 criteria, ...) and adds it to the result as ``cycle_<name>`` with dimensions ``(*ensemble dims, cycle)``;
 members that stopped earlier (or failed) are filled with NaN / the integer fill value after their last
 cycle. These variables carry ``ensemble_per_cycle = "cycle"``.

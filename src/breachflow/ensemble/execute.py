@@ -454,7 +454,7 @@ def _modules_of(runner_cls) -> tuple[str, ...]:
 
 
 class _progress:
-    """Progress over members (ok / failed counts): :class:`breachflow.output.progress.Progress`, a bar on a
+    """Progress over members (ok / failed counts): :class:`breachflow.progress.Progress`, a bar on a
     terminal and a line at least every 10 s when piped or logged."""
 
     def __init__(self, console, total: int, enabled: bool):

@@ -31,7 +31,7 @@ tops (Einstein & El-Samni 1949) for ``D = d``, and ``D/2 + 0.2 d`` for ``D >> d`
 field puts it at ``D/2``: within 0.02 ``D`` (``D = d``) to 0.2 ``d`` (``D >> d``).
 
 Roughness height of the bed: ``k_s = 2 d`` (Kamphuis 1974, J. Hydraul. Res. 12(2): ``k_s = 2 D90`` for
-gravel; the same ``k_s = 2 D`` as the stone-stability set-up of :mod:`breachflow.fluid.stability`).
+gravel; the same ``k_s = 2 D`` as the stone-stability set-up of :mod:`breachflow.studies.stability`).
 """
 from __future__ import annotations
 

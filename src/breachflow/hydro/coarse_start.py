@@ -5,7 +5,7 @@ the flow settles: about a minute of simulated time for the typical breach, every
 cell and step. The same transient on cells ``factor`` times larger costs about ``factor³`` less (fewer
 cells, longer steps), and its steady state, laid on the fine grid
 (the warm start from another grid of
-:class:`~breachflow.hydro.swe.solver.SWESimulation`: the wet-weighted water surface on the fine bed, the
+:class:`~breachflow.swe.solver.SWESimulation`: the wet-weighted water surface on the fine bed, the
 velocities interpolated), leaves the fine solve only the local correction: the grid sequencing of steady CFD solvers.
 
 The fine solve's steady-state test is the same as from the cold start (tolerance, monitored region and
@@ -52,7 +52,7 @@ def coarse_surface(dom, index, cdom) -> np.ndarray | None:
 
 
 class CoarseStartSWE:
-    """A cold :class:`~breachflow.hydro.swe.solver.SWESolver` *solver* started from its own steady state
+    """A cold :class:`~breachflow.swe.solver.SWESolver` *solver* started from its own steady state
     on a grid *factor* times coarser (module docstring). Warm starts (an *initial* state) go to *solver*
     unchanged. ``last_info`` holds the CPU time (s) and simulated time (s) of both levels."""
 

@@ -6,7 +6,7 @@ cycles along the dimension ``cycle``, with the particles and the per-cycle figur
 file): the grid variables of that cycle, without the ``cycle`` dimension, the particles or the per-cycle
 scalars, checked against the snapshot schema — so ``breachflow inspect`` and ``breachflow export``
 take a run's files as they take ``solve`` and ``ingest`` output. Any other file is read with
-:func:`breachflow.hydro.snapshot.read_snapshot`.
+:func:`breachflow.field.snapshot.read_snapshot`.
 """
 from __future__ import annotations
 
@@ -48,7 +48,7 @@ def cycle_snapshot(ds: xr.Dataset, cycle: int | None = None, *, source: str = ""
 def read_grid_file(path, cycle: int | None = None) -> xr.Dataset:
     """Read *path* as a snapshot: a run's cycle file or combine archive gives the grid of *cycle* (None:
     the last one in the file; :func:`cycle_snapshot`), any other file goes to
-    :func:`~breachflow.hydro.snapshot.read_snapshot`. Validated against the snapshot schema."""
+    :func:`~breachflow.field.snapshot.read_snapshot`. Validated against the snapshot schema."""
     from ..field.snapshot import read_snapshot, validate_snapshot
 
     path = Path(path)

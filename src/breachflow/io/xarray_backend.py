@@ -5,11 +5,11 @@
 >>> ds = xr.open_dataset("depth.asc", engine="breachflow", units="ft")      # doctest: +SKIP
 
 xarray finds the engine through the entry point group ``xarray.backends`` (declared in pyproject.toml), as
-it finds cfgrib's and rioxarray's. Opening delegates to :func:`breachflow.hydro.io.open_snapshot`: the
+it finds cfgrib's and rioxarray's. Opening delegates to :func:`breachflow.io.open_snapshot`: the
 result is the same validated SI snapshot Dataset. A snapshot that needs several files (an ADH mesh with its
 ``.dat`` datasets and ``.bc``) is opened from its mesh file: the companions named ``STEM_*.dat`` and
 ``STEM.bc`` beside it are found by name, or pass them as ``companions=[...]``; or call
-:func:`~breachflow.hydro.io.open_snapshot` with the list.
+:func:`~breachflow.io.open_snapshot` with the list.
 """
 from __future__ import annotations
 
@@ -41,7 +41,7 @@ class BreachflowBackendEntrypoint(BackendEntrypoint):
 
     def open_dataset(self, filename_or_obj, *, drop_variables=None, format=None, units=None, crs=None,
                      companions=None, plausibility="raise", **options):
-        """Open *filename_or_obj* (and its *companions*) as :func:`~breachflow.hydro.io.open_snapshot` does;
+        """Open *filename_or_obj* (and its *companions*) as :func:`~breachflow.io.open_snapshot` does;
         *options* are the reader's own (``bed=``, ``roles=``, ``mesh_name=``, ``time_units=``, ...)."""
         from . import open_snapshot
         from ..errors import InputError

@@ -1,7 +1,7 @@
 """Sealing a rock dam: filter layers of finer grading on its upstream face, their stability and their effect.
 
 A dumped rock dam leaks: the flow through its pores follows Forchheimer's law ``i = a V + b V|V|``
-(:mod:`breachflow.hydro.swe.porous`, coefficients of Ergun 1952 or van Gent 1995 from the porosity and the
+(:mod:`breachflow.swe.porous`, coefficients of Ergun 1952 or van Gent 1995 from the porosity and the
 grain size). Finer material placed against its upstream face adds a layer of much higher resistance; the
 leakage falls until it meets the closure criterion (:func:`breachflow.cycle.leakage.polder_leakage_check`).
 

@@ -8,7 +8,7 @@ a physical argument bounds, the plausible range in SI units and why; :func:`chec
 by :func:`breachflow.scenario.config.parse_scenario`, for every scenario: ``run``, ``window --scenario``,
 every ensemble member) refuses a value outside it with a :class:`~breachflow.errors.ParseError` naming
 the file, line, key and value. :func:`check_value` does the same for a command-line option, and
-:func:`check_grid_size` refuses a hydrodynamic grid too large to allocate before it is allocated.
+:func:`~breachflow.limits.check_grid_size` refuses a hydrodynamic grid too large to allocate before it is allocated.
 
 The bounds are wide on purpose (an order of magnitude or more beyond the cases the model was built and
 tested for): they catch unit mix-ups and typos, not unusual sites. docs/run-safety.md lists them with
