@@ -160,9 +160,12 @@ def test_weir_screening_against_independent_arithmetic(small_district):
     b, m = max(3 * D, 1.0), 1.5
     V = b * B * H + m * B * H ** 2                        # crest b, side slopes 1.5, vertical breach walls
     assert r["tonnage_t"] == pytest.approx(0.6 * V * 2.65, rel=1e-9)
-    # methods: mobilisation + tonnage / capacity over the working hours; the fastest one that fits the window
+    # methods: mobilisation + the work (tonnage / capacity) on the calendar of the working hours, 16 h a day for
+    # the trucks (whole days of 24 h, then the rest of the work); the fastest one that fits the window
     barge = 24.0 + r["tonnage_t"] / 1000.0
-    trucks = 12.0 + r["tonnage_t"] / 350.0 * 24.0 / 16.0
+    work = r["tonnage_t"] / 350.0
+    days, rest = divmod(work, 16.0)
+    trucks = 12.0 + days * 24.0 + rest
     assert r["duration_h_split_barge"] == pytest.approx(barge, rel=1e-9)
     assert r["duration_h_end_dumping"] == pytest.approx(trucks, rel=1e-9)
     window = r["closure_window_h"]
@@ -189,6 +192,7 @@ def test_no_head_is_not_at_risk(small_district):
     (('flow = "weir"', 'flow = "lbm"'), "unknown flow model"),
     (('spacing = "400 m"', 'spacing = "400 kg"'), "spacing"),
     (('working_hours = "16 h"', 'working_hours = "30 h"'), "per day"),
+    (('[methods.end_dumping]\ncapacity = "350 t/h"', '[methods.catapult]'), "not a delivery method"),
     (('[polder]', '[poldr]'), "unknown section"),
 ])
 def test_bad_district_files_name_the_key(small_district, change, match):

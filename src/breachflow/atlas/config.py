@@ -32,10 +32,10 @@ A district TOML (every quantity with units; paths relative to the file)::
     density = "2650 kg/m^3"
     porosity = 0.4
 
-    [methods.split_barge]            # one table per closure method
-    capacity = "1000 t/h"
-    working_hours = "24 h"           # per day
-    mobilisation = "24 h"            # until the first load is dumped
+    [methods.split_barge]            # one table per closure method: a delivery method of the closure run
+    capacity = "1000 t/h"            # (split_barge, barge_crane, end_dumping, cableway, helicopter) with its
+    working_hours = "24 h"           # defaults overridden, or your own (method = NAME not registered: give
+    mobilisation = "24 h"            # capacity); mobilisation: until the first load is dumped
 
 :func:`load_district` checks every key before anything runs; errors name the file, line and key.
 """
@@ -54,7 +54,7 @@ FLOOD_KEYS = {"level", "fall_rate", "rise_rate", "preset", "duration"}
 POLDER_KEYS = {"area", "inundation_depth", "pump_capacity"}
 BREACH_KEYS = {"growth", "max_length", "development_time", "flow", "resolution", "manning_n", "t_max", "tolerance"}
 ROCK_KEYS = {"density", "porosity", "side_slope"}
-METHOD_KEYS = {"capacity", "working_hours", "mobilisation", "description"}
+METHOD_KEYS = {"method", "capacity", "working_hours", "mobilisation", "description"}
 DETAILED_KEYS = {"worst", "replicates", "scenario"}
 TOP_LEVEL = {"district", "flood", "polder", "breach", "rock", "methods", "detailed"}
 FLOW_MODELS = ("swe", "weir")
@@ -62,18 +62,29 @@ FLOW_MODELS = ("swe", "weir")
 
 @dataclass(frozen=True)
 class ClosureMethod:
-    """A way of delivering rock to the breach: capacity (kg/s), working hours per day (s), mobilisation (s)."""
+    """A closure method of the atlas: a delivery method of the closure run (:mod:`breachflow.cycle.delivery`:
+    capacity, working hours, wind limit, units) and the mobilisation time (s) until its first load is dumped."""
 
     name: str
-    capacity: float
-    working_hours: float = 86400.0
+    delivery: object
     mobilisation: float = 0.0
     description: str = ""
 
+    @property
+    def capacity(self) -> float:
+        return self.delivery.capacity
+
+    @property
+    def working_hours(self) -> float:
+        return self.delivery.working_hours
+
     def duration(self, tonnage_kg: float) -> float:
-        """Time (s) from the start of mobilisation until *tonnage_kg* is in place."""
-        days_work = tonnage_kg / self.capacity / self.working_hours  # working days
-        return self.mobilisation + days_work * 86400.0
+        """Time (s) from the start of mobilisation until *tonnage_kg* is in place: the mobilisation, then the
+        working time spread over the method's working hours of each day (the closure run's clock,
+        :class:`~breachflow.cycle.delivery.DeliveryClock`, without a wind record)."""
+        from ..cycle.delivery import DeliveryClock
+
+        return self.mobilisation + DeliveryClock(self.delivery).time_after(self.delivery.work_time(tonnage_kg))
 
 
 @dataclass(frozen=True)
@@ -189,19 +200,38 @@ def parse_district(text: str, path: Path | None = None) -> District:
     if not isinstance(mtab, dict) or not mtab:
         raise ParseError("[methods]: give at least one closure method table, e.g. [methods.split_barge] "
                          "capacity = \"1000 t/h\"", path=path)
+    from ..cycle.delivery import DeliveryMethod, delivery_method, delivery_methods
+
     for name, m in mtab.items():
         cm = ctx(f"methods.{name}")
         if not isinstance(m, dict):
             raise cm.error("expected a table of capacity, working_hours, mobilisation")
         cm.check_keys(m, METHOD_KEYS)
+        kind = cm.raw(m, "method", default=name)
+        over = {}
+        if "capacity" in m:
+            over["capacity"] = cm.quantity(m, "capacity", "kg/s", positive=True)
+        if "working_hours" in m:
+            over["working_hours"] = cm.quantity(m, "working_hours", "time", positive=True)
+            if over["working_hours"] > 86400.0:
+                raise cm.error(f"working_hours is per day: at most 24 h, got {over['working_hours'] / 3600:g} h",
+                               "working_hours")
+        try:
+            if kind in delivery_methods:
+                delivery = delivery_method(kind, **over)
+            elif "capacity" in m:
+                delivery = DeliveryMethod(name=name, **over)
+            else:
+                raise cm.error(f"{kind!r} is not a delivery method ({', '.join(delivery_methods.available())}); a "
+                               f"method of your own needs capacity = \"... t/h\"", "method" if "method" in m else None)
+        except InputError as exc:
+            if isinstance(exc, ParseError):
+                raise
+            raise cm.error(str(exc)) from None
         methods.append(ClosureMethod(
-            name=name, capacity=cm.quantity(m, "capacity", "kg/s", required=True, positive=True),
-            working_hours=cm.quantity(m, "working_hours", "time", default="24 h", positive=True),
+            name=name, delivery=delivery,
             mobilisation=cm.quantity(m, "mobilisation", "time", default="0 h", nonnegative=True),
             description=cm.raw(m, "description", default="")))
-        if methods[-1].working_hours > 86400.0:
-            raise cm.error(f"working_hours is per day: at most 24 h, got {methods[-1].working_hours / 3600:g} h",
-                           "working_hours")
 
     detailed = None
     if "detailed" in table:
