@@ -58,9 +58,9 @@ def build_dataset(district: District, locations: list[Location], records: list[d
         "y": ("location", np.array([loc.y for loc in locations]), {"units": "m", "standard_name": "projection_y_coordinate",
                                                                     "long_name": "northing of the breach centre"}),
     })
-    from ..site.terrain import load_terrain
+    from .locations import load_inputs
 
-    wkt = load_terrain(district.terrain, crs=district.crs, vertical_units=district.terrain_units).crs_wkt
+    wkt = load_inputs(str(district.terrain), str(district.levee), district.crs, district.terrain_units)[0].crs_wkt
     ds["crs"] = xr.DataArray(np.int32(0), attrs=_grid_mapping(wkt))
     for v in ds.data_vars:
         if v != "crs" and "location" in ds[v].dims and ds[v].dtype.kind == "f":
@@ -99,10 +99,10 @@ def write_outputs(ds: xr.Dataset, district: District, locations: list[Location],
     from .locations import load_inputs as _inputs
 
     terrain, levee = _inputs(str(district.terrain), str(district.levee), district.crs, district.terrain_units)
+    lines = reach_lines(locations, levee)
     paths = [atomic_write_netcdf(ds, out / "atlas.nc")]
-    paths.append(write_geopackage(ds, reach_lines(locations, levee), out / "atlas.gpkg", terrain.crs_wkt))
-    paths.append(plot_map(ds, terrain, levee, reach_lines(locations, levee), out / "atlas.png",
-                          title=f"{district.name}: closure feasibility"))
+    paths.append(write_geopackage(ds, lines, out / "atlas.gpkg", terrain.crs_wkt))
+    paths.append(plot_map(ds, terrain, levee, lines, out / "atlas.png", title=f"{district.name}: closure feasibility"))
     return paths
 
 
