@@ -143,7 +143,7 @@ def phases(a) -> int:
         c = time.process_time()
         sim.step(a.steps)
         whole = (time.process_time() - c) / a.steps / sim.state.n * 1e9
-        sim._rebuild()
+        sim.pairs.rebuild()
         s, w, it, dt = sim.state, sim.work, sim.integrator, sim.dt
         idx = sim.idx
         n = idx.size
@@ -151,7 +151,7 @@ def phases(a) -> int:
         lo, hi = it.force_window[0] * dt, it.force_window[1] * dt
         pl = sim.boundaries[0]
         pred = bool(it.predict_velocity)
-        wake = (sim._wake_flag, sim._wake_ids, np.zeros(1, np.int64))
+        wake = (sim.sleepers.wake_flag, sim.sleepers.wake_ids, np.zeros(1, np.int64))
         ve, we = (w["v"], w["w"]) if pred else (s.vel, s.omega)
         if pred:
             integrators.predict_extrapolated(idx, s.vel, s.omega, sim.force, sim.torque, w["fp"].copy(),
@@ -159,7 +159,7 @@ def phases(a) -> int:
                                              sim.lmask, sim.rmask, ve, we)
         box = (sim.geom, sim.periodic, sim._box, sim._use_box, s.active.copy(), s.awake.copy(), sim._tmp_ids)
         ph = {
-            "displacement check": (contacts.displacement_since, (idx, s.pos, sim._pos_build, sim.geom, sim.periodic)),
+            "displacement check": (contacts.displacement_since, (idx, s.pos, sim.pairs.pos_build, sim.geom, sim.periodic)),
             "kick": (integrators.kick, (idx, s.vel, s.omega, sim.force, sim.torque, sim._inv_m, sim._inv_i, h,
                                         sim.lmask, sim.rmask)),
             "drift": (integrators.drift, (idx, s.pos, s.vel, dt)),
@@ -171,7 +171,7 @@ def phases(a) -> int:
                               h, it.extrapolate, sim.lmask, sim.rmask, w["v"], w["w"]))
         ph["zero_rows"] = (forces.zero_rows, (idx, sim.force, sim.torque))
         ph["pair forces"] = (contacts.pair_forces_window,
-                             (sim._pa, sim._pb, sim._hist, sim._rhist, sim._touch, s.pos, ve, we, s.vel, s.omega, pred,
+                             (sim.pairs.pa, sim.pairs.pb, sim.pairs.hist, sim.pairs.rhist, sim.pairs.touch, s.pos, ve, we, s.vel, s.omega, pred,
                               s.radius, s.mass, s.inertia, s._props, s.awake, s.active, sim.geom, sim.periodic, dt,
                               sim.wake_velocity, sim.force, sim.torque) + wake + (lo, hi, sim._law))
         ph["plane forces"] = (contacts.plane_forces,
@@ -184,7 +184,7 @@ def phases(a) -> int:
         # the compiled loop's fused passes (steploop.first_pass / second_pass): what it runs instead of the above
         fp_args = (idx, s.pos, s.vel, s.omega, sim.force, sim.torque, w["fp"], w["tp"], w["v"], w["w"], sim._inv_m,
                    sim._inv_i, sim.lmask, sim.rmask, h, dt, pred, float(it.extrapolate), sim.geom, sim.periodic,
-                   sim._box, sim._use_box, s.active.copy(), s.awake.copy(), sim._tmp_ids, sim._pos_build)
+                   sim._box, sim._use_box, s.active.copy(), s.awake.copy(), sim._tmp_ids, sim.pairs.pos_build)
         ph["first_pass (fused)"] = (steploop.first_pass, fp_args)
         if hasattr(steploop, "any_damping"):
             damp = bool(steploop.any_damping(idx, s.c_gn, s.c_gw))
@@ -199,7 +199,7 @@ def phases(a) -> int:
                                           sim.rmask))
         ph["sleep/step stats"] = (steploop.step_event,
                                   (1, 0.0, 0.0, 0, 0, -1.0, 0, 0, 1, np.zeros(5), False, np.zeros(1, np.int64), idx,
-                                   s.vel, s.omega, s.vel_prev, s.omega_prev, s.radius, 0.0, 1, sim._sleep_count,
+                                   s.vel, s.omega, s.vel_prev, s.omega_prev, s.radius, 0.0, 1, sim.sleepers.count,
                                    s.awake, sim._tmp_ids, 0, 1))
         best = {}
         hist_arg = {"pair forces": 2, "plane forces": 5}  # the contact histories: reset before each call
@@ -213,9 +213,9 @@ def phases(a) -> int:
             best[name] = b / n * 1e9
         c = time.process_time()
         for _ in range(3):
-            sim._rebuild()
+            sim.pairs.rebuild()
         reb = (time.process_time() - c) / 3 / n * 1e9
-        print(f"{a.scene}, N = {n}, {integ}, {law}: {sim._pa.size} listed pairs, {sim.n_contacts} contacts")
+        print(f"{a.scene}, N = {n}, {integ}, {law}: {sim.pairs.pa.size} listed pairs, {sim.n_contacts} contacts")
         for name, ns in best.items():
             print(f"  {name:24s} {ns:7.1f} ns per particle")
         fused = ("first_pass (fused)", "second_pass (fused)", "pair forces", "plane forces", "sleep/step stats")
@@ -262,9 +262,9 @@ def main(argv) -> int:
     vp, wp = s.vel + 1e-4, s.omega + 1e-4  # predicted velocities (predicted_verlet: split)
 
     def pair_args(ve, we, split, law_code):
-        return (sim._pa, sim._pb, sim._hist.copy(), sim._rhist.copy(), sim._touch.copy(), s.pos, ve, we, s.vel,
+        return (sim.pairs.pa, sim.pairs.pb, sim.pairs.hist.copy(), sim.pairs.rhist.copy(), sim.pairs.touch.copy(), s.pos, ve, we, s.vel,
                 s.omega, split, s.radius, s.mass, s.inertia, s._props, s.awake, s.active, sim.geom, sim.periodic, dt,
-                sim.wake_velocity, f, t, sim._wake_flag, sim._wake_ids, np.zeros(1, np.int64),
+                sim.wake_velocity, f, t, sim.sleepers.wake_flag, sim.sleepers.wake_ids, np.zeros(1, np.int64),
                 *((-0.5 * dt, 0.5 * dt) if law_code == 0 else (0.0, 0.0)), law_code)
 
     pl = sim.boundaries[0]
@@ -283,7 +283,7 @@ def main(argv) -> int:
         kernels[tag + "plane, hooke"] = (mod.plane_forces, plane_args(1), 5)
     if hasattr(contacts, "uniform_awake"):  # the pair kernel's per-call test for its one-material fast path
         kernels["uniform_awake scan"] = (contacts.uniform_awake, (s._props, s.awake, s.active), None)
-    kernels["bare Hooke"] = (bare_hooke, (sim._pa, sim._pb, s.pos, s.radius, float(s.kn[0]), sim.geom, sim.periodic,
+    kernels["bare Hooke"] = (bare_hooke, (sim.pairs.pa, sim.pairs.pb, s.pos, s.radius, float(s.kn[0]), sim.geom, sim.periodic,
                                           f), None)
     times = {k: [] for k in kernels}
     resets = {name: None if k is None else (args[k], args[k].copy()) for name, (fn, args, k) in kernels.items()}
@@ -293,7 +293,7 @@ def main(argv) -> int:
         order = list(kernels.items())
         for name, (fn, args, _) in (order if rep % 2 == 0 else order[::-1]):  # alternate: no order bias
             times[name].append(_timed(a.calls, fn, args, resets[name]))
-    npairs, ntouch = sim._pa.size, int(bare_hooke(*kernels["bare Hooke"][1]))
+    npairs, ntouch = sim.pairs.pa.size, int(bare_hooke(*kernels["bare Hooke"][1]))
     print(f"{a.scene}, {a.n} spheres: {npairs} listed pairs, {ntouch} in contact; CPU ns per listed pair "
           f"(planes, scan: per particle), best and median of {a.reps}")
     for name, sec in times.items():

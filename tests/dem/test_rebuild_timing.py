@@ -44,7 +44,7 @@ def check_evaluation(sim, e):
     overlap = 2 * R - np.linalg.norm(s.pos[1] - s.pos[0])
     if overlap > 0.0:
         assert sim.force[0] @ e < 0.0 < sim.force[1] @ e, f"overlap {overlap:.3g} m without a contact force"
-    moved = displacement_since(sim.idx, s.pos, sim._pos_build, sim.geom, sim.periodic)
+    moved = displacement_since(sim.idx, s.pos, sim.pairs.pos_build, sim.geom, sim.periodic)
     assert moved <= 0.5 * sim.skin, f"forces evaluated {moved:.6g} m from the build (skin/2 {0.5 * sim.skin})"
     return overlap
 
@@ -74,7 +74,7 @@ def test_approaching_spheres_get_their_contact_force_at_the_first_overlap(integr
             np.testing.assert_array_equal(cp.state.pos, py.state.pos)
             np.testing.assert_array_equal(cp.state.vel, py.state.vel)
             np.testing.assert_array_equal(cp.force, py.force)
-            np.testing.assert_array_equal(cp._pos_build, py._pos_build)
+            np.testing.assert_array_equal(cp.pairs.pos_build, py.pairs.pos_build)
     assert first == k + 1  # the case is the unfavourable one: first overlap right after crossing skin/2
 
 
@@ -124,11 +124,11 @@ def test_uniform_drift_rebuilds_once_per_half_skin(integrator, frac, law):
     py.step(1)  # the first step builds at the start positions
     builds = []
     for n in range(2, nsteps + 1):
-        before = py._pos_build.copy()
+        before = py.pairs.pos_build.copy()
         py.step(1)
-        if not np.array_equal(before, py._pos_build):
+        if not np.array_equal(before, py.pairs.pos_build):
             builds.append(n)
-        moved = displacement_since(py.idx, py.state.pos, py._pos_build, py.geom, py.periodic)
+        moved = displacement_since(py.idx, py.state.pos, py.pairs.pos_build, py.geom, py.periodic)
         assert moved <= 0.5 * skin, f"step {n}: forces evaluated {moved:.6g} m from the build"
     assert builds == list(range(m, nsteps + 1, m))
     cp = drifting_lattice(integrator, True, s / dt, law)
@@ -136,8 +136,8 @@ def test_uniform_drift_rebuilds_once_per_half_skin(integrator, frac, law):
     last = nsteps - nsteps % m
     start = drifting_lattice(integrator, False, s / dt, law).state.pos
     v = np.array([1.0, 2.0, 2.0]) / 3.0 * s
-    np.testing.assert_allclose(cp._pos_build, start + last * v, rtol=0, atol=1e-3 * s)
-    np.testing.assert_array_equal(cp._pos_build, py._pos_build)
+    np.testing.assert_allclose(cp.pairs.pos_build, start + last * v, rtol=0, atol=1e-3 * s)
+    np.testing.assert_array_equal(cp.pairs.pos_build, py.pairs.pos_build)
     np.testing.assert_array_equal(cp.state.pos, py.state.pos)
 
 
@@ -153,7 +153,7 @@ def test_a_resting_bed_is_not_rebuilt(integrator, monkeypatch):
     sim.add_particles(np.column_stack([xy, np.full(25, R + 1e-3)]), R, ROCK)
     sim.step(3000)
     v = np.linalg.norm(sim.state.vel, axis=1).max()
-    assert v < 1e-4 and sim.n_contacts == 25 and sim._pa.size == 40  # at rest on the floor
+    assert v < 1e-4 and sim.n_contacts == 25 and sim.pairs.pa.size == 40  # at rest on the floor
     calls = []
     from breachflow.dem import neighbours
 
@@ -161,10 +161,10 @@ def test_a_resting_bed_is_not_rebuilt(integrator, monkeypatch):
     monkeypatch.setattr(neighbours, "rebuild", lambda *a: calls.append(1) or real(*a))
     for compiled in (True, False):
         sim.compiled = compiled
-        build, pa = sim._pos_build.copy(), sim._pa.copy()
+        build, pa = sim.pairs.pos_build.copy(), sim.pairs.pa.copy()
         sim.step(500)
-        np.testing.assert_array_equal(sim._pos_build, build)
-        np.testing.assert_array_equal(sim._pa, pa)
+        np.testing.assert_array_equal(sim.pairs.pos_build, build)
+        np.testing.assert_array_equal(sim.pairs.pa, pa)
     assert calls == []  # the Python path's rebuilds (the compiled loop's call numba directly)
 
 
@@ -207,7 +207,7 @@ def unlisted_within_reach(sim, vel):
     dist = np.linalg.norm(d)
     gap = dist - 2 * R
     reach = 0.5 * sim.dt * abs((vel[1] - vel[0]) @ d / dist)
-    return sim._pa.size == 0 and 0.0 < gap < reach
+    return sim.pairs.pa.size == 0 and 0.0 < gap < reach
 
 
 @pytest.mark.parametrize("integrator", ["velocity_verlet", "predicted_verlet"])
@@ -223,7 +223,7 @@ def test_a_pair_within_the_window_reach_gets_its_partial_force_python_path(integ
     for n in range(1, k + 6):
         sim.step(1)
         ref.step(1)
-        assert ref._pa.size == 1  # the reference lists the pair all along
+        assert ref.pairs.pa.size == 1  # the reference lists the pair all along
         assert not unlisted_within_reach(sim, sim.work["v"] if integrator == "predicted_verlet" else sim.state.vel)
         np.testing.assert_array_equal(sim.force, ref.force, err_msg=f"step {n}")
         np.testing.assert_array_equal(sim.state.pos, ref.state.pos, err_msg=f"step {n}")
@@ -273,7 +273,7 @@ def test_the_reach_rebuild_is_the_window_laws_only(integrator, law):
         sim.compiled = compiled
         sim.add_particles([[0.0, 0.0, 0.0], [2 * R + 3 * skin, 0.0, 0.0]], R, ROCK, vel=[[s / dt, 0, 0], [0, 0, 0]])
         sim.step(1)
-        x_build = sim._pos_build[0, 0]
+        x_build = sim.pairs.pos_build[0, 0]
         sim.step(k - 1)
-        rebuilt = sim._pos_build[0, 0] != x_build
-        assert rebuilt == (law == "window_averaged"), (compiled, sim._pos_build[0, 0] - x_build)
+        rebuilt = sim.pairs.pos_build[0, 0] != x_build
+        assert rebuilt == (law == "window_averaged"), (compiled, sim.pairs.pos_build[0, 0] - x_build)

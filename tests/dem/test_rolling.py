@@ -213,7 +213,7 @@ def test_rolling_resistance_never_adds_energy():
         kr_wall = ROLLING_STIFFNESS * KN * 0.3**2 * R**2
         kr_pair = ROLLING_STIFFNESS * KN * 0.3**2 * (R / 2) ** 2
         e += 0.5 * KN * np.sum(plane.hist[: s.n] ** 2) + np.sum(plane.rhist[: s.n] ** 2) / (2 * kr_wall)
-        e += 0.5 * KN * np.sum(sim._hist**2) + np.sum(sim._rhist**2) / (2 * kr_pair)
+        e += 0.5 * KN * np.sum(sim.pairs.hist**2) + np.sum(sim.pairs.rhist**2) / (2 * kr_pair)
         return e
 
     e0 = e_prev = energy()

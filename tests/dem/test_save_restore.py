@@ -55,11 +55,11 @@ def settle_and_sleep(sim) -> int:
     trajectory). Returns the steps taken."""
     sim.step(2000)
     for _ in range(5000):
-        pairs = sim._touch & np.any(sim._rhist != 0.0, axis=1)
+        pairs = sim.pairs.touch & np.any(sim.pairs.rhist != 0.0, axis=1)
         if pairs.any():
             break
         sim.step()
-    sim.sleep(np.union1d(np.flatnonzero(sim.state.pos[:, 2] < 1.0), np.r_[sim._pa[pairs], sim._pb[pairs]]))
+    sim.sleep(np.union1d(np.flatnonzero(sim.state.pos[:, 2] < 1.0), np.r_[sim.pairs.pa[pairs], sim.pairs.pb[pairs]]))
     return sim.steps
 
 
@@ -74,7 +74,7 @@ def test_save_restore_continues_bit_identically(integrator, tmp_path):
     assert settle_and_sleep(sim) == k
     sim.step(n_steps - k)
     assert (~sim.state.awake & sim.state.active).any() and sim.state.awake.any()
-    assert sim._frozen_keys.size > 0 and np.abs(sim._frozen_hist[:, 3:]).max() > 0  # parked rolling histories
+    assert sim.pairs.frozen_keys.size > 0 and np.abs(sim.pairs.frozen_hist[:, 3:]).max() > 0  # parked rolling histories
     path = tmp_path / "dem.npz"
     np.savez(path, **sim.save_state())
     sim.step(3)  # the original keeps going: the saved copy must not change
@@ -87,8 +87,8 @@ def test_save_restore_continues_bit_identically(integrator, tmp_path):
     assert back.steps == ref.steps and back.t == ref.t
     for name in ("pos", "vel", "omega", "awake", "active"):
         assert np.array_equal(getattr(back.state, name), getattr(ref.state, name)), name
-    assert np.array_equal(back._hist, ref._hist) and np.array_equal(back._rhist, ref._rhist)
-    assert np.array_equal(back._frozen_hist, ref._frozen_hist)
+    assert np.array_equal(back.pairs.hist, ref.pairs.hist) and np.array_equal(back.pairs.rhist, ref.pairs.rhist)
+    assert np.array_equal(back.pairs.frozen_hist, ref.pairs.frozen_hist)
     for a, b in zip(back.boundaries, ref.boundaries):
         assert np.array_equal(a.hist, b.hist) and np.array_equal(a.rhist, b.rhist)
     assert back.particle_steps == ref.particle_steps and back.left_domain == ref.left_domain
@@ -130,7 +130,7 @@ def continued(make, n_steps, m_steps, tmp_path):
 def falling_onto_a_plane():
     """A rock thrown up 10 m above a plane, in air (drag: the error controller rejects steps), then bouncing."""
     mat = Material(kn=1e6, c_cn=2 * 0.3 * math.sqrt(1e6 * M))
-    kw = dict(boundaries=[Plane((0, 0, 0), (0, 0, 1), mat)], models=[FluidForces(None)],
+    kw = dict(boundaries=[Plane((0, 0, 0), (0, 0, 1), mat)], models=[FluidForces(None, velocity_profile="uniform")],
               integrator=AdaptiveFreeFlight(rtol=1e-8, atol=1e-10), sleeping=False)
     sim = DemSimulation(ParticleState.spheres([[0.0, 0.0, R + 10.0]], R, mat, vel=[[0.3, 0.0, 2.0]]), **kw)
     return sim, kw
@@ -155,7 +155,7 @@ def test_adaptive_free_flight_continues_bit_identically(tmp_path):
 
 def settling(integrator="predicted_verlet", basset=True):
     """A 2 mm steel sphere settling from rest in still water (surface at z = 0)."""
-    model = FluidForces(0.0, air=None, basset=basset)
+    model = FluidForces(0.0, air=None, basset=basset, velocity_profile="uniform")
     kw = dict(models=[model], integrator=integrator, dt=1e-4, sleeping=False)
     state = ParticleState.spheres([[0.0, 0.0, -0.5], [0.1, 0.0, -0.5]], [1e-3, 2e-3],
                                   Material(density=7800.0, kn=1e-3))

@@ -89,6 +89,6 @@ def test_fused_passes_equal_the_python_step_periodic_in_x_and_y(integrator, seed
         sa, sb = ref.save_state(), new.save_state()
         for k in sa:
             np.testing.assert_array_equal(sa[k], sb[k], err_msg=k, strict=True)
-        np.testing.assert_array_equal(ref._pos_build, new._pos_build, strict=True)
+        np.testing.assert_array_equal(ref.pairs.pos_build, new.pairs.pos_build, strict=True)
         assert ref.left_domain == new.left_domain
     assert crossed.sum() >= 5 and len(new.left_domain) >= 2

@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from breachflow.dem import DemSimulation, Material, Plane, steploop
+from breachflow.dem.pairlist import PairList
 
 ROCK = Material(density=2650, kn=1e6, ks=1e6, friction=0.5, c_cn=2e3, c_cs=1e3, c_cf=1e3)
 ROLLING = Material(density=2650, kn=1e6, ks=1e6, friction=0.5, c_cn=2e3, c_cs=1e3, c_cf=1e3,
@@ -77,14 +78,14 @@ def test_rebuilds_while_particles_sleep_run_inside_the_compiled_call(integrator,
     the step-by-step path rebuilds with sleepers present many times; states, lists and histories stay
     bit-identical to that path at several seeds and sleep-check phases."""
     py_rebuilds = {}
-    real = DemSimulation._rebuild
+    real = PairList.rebuild
 
     def counted(self):
-        between_events = not self._sleep_grid_dirty and (self.state.active & ~self.state.awake).any()
-        py_rebuilds[id(self)] = py_rebuilds.get(id(self), 0) + between_events
+        between_events = not self.sleep_grid_dirty and (self.sim.state.active & ~self.sim.state.awake).any()
+        py_rebuilds[id(self.sim)] = py_rebuilds.get(id(self.sim), 0) + between_events
         return real(self)
 
-    monkeypatch.setattr(DemSimulation, "_rebuild", counted)
+    monkeypatch.setattr(PairList, "rebuild", counted)
     ref = drop(integrator, sleeping=True, periodic=False, compiled=False, seed=seed)
     new = drop(integrator, sleeping=True, periodic=False, compiled=True, seed=seed)
     for sim in (ref, new):

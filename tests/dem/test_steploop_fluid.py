@@ -129,7 +129,7 @@ def test_ineligible_cycle_scenes_step_in_python():
         kw.setdefault("static_models", True)
         bounds = kw.pop("boundaries", [HeightField(x, y, bed, ROCK)])
         s = DemSimulation(boundaries=bounds, models=models if models is not None else
-                          [FluidForces(snap, outside="air")], domain=(-10, 10, -8, 8, -50, 200), **kw)
+                          [FluidForces(snap, outside="air", velocity_profile="uniform")], domain=(-10, 10, -8, 8, -50, 200), **kw)
         s.add_particles([[0.0, 0.0, 4.0]], 0.4, ROCK)
         s.step(1)  # the first step after set-up checks the sleepers' field forces (in Python)
         return s
@@ -137,9 +137,9 @@ def test_ineligible_cycle_scenes_step_in_python():
     assert steploop.runner(sim_with()) is steploop_fluid.run
     assert steploop.runner(sim_with([])) is steploop_fluid.run  # terrain without fluid
     fallback = FieldSampler(snap, "bilinear", fallback=field(level=3.0)[3])
-    for models in ([FluidForces(fallback, outside="air")], [FluidForces(2.5, outside="air")],
-                   [FluidForces(snap, outside="air", basset=True)], [FluidForces(snap, outside="error")],
-                   [FluidForces(snap, outside="air", compiled=False)]):
+    for models in ([FluidForces(fallback, outside="air", velocity_profile="uniform")], [FluidForces(2.5, outside="air", velocity_profile="uniform")],
+                   [FluidForces(snap, outside="air", basset=True, velocity_profile="uniform")], [FluidForces(snap, outside="error", velocity_profile="uniform")],
+                   [FluidForces(snap, outside="air", compiled=False, velocity_profile="uniform")]):
         assert steploop.runner(sim_with(models)) is None
     assert steploop.runner(sim_with(static_models=False)) is None
     assert steploop.runner(sim_with(integrator="report")) is None

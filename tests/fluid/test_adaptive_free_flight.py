@@ -27,7 +27,7 @@ def test_constant_drag_settling_matches_tanh_with_few_steps():
     v_t = math.sqrt(4 * G * d * (STEEL - RHO_W) / (3 * RHO_W * cd))
     st = ParticleState.spheres([[0, 0, -10.0]], d / 2, Material(density=STEEL, kn=1e-3))
     integ = AdaptiveFreeFlight(rtol=1e-9, atol=1e-12)
-    model = FluidForces(0.0, air=None, xi=xi, drag_law=DRAG_LAWS.create("constant", value=cd))
+    model = FluidForces(0.0, air=None, xi=xi, drag_law=DRAG_LAWS.create("constant", value=cd), velocity_profile="uniform")
     sim = DemSimulation(st, models=[model], integrator=integ, dt=dt, sleeping=False)
     for t_out in (0.05, 0.2, 1.0):
         sim.run(t_out - sim.t)

@@ -78,7 +78,7 @@ def stokes_basset_velocity(t, d, rho_s, xi):
 
 def simulate(integrator, times, steps_per_output, d, rho_s, xi):
     state = ParticleState.spheres([[0.0, 0.0, -1.0]], d / 2, Material(density=rho_s, kn=1e-3))
-    model = FluidForces(0.0, air=None, xi=xi, basset=True)
+    model = FluidForces(0.0, air=None, xi=xi, basset=True, velocity_profile="uniform")
     h = (times[1] - times[0]) / steps_per_output
     if integrator == "rk4":
         return -integrate(state, [Gravity(), model], times, method="rk4", dt=h).vel[:, 0, 2]

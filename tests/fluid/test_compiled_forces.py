@@ -53,8 +53,8 @@ def test_fused_forces_match_the_step_by_step_path(sampling, kw, seed):
     rng = np.random.default_rng(seed)
     snap = breach_like_field()
     st = random_state(rng)
-    fused = FluidForces(snap, sampling=sampling, outside="air", **kw)
-    ref = FluidForces(snap, sampling=sampling, outside="air", compiled=False, **kw)
+    fused = FluidForces(snap, sampling=sampling, outside="air", velocity_profile="uniform", **kw)
+    ref = FluidForces(snap, sampling=sampling, outside="air", compiled=False, velocity_profile="uniform", **kw)
     assert fused._fused is not None and ref._fused is None
     # an integrator's predicted positions: garbage in the rows of sleepers (they are taken at rest)
     pred = st.pos + 0.01 * rng.normal(size=st.pos.shape)
@@ -79,7 +79,7 @@ def test_fused_path_refuses_particles_outside_the_field_like_the_reference():
     snap = breach_like_field()
     st = ParticleState.spheres([[0.0, 0.0, 1.0], [30.0, 1.0, 1.0]], 0.5)
     for compiled in (True, False):
-        model = FluidForces(snap, compiled=compiled)
+        model = FluidForces(snap, compiled=compiled, velocity_profile="uniform")
         with pytest.raises(PhysicsError, match="particle 1 at x=30.000 m"):
             forces(model, st, st.pos)
         with pytest.raises(PhysicsError, match="particle 1 at x=30.000 m"):
@@ -136,7 +136,7 @@ def test_fused_forces_with_a_velocity_profile_match_the_step_by_step_path(profil
     assert (depth == 0).any() and (np.abs(st.pos[:, 0]) > 10.35).any() and (~st.awake).any()
     if profile != "uniform":
         # the profile matters: the drag differs from the uniform profile's (fused path)
-        uni = FluidForces(snap, sampling=sampling, outside="air", roughness=roughness)
+        uni = FluidForces(snap, sampling=sampling, outside="air", roughness=roughness, velocity_profile="uniform")
         assert not np.allclose(forces(uni, st, st.pos)[0], forces(fused, st, st.pos)[0], rtol=1e-6)
 
 

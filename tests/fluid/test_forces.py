@@ -47,19 +47,19 @@ def test_submerged_fraction_limits_and_symmetry():
 def test_buoyancy_of_a_resting_sphere_above_across_and_below_the_surface():
     d = 0.1
     vol = math.pi * d**3 / 6
-    model = FluidForces(UniformWater(surface=0.0))
+    model = FluidForces(UniformWater(surface=0.0), velocity_profile="uniform")
     for z, phi in ((1.0, 0.0), (0.0, 0.5), (-1.0, 1.0)):
         f, _ = evaluate(model, one(z, d))
         want = (phi * WATER.rho + (1 - phi) * AIR.rho) * vol * G
         assert f[0] == pytest.approx([0.0, 0.0, want], rel=1e-12, abs=1e-15)
     # a straddling sphere: cap of height s = 0.03 m under water
-    f, _ = evaluate(FluidForces(UniformWater(surface=0.0), air=None), one(0.02, d))
+    f, _ = evaluate(FluidForces(UniformWater(surface=0.0), air=None, velocity_profile="uniform"), one(0.02, d))
     assert f[0, 2] == pytest.approx(WATER.rho * math.pi * 0.03**2 * (3 * 0.05 - 0.03) / 3 * G, rel=1e-12)
 
 
 def test_drag_force_value_direction_and_reynolds_number():
     d, speed = 0.02, 0.7
-    model = FluidForces(UniformWater(surface=10.0, u=0.3), drag_law="clift_gauvin", air=None)
+    model = FluidForces(UniformWater(surface=10.0, u=0.3), drag_law="clift_gauvin", air=None, velocity_profile="uniform")
     st = one(0.0, d, vel=(0.3, 0.0, -speed))  # moves with the current horizontally, sinks at 0.7 m/s
     f, _ = evaluate(model, st)
     re = speed * d / WATER.nu
@@ -71,7 +71,7 @@ def test_drag_force_value_direction_and_reynolds_number():
 
 def test_crossing_rule_is_continuous_and_independent_of_direction():
     d = 0.08
-    model = FluidForces(UniformWater(surface=0.0))
+    model = FluidForces(UniformWater(surface=0.0), velocity_profile="uniform")
     zs = np.linspace(-0.06, 0.06, 241)
     down = np.array([evaluate(model, one(z, d, vel=(0, 0, -2.0)))[0][0, 2] for z in zs])
     up = np.array([evaluate(model, one(z, d, vel=(0, 0, 2.0)))[0][0, 2] for z in zs])
@@ -80,18 +80,18 @@ def test_crossing_rule_is_continuous_and_independent_of_direction():
     np.testing.assert_allclose(down - buoy, -(up - buoy), rtol=1e-12, atol=1e-12)
     assert np.max(np.abs(np.diff(down))) < 0.02 * np.max(np.abs(down))  # no step anywhere
     assert (down - buoy)[0] == pytest.approx(
-        0.5 * 0.0 + 0.5 * WATER.rho * math.pi * d**2 / 4 * 4.0 * FluidForces(0.0).drag_law.cd(2.0 * d / WATER.nu),
+        0.5 * 0.0 + 0.5 * WATER.rho * math.pi * d**2 / 4 * 4.0 * FluidForces(0.0, velocity_profile="uniform").drag_law.cd(2.0 * d / WATER.nu),
         rel=1e-12)
 
 
 def test_added_mass_follows_the_submerged_volume():
     d = 0.1
     vol = math.pi * d**3 / 6
-    model = FluidForces(UniformWater(surface=0.0), xi=0.5)
+    model = FluidForces(UniformWater(surface=0.0), xi=0.5, velocity_profile="uniform")
     st = ParticleState.spheres([[0, 0, -1.0], [5, 0, 0.0], [9, 0, 1.0]], d / 2)
     m = model.added_mass(st)
     np.testing.assert_allclose(m, 0.5 * vol * np.array([WATER.rho, 0.5 * (WATER.rho + AIR.rho), AIR.rho]), rtol=1e-12)
-    assert FluidForces(0.0, xi=0.0).added_mass(st) is None
+    assert FluidForces(0.0, xi=0.0, velocity_profile="uniform").added_mass(st) is None
     # rows only (what a static_models DEM asks for its awake particles): the same analytic values
     np.testing.assert_allclose(model.added_mass(st, idx=np.array([2, 0])),
                                0.5 * vol * np.array([AIR.rho, WATER.rho]), rtol=1e-12)
@@ -110,12 +110,12 @@ def test_convective_apparent_mass_term_in_a_shear_flow():
     snap = shear_snapshot(gamma)
     st = one(2.0, d, vel=(gamma * 0.3, vy, 0.0), y=0.3)  # moving with the local stream in x: no x drag
     for horizon in (None, 1e-5, 1e-2):
-        model = FluidForces(snap, air=None, xi=0.5, torque=False, time_step=horizon, drag_law="constant")
+        model = FluidForces(snap, air=None, xi=0.5, torque=False, time_step=horizon, drag_law="constant", velocity_profile="uniform")
         f, _ = evaluate(model, st)
         vol = math.pi * d**3 / 6
         assert f[0, 0] == pytest.approx(0.5 * WATER.rho * vol * gamma * vy, rel=1e-9)
     # still water: no convective term at all
-    f, _ = evaluate(FluidForces(uniform_snapshot(4.0), air=None, drag_law="constant", torque=False), st)
+    f, _ = evaluate(FluidForces(uniform_snapshot(4.0), air=None, drag_law="constant", torque=False, velocity_profile="uniform"), st)
     assert f[0, 0] == pytest.approx(-0.5 * 0.44 * WATER.rho * math.pi * d**2 / 4 * math.hypot(gamma * 0.3, vy)
                                     * gamma * 0.3, rel=1e-9)
 
@@ -123,17 +123,17 @@ def test_convective_apparent_mass_term_in_a_shear_flow():
 def test_torque_opposes_spin_and_follows_the_fluid_vorticity():
     d = 1.0
     # spin about z in still water is resisted (uniform field: virtual lattice)
-    _, t = evaluate(FluidForces(UniformWater(surface=10.0)), one(0.0, d, omega=(0, 0, 2.0)))
+    _, t = evaluate(FluidForces(UniformWater(surface=10.0), velocity_profile="uniform"), one(0.0, d, omega=(0, 0, 2.0)))
     assert t[0, 2] < 0 and abs(t[0, 0]) < 1e-12 and abs(t[0, 1]) < 1e-12
     # a sphere at rest in u = gamma y turns with the fluid's vorticity dv/dx - du/dy = -gamma
     snap = shear_snapshot(0.5, spacing=0.1)
-    _, t = evaluate(FluidForces(snap, air=None, sampling="neighbourhood"), one(2.0, d, vel=(0, 0, 0)))
+    _, t = evaluate(FluidForces(snap, air=None, sampling="neighbourhood", velocity_profile="uniform"), one(2.0, d, vel=(0, 0, 0)))
     assert t[0, 2] < 0
     # ... and a uniform stream exerts none, wherever the gridpoints fall relative to the centre
     x = np.arange(-5, 5.01, 0.3)
     snap_u = grid_snapshot(x, x, 0.0, np.full((x.size, x.size), 4.0), np.full((x.size, x.size), 1.2),
                            np.zeros((x.size, x.size)))
-    model = FluidForces(snap_u, air=None)
+    model = FluidForces(snap_u, air=None, velocity_profile="uniform")
     assert model.field.uniform
     model.field.uniform = False  # force the gridpoint path
     for x0, y0 in ((0.0, 0.0), (0.07, 0.11), (0.13, -0.04)):
@@ -145,21 +145,21 @@ def test_particles_leaving_the_field_are_handled_explicitly():
     snap = uniform_snapshot(2.0, extent=(-1, 1, -1, 1), spacing=0.5)
     st = one(1.0, 0.1, x=5.0)
     with pytest.raises(PhysicsError, match="particle 0 at x=5.000"):
-        evaluate(FluidForces(snap), st)
-    f, _ = evaluate(FluidForces(snap, outside="air"), st)
+        evaluate(FluidForces(snap, velocity_profile="uniform"), st)
+    f, _ = evaluate(FluidForces(snap, outside="air", velocity_profile="uniform"), st)
     assert f[0, 2] == pytest.approx(AIR.rho * math.pi * 0.1**3 / 6 * G, rel=1e-12)
 
 
 def test_dry_cells_are_air():
     snap = uniform_snapshot(0.0, extent=(-2, 2, -2, 2), spacing=0.5)  # dry everywhere
-    f, _ = evaluate(FluidForces(snap), one(0.04, 0.1, vel=(0, 0, -1.0)))
-    cd = FluidForces(snap).drag_law.cd(0.1 / AIR.nu)
+    f, _ = evaluate(FluidForces(snap, velocity_profile="uniform"), one(0.04, 0.1, vel=(0, 0, -1.0)))
+    cd = FluidForces(snap, velocity_profile="uniform").drag_law.cd(0.1 / AIR.nu)
     drag = 0.5 * cd * AIR.rho * math.pi * 0.01 / 4
     assert f[0, 2] == pytest.approx(AIR.rho * math.pi * 0.1**3 / 6 * G + drag, rel=1e-12)
 
 
 def test_sleeping_particles_are_evaluated_at_rest_where_they_lie():
-    model = FluidForces(UniformWater(surface=0.0))
+    model = FluidForces(UniformWater(surface=0.0), velocity_profile="uniform")
     st = ParticleState.spheres([[0, 0, -1.0], [3, 0, -1.0]], 0.05, vel=[[0, 0, -1.0], [0, 0, -1.0]])
     st.awake[1] = False
     garbage = st.pos.copy()
@@ -173,6 +173,6 @@ def test_sleeping_particles_are_evaluated_at_rest_where_they_lie():
 def test_part_of_the_sphere_below_the_bed_is_not_in_water():
     # sphere of radius 0.05 pressed 0.01 m into the bed under 1 m of water: V_sub = V - cap(0.01)
     snap = uniform_snapshot(1.0, bed=0.0, extent=(-2, 2, -2, 2), spacing=0.5)
-    f, _ = evaluate(FluidForces(snap, air=None), one(0.04, 0.1))
+    f, _ = evaluate(FluidForces(snap, air=None, velocity_profile="uniform"), one(0.04, 0.1))
     v_sub = math.pi * 0.1**3 / 6 - math.pi * 0.01**2 * (3 * 0.05 - 0.01) / 3
     assert f[0, 2] == pytest.approx(WATER.rho * v_sub * G, rel=1e-12)

@@ -48,7 +48,7 @@ def test_stokes_settling_with_added_mass_report_scheme_and_rk4():
     assert v_t * d / NU_W < 1.0  # the report law's Stokes branch holds throughout
     # DEM, the report's scheme (first order in dt): documented step tau/2000
     dt = tau / 2000
-    sim = DemSimulation(sphere(d, rho_s), models=[FluidForces(0.0, air=None, xi=xi)], integrator="report", dt=dt,
+    sim = DemSimulation(sphere(d, rho_s), models=[FluidForces(0.0, air=None, xi=xi, velocity_profile="uniform")], integrator="report", dt=dt,
                         sleeping=False)
     err = 0.0
     for _ in range(10_000):
@@ -59,7 +59,7 @@ def test_stokes_settling_with_added_mass_report_scheme_and_rk4():
     assert err < 1e-4
     # free flight, classical RK4 with step tau/20
     t = np.linspace(0, 5 * tau, 101)
-    res = integrate(sphere(d, rho_s), [Gravity(), FluidForces(0.0, air=None, xi=xi)], t, method="rk4", dt=tau / 20)
+    res = integrate(sphere(d, rho_s), [Gravity(), FluidForces(0.0, air=None, xi=xi, velocity_profile="uniform")], t, method="rk4", dt=tau / 20)
     exact = v_t * (1 - np.exp(-t / tau))
     assert np.max(np.abs(-res.vel[:, 0, 2] - exact)) / v_t < 1e-4
     assert res.evaluations == 4 * 100
@@ -72,7 +72,7 @@ def test_constant_drag_coefficient_tanh(method, dt):
     gp = G * (STEEL - RHO_W) / (STEEL + xi * RHO_W)
     v_t = math.sqrt(4 * G * d * (STEEL - RHO_W) / (3 * RHO_W * cd))
     t = np.linspace(0.0, 1.0, 201)
-    model = FluidForces(0.0, air=None, xi=xi, drag_law=DRAG_LAWS.create("constant", value=cd))
+    model = FluidForces(0.0, air=None, xi=xi, drag_law=DRAG_LAWS.create("constant", value=cd), velocity_profile="uniform")
     res = integrate(sphere(d, STEEL, z=-10.0), [Gravity(), model], t, method=method, dt=dt, rtol=1e-9, atol=1e-12)
     exact = v_t * np.tanh(gp * t / v_t)
     rel = np.abs(-res.vel[1:, 0, 2] - exact[1:]) / exact[1:]
@@ -82,7 +82,7 @@ def test_constant_drag_coefficient_tanh(method, dt):
 @pytest.mark.parametrize("d", [0.003, 0.010, 0.020, 0.040])
 def test_terminal_velocity_of_steel_spheres(d):
     v_ref = terminal_velocity(d, STEEL)
-    res = integrate(sphere(d, STEEL, z=-100.0), [Gravity(), FluidForces(0.0, air=None, drag_law="clift_gauvin")],
+    res = integrate(sphere(d, STEEL, z=-100.0), [Gravity(), FluidForces(0.0, air=None, drag_law="clift_gauvin", velocity_profile="uniform")],
                     [0.0, 4.0], method="dopri5", rtol=1e-9, atol=1e-12)
     assert -res.vel[-1, 0, 2] == pytest.approx(v_ref, rel=5e-3)
     assert -res.vel[-1, 0, 2] == pytest.approx(v_ref, rel=1e-5)  # in fact far tighter than the 0.5 % asked
@@ -94,7 +94,7 @@ def test_water_entry_from_two_metres():
     a = d / 2
     z0 = 2.0 + a  # bottom 2 m above the surface at z = 0
     xi = 0.5
-    model = FluidForces(UniformWater(surface=0.0), drag_law="clift_gauvin", xi=xi)
+    model = FluidForces(UniformWater(surface=0.0), drag_law="clift_gauvin", xi=xi, velocity_profile="uniform")
     t = np.linspace(0.0, 3.0, 3001)
     res = integrate(sphere(d, STEEL, z=z0), [Gravity(), model], t, method="dopri5", rtol=1e-9, atol=1e-12)
     z, w = res.pos[:, 0, 2], -res.vel[:, 0, 2]
@@ -132,7 +132,7 @@ def test_sphere_on_the_bed_in_a_uniform_current(ratio, moves):
     vol, area = math.pi * d**3 / 6, math.pi * d**2 / 4
     u_crit = math.sqrt(2 * beta * (rho_s - RHO_W) * vol * G / (cd * RHO_W * area))  # hand calculation
     snap = uniform_snapshot(1.0, u=ratio * u_crit, extent=(-5, 5, -5, 5), spacing=0.5)
-    fluid = FluidForces(snap, drag_law=DRAG_LAWS.create("constant", value=cd), air=None)
+    fluid = FluidForces(snap, drag_law=DRAG_LAWS.create("constant", value=cd), air=None, velocity_profile="uniform")
     mat = Material(density=rho_s, kn=1e6, friction=beta, c_cn=200.0, c_cs=200.0)
     st = ParticleState.spheres([[0.0, 0.0, d / 2]], d / 2, mat)
     sim = DemSimulation(st, boundaries=[Plane((0, 0, 0), (0, 0, 1), mat)], models=[fluid], sleeping=False)
@@ -151,7 +151,7 @@ def test_free_sphere_on_the_bed_rolls_without_slipping_below_the_sliding_thresho
     """With rotation free the same current rolls the sphere: v = w r, a = F / (m + m_A + I/r^2)."""
     d, rho_s, beta, cd, u = 0.1, 2650.0, 0.5, 0.45, 0.3
     snap = uniform_snapshot(1.0, u=u, extent=(-5, 5, -5, 5), spacing=0.5)
-    fluid = FluidForces(snap, drag_law=DRAG_LAWS.create("constant", value=cd), air=None, xi=0.5)
+    fluid = FluidForces(snap, drag_law=DRAG_LAWS.create("constant", value=cd), air=None, xi=0.5, velocity_profile="uniform")
     mat = Material(density=rho_s, kn=1e6, friction=beta, c_cn=200.0, c_cs=200.0)
     st = ParticleState.spheres([[0.0, 0.0, d / 2]], d / 2, mat)
     sim = DemSimulation(st, boundaries=[Plane((0, 0, 0), (0, 0, 1), mat)], models=[fluid], sleeping=False)

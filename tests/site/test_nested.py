@@ -281,7 +281,7 @@ def test_a_mass_just_outside_the_nested_window_feels_the_regional_flow(compiled,
     # the local model's flow differs from the regional one (a pile-stilled local field): slow it down
     local["u"] = local["u"] * 0.25
     field = FieldSampler(dem_view(local), method, fallback=ns.fallback_sampler(method))
-    model = FluidForces(field, sampling=method, outside="air", compiled=compiled)
+    model = FluidForces(field, sampling=method, outside="air", compiled=compiled, velocity_profile="uniform")
     x1 = ns.window[1]
     pos = np.array([[x1 + 0.4, 3.0, 1.5], [x1 - 5.0, 3.0, 1.5], [x1 + 80.0, 3.0, 1.5]])  # outside, inside, beyond both
     st = ParticleState.spheres(pos, 0.5)
@@ -289,7 +289,7 @@ def test_a_mass_just_outside_the_nested_window_feels_the_regional_flow(compiled,
     model.accumulate(st, st.pos, st.vel, st.omega, 0.0, f, t)
     m = model.added_mass(st)
     for ref_field, k in ((regional, 0), (dem_view(local), 1)):
-        ref = FluidForces(ref_field, sampling=method, outside="air", compiled=False)
+        ref = FluidForces(ref_field, sampling=method, outside="air", compiled=False, velocity_profile="uniform")
         one = ParticleState.spheres(pos[k:k + 1], 0.5)
         fr, tr = np.zeros((1, 3)), np.zeros((1, 3))
         ref.accumulate(one, one.pos, one.vel, one.omega, 0.0, fr, tr)

@@ -254,7 +254,7 @@ def test_a_mass_just_outside_a_turned_nested_window_feels_the_regional_flow_turn
     # the drag on a mass just outside the window points along the regional velocity in grid components
     st = ParticleState.spheres(np.array([[gx[0], gy[0], 1.5]]), 0.5)
     f, t = np.zeros((1, 3)), np.zeros((1, 3))
-    FluidForces(field, sampling=method, outside="air").accumulate(st, st.pos, st.vel, st.omega, 0.0, f, t)
+    FluidForces(field, sampling=method, outside="air", velocity_profile="uniform").accumulate(st, st.pos, st.vel, st.omega, 0.0, f, t)
     assert np.arctan2(f[0, 1], f[0, 0]) == pytest.approx(np.arctan2(want_v[0], want_u[0]), abs=0.02)
     assert f[0, 2] == pytest.approx(1000.0 * 9.81 * 4 / 3 * np.pi * 0.5 ** 3, rel=1e-3)  # submerged
 

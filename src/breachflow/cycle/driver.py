@@ -28,9 +28,11 @@ import xarray as xr
 
 from ..dem import Material
 from ..errors import InputError
+from ..dem.integrators import integrators
+from ..fluid.drag import DRAG_LAWS
 from ..fluid.profile import DEFAULT_PROFILE
 from ..fluid.profile import factors as profile_factors
-from ..field.sampling import FieldSampler
+from ..field.sampling import SAMPLING_METHODS, FieldSampler
 from ..schemas import validate
 from ..io import RunDirectory, particles_dataset, trajectories_dataset
 from ..io.cf import pad_particles
@@ -60,15 +62,15 @@ class DemSettings:
     material: Material = field(default_factory=lambda: Material(density=2650.0, kn=2.0e7, friction=0.6,
                                                                  rolling_friction=0.3))
     restitution: float = 0.3
-    integrator: str = "predicted_verlet"
+    integrator: str = integrators.default
     e_tol: float = 1.0e-5
     max_time: float = 30.0
     rest_speed: float = 0.05
     record_interval: float = 0.1
     sleeping: bool = True
     global_damping: float = 0.0
-    drag_law: str = "report"
-    sampling: str = "bilinear"
+    drag_law: str = DRAG_LAWS.default
+    sampling: str = SAMPLING_METHODS.default
     xi: float = 0.5
     velocity_profile: str = DEFAULT_PROFILE
     roughness: float | None = None

@@ -16,14 +16,32 @@ from .boundaries import Plane
 from .state import ParticleState
 
 
-#: the simulation's arrays a checkpoint holds (besides the particle state, work arrays and boundaries)
-SAVED_ARRAYS = ("force", "torque", "_pos_build", "_fm", "_tm", "_fm_sleep", "_sleep_count", "_wake_flag", "_fixed",
-                "_pa", "_pb", "_hist", "_rhist", "_touch", "_frozen_keys", "_frozen_hist", "geom", "ncell",
-                "periodic", "_box")
-#: the simulation's scalars a checkpoint holds, with their types
-SAVED_SCALARS = {"t": float, "steps": int, "particle_steps": int, "n_contacts": int, "_dt": float,
-                 "dt_limit": float, "skin": float, "single_bin": bool, "_dirty": bool,
-                 "_sleep_grid_dirty": bool, "forces_stale": bool, "_use_box": bool}
+#: the arrays a checkpoint holds (besides the particle state, work arrays and boundaries): the key after
+#: ``sim.`` in the checkpoint -> (the component of the simulation holding it, or "" for the simulation
+#: itself, the attribute); the keys are those of the checkpoints written before the neighbour list and the
+#: sleeping were components, so those load too
+SAVED_ARRAYS = {"force": ("", "force"), "torque": ("", "torque"), "_pos_build": ("pairs", "pos_build"),
+                "_fm": ("", "_fm"), "_tm": ("", "_tm"), "_fm_sleep": ("sleepers", "fm_ref"),
+                "_sleep_count": ("sleepers", "count"), "_wake_flag": ("sleepers", "wake_flag"),
+                "_fixed": ("", "_fixed"), "_pa": ("pairs", "pa"), "_pb": ("pairs", "pb"),
+                "_hist": ("pairs", "hist"), "_rhist": ("pairs", "rhist"), "_touch": ("pairs", "touch"),
+                "_frozen_keys": ("pairs", "frozen_keys"), "_frozen_hist": ("pairs", "frozen_hist"),
+                "geom": ("", "geom"), "ncell": ("", "ncell"), "periodic": ("", "periodic"), "_box": ("", "_box")}
+#: the scalars a checkpoint holds, with their types (keys as :data:`SAVED_ARRAYS`)
+SAVED_SCALARS = {"t": ("", "t", float), "steps": ("", "steps", int), "particle_steps": ("", "particle_steps", int),
+                 "n_contacts": ("", "n_contacts", int), "_dt": ("", "_dt", float),
+                 "dt_limit": ("", "dt_limit", float), "skin": ("", "skin", float),
+                 "single_bin": ("", "single_bin", bool), "_dirty": ("pairs", "dirty", bool),
+                 "_sleep_grid_dirty": ("pairs", "sleep_grid_dirty", bool),
+                 "forces_stale": ("", "forces_stale", bool), "_use_box": ("", "_use_box", bool)}
+#: what :func:`memory_bytes` counts besides :data:`SAVED_ARRAYS`
+_SCRATCH = {"_wake_ids": ("sleepers", "wake_ids"), "_tmp_ids": ("", "_tmp_ids")}
+#: the pair-list arrays that may be views into the compiled rebuild's buffers
+_LIST = ("pa", "pb", "hist", "rhist", "touch")
+
+
+def _owner(sim, part: str):
+    return getattr(sim, part) if part else sim
 
 
 def save_state(sim) -> dict[str, np.ndarray]:
@@ -39,14 +57,14 @@ def save_state(sim) -> dict[str, np.ndarray]:
     out: dict[str, np.ndarray] = {}
     for f in fields(sim.state):
         out["state." + f.name] = np.array(getattr(sim.state, f.name), copy=True)
-    for name in SAVED_ARRAYS:
-        out["sim." + name] = np.array(getattr(sim, name), copy=True)
-    for name in SAVED_SCALARS:
-        out["sim." + name] = np.array(getattr(sim, name))
+    for key, (part, name) in SAVED_ARRAYS.items():
+        out["sim." + key] = np.array(getattr(_owner(sim, part), name), copy=True)
+    for key, (part, name, _) in SAVED_SCALARS.items():
+        out["sim." + key] = np.array(getattr(_owner(sim, part), name))
     for k, a in sim.work.items():
         out["work." + k] = a.copy()
     out["sim.left_domain"] = np.asarray(sim.left_domain, np.int64)
-    grid = getattr(sim, "_sgrid", None)
+    grid = sim.pairs.sgrid
     if grid is not None:
         for name, a in zip(("start", "ent_p", "ent_c"), grid[:3]):
             out["sgrid." + name] = a.copy()
@@ -81,10 +99,10 @@ def from_state(cls, data, *, boundaries=(), models=(), **kwargs):
     if nb != len(boundaries):
         raise InputError(f"DEM state was saved with {nb} boundaries, {len(boundaries)} given")
     sim = cls(state, boundaries=boundaries, models=models, **kwargs)
-    for name in SAVED_ARRAYS:
-        setattr(sim, name, np.array(data["sim." + name], copy=True))
-    for name, typ in SAVED_SCALARS.items():
-        setattr(sim, name, typ(data["sim." + name][()]))
+    for key, (part, name) in SAVED_ARRAYS.items():
+        setattr(_owner(sim, part), name, np.array(data["sim." + key], copy=True))
+    for key, (part, name, typ) in SAVED_SCALARS.items():
+        setattr(_owner(sim, part), name, typ(data["sim." + key][()]))
     for k in sim.work:
         if "work." + k in data:
             sim.work[k] = np.array(data["work." + k], copy=True)
@@ -93,7 +111,7 @@ def from_state(cls, data, *, boundaries=(), models=(), **kwargs):
             sim.work[k] = np.array(data["sim." + f], copy=True)
     sim.left_domain = [int(i) for i in data["sim.left_domain"]]
     if "sgrid.start" in data:
-        sim._sgrid = tuple(np.array(data["sgrid." + n], copy=True) for n in ("start", "ent_p", "ent_c")) + (
+        sim.pairs.sgrid = tuple(np.array(data["sgrid." + n], copy=True) for n in ("start", "ent_p", "ent_c")) + (
             int(data["sgrid.bits"][()]),)
     for k, b in enumerate(boundaries):
         if isinstance(b, Plane) != (f"boundary{k}.point" in data):
@@ -119,15 +137,16 @@ def from_state(cls, data, *, boundaries=(), models=(), **kwargs):
 def memory_bytes(sim) -> int:
     """Bytes held by the particle state, work arrays, neighbour list and histories."""
     total = sim.state.nbytes() + sum(a.nbytes for a in sim.work.values())
-    for name in ("force", "torque", "_pos_build", "_fm", "_tm", "_fm_sleep", "_sleep_count", "_wake_flag", "_fixed",
-                 "_wake_ids", "_tmp_ids", "_pa", "_pb", "_hist", "_rhist", "_touch", "_frozen_keys", "_frozen_hist"):
-        total += getattr(sim, name).nbytes
-    for g in (getattr(sim, "_agrid", None), getattr(sim, "_sgrid", None)):
+    for key, (part, name) in {**SAVED_ARRAYS, **_SCRATCH}.items():
+        if key not in ("geom", "ncell", "periodic", "_box"):
+            total += getattr(_owner(sim, part), name).nbytes
+    pl = sim.pairs
+    for g in (pl.agrid, pl.sgrid):
         if g is not None:
             total += sum(a.nbytes for a in g[:3])
     total += sum(b.hist.nbytes + b.rhist.nbytes for b in sim.boundaries)
-    bufs = getattr(sim, "_pbufs", ())  # the list's capacity: the live list may be a view into it
+    bufs = pl.bufs or ()  # the list's capacity: the live list may be a view into it
     total += sum(a.nbytes for a in bufs)
-    total -= sum(getattr(sim, name).nbytes for name in ("_pa", "_pb", "_hist", "_rhist", "_touch")
-                 if any(np.may_share_memory(getattr(sim, name), a) for a in bufs))
+    total -= sum(getattr(pl, name).nbytes for name in _LIST
+                 if any(np.may_share_memory(getattr(pl, name), a) for a in bufs))
     return total

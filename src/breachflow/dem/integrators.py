@@ -33,7 +33,7 @@ from ..registry import Registry
 from . import memory
 from .wall_contacts import max_speed
 
-integrators: Registry = Registry("DEM integrator", "breachflow.integrators")
+integrators: Registry = Registry("DEM integrator", "breachflow.integrators", default="predicted_verlet")
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -162,7 +162,7 @@ class VelocityVerlet:
             vel, omega = s.vel, s.omega
         # the rebuild check with the window's reach at the velocities the law uses (as steploop_fluid)
         reach_t = sim.window_reach(self.force_window)
-        sim.relist_after_drift(0.0 if reach_t == 0.0 else reach_t * (
+        sim.pairs.relist_after_drift(0.0 if reach_t == 0.0 else reach_t * (
             max_speed(sim.idx, vel) if self.predict_velocity else disp[0] / dt))
         sim.contact_forces(s.pos, vel, omega, sim.force, sim.torque, self.force_window, s.vel, s.omega)
         sim.body_forces(s.pos, vel, omega, sim.t + dt, sim.force, sim.torque)

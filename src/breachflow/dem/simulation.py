@@ -8,13 +8,13 @@
 True
 
 The driver holds the set-up, the force assembly the integrators call and the stepping; by concept, its
-other parts are mixins in their own modules:
+other parts are components in their own modules, held as attributes:
 
-- :mod:`.pairlist` — the neighbour list: pairs closer than ``skin`` are listed and reused until some awake
+- ``pairs``, a :class:`.pairlist.PairList` — the neighbour list: pairs closer than ``skin`` are listed and reused until some awake
   particle has moved more than ``skin/2`` (less the window law's reach) or particles fell asleep / woke /
   were inserted; each pair keeps its shear and rolling histories across steps and rebuilds (parked while
   both partners sleep);
-- :mod:`.sleeping` — sleeping and waking (docs/theory.md, *DEM contact*): slow particles are put to sleep (not integrated,
+- ``sleepers``, a :class:`.sleeping.Sleepers` — sleeping and waking (docs/theory.md, *DEM contact*): slow particles are put to sleep (not integrated,
   still contact partners) and woken by a moving contact, a moving boundary or a change of the force
   models' force; :meth:`DemSimulation.sleep` puts given particles to sleep at once;
 - :mod:`.checkpoint` — :meth:`DemSimulation.save_state` / :meth:`DemSimulation.from_state` round-trip
@@ -28,15 +28,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import InputError
+from ..errors import InputError, PhysicsError
 from . import neighbours, pair_contacts, steploop
 from .boundaries import Boundary, Plane  # Plane: the example above
 from . import checkpoint
 from .contact_law import resolve as resolve_contact_law
 from .forces import G, ForceModel, Gravity, add_global_damping, zero_rows
 from .integrators import integrators
-from .pairlist import _EMPTY_I, PairListMixin
-from .sleeping import SleepingMixin
+from .contact_law import WINDOW_AVERAGED
+from .pairlist import PairList
+from .sleeping import Sleepers
 from .state import Material, ParticleState
 from .timestep import SAFETY, check_dt, stable_dt
 
@@ -52,7 +53,7 @@ class EquilibriumResult:
     particle_steps: int  # sum over steps of the number of integrated (awake) particles
 
 
-class DemSimulation(PairListMixin, SleepingMixin):
+class DemSimulation:
     """A DEM scene of spheres.
 
     Parameters (SI): ``boundaries`` planes / height fields; ``models`` extra :class:`~breachflow.dem.forces.ForceModel` s (fluid);
@@ -68,7 +69,7 @@ class DemSimulation(PairListMixin, SleepingMixin):
     """
 
     def __init__(self, state: ParticleState | None = None, *, boundaries=(), models=(), gravity=(0.0, 0.0, -G),
-                 integrator="predicted_verlet", dt: float | None = None, periodic_x=None, periodic_y=None,
+                 integrator=integrators.default, dt: float | None = None, periodic_x=None, periodic_y=None,
                  domain=None, skin: float | None = None, cell_size: float | None = None, sleeping: bool = True,
                  sleep_velocity: float = 1e-3, wake_velocity: float | None = None, sleep_steps: int = 100,
                  sleep_check: int = 25,
@@ -116,6 +117,9 @@ class DemSimulation(PairListMixin, SleepingMixin):
         self.left_domain: list[int] = []
         self.n_contacts = 0
         self._n = 0
+        #: the neighbour list (:class:`.pairlist.PairList`) and the sleeping / waking (:class:`.sleeping.Sleepers`)
+        self.pairs = PairList(self)
+        self.sleepers = Sleepers(self)
         self._alloc(self.state.n)
         self._set_geometry()
         self._dt = None
@@ -131,13 +135,12 @@ class DemSimulation(PairListMixin, SleepingMixin):
             return new
 
         g = lambda name, shape, dtype=float: setattr(self, name, grow(getattr(self, name, None), shape, dtype))
-        for name in ("force", "torque", "_pos_build", "_fm", "_tm", "_fm_sleep"):
+        for name in ("force", "torque", "_fm", "_tm"):
             g(name, (n, 3))
-        g("_sleep_count", (n,), np.int64)
-        g("_wake_flag", (n,), bool)
         g("_fixed", (n,), bool)
-        g("_wake_ids", (n,), np.int64)
         g("_tmp_ids", (n,), np.int64)
+        self.pairs.resize(n)
+        self.sleepers.resize(n)
         self.work = {k: grow(getattr(self, "work", {}).get(k), (n, 3)) for k in ("v", "w", "x", "fc", "tc", "fp", "tp")}
         for b in self.boundaries:
             b.resize(n)
@@ -171,8 +174,7 @@ class DemSimulation(PairListMixin, SleepingMixin):
                                  f"(need >= {2 * (2 * rmax + self.skin) + 2 * h:.3g} m)")
             n = max(1, int(L // h))
             self.geom[d], self.geom[3 + d], self.geom[6 + d], self.ncell[d] = lo, L / n, L, n
-        self._dirty = True
-        self._sleep_grid_dirty = True
+        self.pairs.invalidate()
 
     def add_particles(self, pos, radius, material: Material | None = None, vel=None, omega=None) -> np.ndarray:
         """Insert spheres (SI); returns their indices. They start awake."""
@@ -204,17 +206,9 @@ class DemSimulation(PairListMixin, SleepingMixin):
             self._dt = SAFETY * limit
         if self._cell_user is None or self._skin_user is None or self.steps == 0:
             self._set_geometry()
-        self._dirty = True
-        self._sleep_grid_dirty = True
+        self.pairs.invalidate()
         self._refresh_idx()
         self._commit_models()
-        if not hasattr(self, "_pa"):
-            self._pa = self._pb = _EMPTY_I
-            self._hist = np.zeros((0, 3))
-            self._rhist = np.zeros((0, 3))
-            self._touch = np.zeros(0, bool)
-            self._frozen_keys = np.zeros(0, np.int64)
-            self._frozen_hist = np.zeros((0, 6))  # parked (shear, rolling) histories
 
     def _commit_models(self):
         """Tell force models with a memory (the Basset history) the accepted state."""
@@ -284,15 +278,16 @@ class DemSimulation(PairListMixin, SleepingMixin):
         """
         s = self.state
         zero_rows(self.idx, force, torque)
-        self._n_wake[0] = 0
+        sl, pl = self.sleepers, self.pairs
+        sl.n_wake[0] = 0
         lo, hi = window[0] * self._dt, window[1] * self._dt
         split = vel_h is not None and vel_h is not vel
         vel_h = vel if vel_h is None else vel_h
         omega_h = omega if omega_h is None else omega_h
-        n = pair_contacts.pair_forces_window(self._pa, self._pb, self._hist, self._rhist, self._touch, pos, vel, omega,
+        n = pair_contacts.pair_forces_window(pl.pa, pl.pb, pl.hist, pl.rhist, pl.touch, pos, vel, omega,
                                         vel_h, omega_h, split, s.radius, s.mass, s.inertia, s._props, s.awake,
                                         s.active, self.geom, self.periodic, self._dt, self.wake_velocity, force,
-                                        torque, self._wake_flag, self._wake_ids, self._n_wake, lo, hi, self._law)
+                                        torque, sl.wake_flag, sl.wake_ids, sl.n_wake, lo, hi, self._law)
         view = _StateView(s, pos, vel, omega, vel_h, omega_h)
         for b in self.boundaries:
             n += b.forces(self.idx, view, self._dt, force, torque, lo, hi, self._law)
@@ -302,17 +297,18 @@ class DemSimulation(PairListMixin, SleepingMixin):
         """Evaluate force/torque at the current state without advancing shear histories (Verlet's first
         half kick needs F(t) of inserted or woken particles)."""
         s = self.state
-        saved = [(self._hist.copy(), self._rhist.copy())] + [(b.hist.copy(), b.rhist.copy()) for b in self.boundaries]
+        pl = self.pairs
+        saved = [(pl.hist.copy(), pl.rhist.copy())] + [(b.hist.copy(), b.rhist.copy()) for b in self.boundaries]
         dt, self._dt = self._dt, 0.0
         try:
             self.contact_forces(s.pos, s.vel, s.omega, self.force, self.torque)
         finally:
             self._dt = dt
-            self._hist[:], self._rhist[:] = saved[0]
+            pl.hist[:], pl.rhist[:] = saved[0]
             for b, (h, rh) in zip(self.boundaries, saved[1:]):
                 b.hist[:] = h
                 b.rhist[:] = rh
-        self._n_wake[0] = 0
+        self.sleepers.n_wake[0] = 0
         self.body_forces(s.pos, s.vel, s.omega, self.t, self.force, self.torque)
         self.global_damping(s.vel, s.omega, self.force, self.torque, 1.0)
         self.forces_stale = False
@@ -355,12 +351,10 @@ class DemSimulation(PairListMixin, SleepingMixin):
             left -= done
         return disp
 
-    _n_wake = np.zeros(1, np.int64)
-
     def _one_step(self, t_limit: float = math.inf):
         s = self.state
-        self._n_wake = np.zeros(1, np.int64)
-        self._wake_from_boundaries()
+        self.sleepers.n_wake = np.zeros(1, np.int64)
+        self.sleepers.wake_from_boundaries()
         first_static = self.static_models and not self._models_checked
         if self.models and self.state.n and (first_static or (self.idx.size == 0 and self.sleeping
                                                               and not self.static_models)):
@@ -371,7 +365,7 @@ class DemSimulation(PairListMixin, SleepingMixin):
             self._tm[:] = 0.0
             for m in self.models:
                 m.accumulate(s, s.pos, s.vel, s.omega, self.t, self._fm, self._tm)
-            self._wake_by_force()
+            self.sleepers.wake_by_force()
             self._models_checked = True
         if self.idx.size == 0:
             self.t += self._dt
@@ -381,9 +375,9 @@ class DemSimulation(PairListMixin, SleepingMixin):
             return (0.0, 0.0)
         # events (insertion, sleep, wake, retirement) and positions changed between steps; the per-step check
         # is after the drift, before the forces (after_drift)
-        if self._dirty or neighbours.displacement_since(self.idx, s.pos, self._pos_build, self.geom,
-                                                      self.periodic) > 0.5 * self.skin:
-            self._rebuild()
+        if self.pairs.dirty or neighbours.displacement_since(self.idx, s.pos, self.pairs.pos_build, self.geom,
+                                                           self.periodic) > 0.5 * self.skin:
+            self.pairs.rebuild()
         if getattr(self.integrator, "variable_step", False):  # e.g. adaptive_free_flight picks its step
             disp, h = self.integrator.advance(self, self._dt, t_limit)
         else:
@@ -395,7 +389,7 @@ class DemSimulation(PairListMixin, SleepingMixin):
         for b in self.boundaries:
             b.advance(h)
         if self.sleeping:
-            self._sleep_and_wake()
+            self.sleepers.sleep_and_wake()
         return disp
 
     def fix_particles(self, ids):
@@ -409,8 +403,7 @@ class DemSimulation(PairListMixin, SleepingMixin):
         s.omega[ids] = 0.0
         s.vel_prev[ids] = 0.0
         s.omega_prev[ids] = 0.0
-        self._sleep_grid_dirty = True
-        self._dirty = True
+        self.pairs.invalidate()
         self._refresh_idx()
 
     def run(self, duration: float):
@@ -452,6 +445,51 @@ class DemSimulation(PairListMixin, SleepingMixin):
             if ok >= consecutive:
                 return EquilibriumResult(True, self.steps - st0, self.t, disp[k], self.particle_steps - ps0)
         return EquilibriumResult(False, self.steps - st0, self.t, disp[k], self.particle_steps - ps0)
+
+    # ------------------------------------------------------------------ neighbour list and sleeping
+    def after_drift(self, relist: bool = True):
+        """Wrap periodic coordinates, retire particles that left the domain, refuse NaN; then, before the
+        forces at these positions, rebuild the pair list if some awake particle moved more than ``skin/2``
+        since the build (:meth:`.pairlist.PairList.relist_after_drift`; *relist* False: the caller does it,
+        with the window's reach, once it knows the velocities the contact law will use)."""
+        s = self.state
+        nleft, bad = neighbours.wrap_and_check(self.idx, s.pos, s.vel, s.omega, self.geom, self.periodic, self._box,
+                                             self._use_box, s.active, s.awake, self._tmp_ids)
+        if bad >= 0:
+            raise PhysicsError(
+                f"particle {bad} has a non-finite position/velocity at t={self.t:.6g} s; the time step "
+                f"{self._dt:.3g} s (stable limit {self.dt_limit:.3g} s) or the inputs are unstable")
+        if nleft:
+            self.left_domain.extend(int(i) for i in self._tmp_ids[:nleft])
+            self.idx = self.idx[s.active[self.idx]]
+            self.pairs.invalidate()
+        if relist:
+            self.pairs.relist_after_drift()
+
+    def window_reach(self, window) -> float:
+        """How far ahead in time (s) the contact law looks with the force *window* ``(lo, hi)`` in steps:
+        ``max(-lo, hi) dt`` for the window-averaged law (it gives a force to a pair apart by less than
+        ``max(-lo, hi) dt |v_rel . n|``, :func:`.contact_law.contact_law`), 0 for point values. Times the
+        largest speed the law uses, the reach of :meth:`.pairlist.PairList.relist_after_drift`."""
+        return max(-(window[0] * self._dt), window[1] * self._dt) if self._law == WINDOW_AVERAGED else 0.0
+
+    def sleep(self, ids) -> np.ndarray:
+        """Put particles *ids* to sleep now (e.g. masses that were at rest at the end of the previous
+        cycle); returns the ids actually put to sleep (active, not fixed).
+
+        Like the automatic transition (docs/theory.md, *DEM contact* sleeping): velocities and spins are zeroed (also the
+        previous-step ones the report scheme uses); they are no longer integrated but remain contact
+        partners. The force models' force on each is evaluated now, at rest, and kept as the reference of
+        the wake-by-force check, so they wake only on a real change of that force (more than
+        ``wake_force_fraction`` of the weight), when a moving particle (contact-point speed above
+        ``wake_velocity``) or a moving boundary touches them. The neighbour list is rebuilt at the next
+        step, parking the (shear, rolling) histories of pairs whose partners now both sleep.
+        """
+        return self.sleepers.sleep(ids)
+
+    def wake_all(self):
+        """Wake every sleeping particle that is not fixed (the neighbour list is rebuilt at the next step)."""
+        self.sleepers.wake_all()
 
     # ------------------------------------------------------------------ checkpoints (:mod:`.checkpoint`)
     def save_state(self) -> dict[str, np.ndarray]:

@@ -9,7 +9,7 @@ the step-by-step path of ``DemSimulation._one_step``, so the results are bit-ide
 drift needs a neighbour-list rebuild (some awake particle moved more than ``skin/2`` since the last build, as
 LAMMPS' ``neigh_modify check yes``, decided after the drift, before the forces) it rebuilds inside the call
 with :func:`.neighbours.rebuild`, the
-driver's rebuild between events (``DemSimulation._relist``), so the list — awake particles with each other
+driver's rebuild between events (``PairList.relist``), so the list — awake particles with each other
 and with sleeping ones, histories carried over — is the same on both paths, with or without sleepers. It
 stops after a step with an event the driver handles in Python: a particle left the domain, a sleeping
 particle was touched by a moving one, particles fell asleep, the equilibrium criterion was met, or a
@@ -360,15 +360,16 @@ def run(sim, nmax: int, e_tol: float = -1.0, crit: int = 0, consecutive: int = 1
 
 
 def current_list(sim):
-    """Before a compiled call: rebuild the pair list now when it is out of date (``DemSimulation._dirty``,
+    """Before a compiled call: rebuild the pair list now when it is out of date (``PairList.dirty``,
     or some awake particle moved more than ``skin/2``) or the sleeping grid is (an event since it was built:
     the rebuild parks or restores histories), so that the rebuilds inside the call are the driver's
-    between events (``DemSimulation._relist``)."""
-    if not hasattr(sim, "_sgrid"):
-        sim._sleep_grid_dirty = True
-    if (sim._dirty or sim._sleep_grid_dirty
-            or displacement_since(sim.idx, sim.state.pos, sim._pos_build, sim.geom, sim.periodic) > 0.5 * sim.skin):
-        sim._rebuild()
+    between events (``PairList.relist``)."""
+    pl = sim.pairs
+    if pl.sgrid is None:
+        pl.sleep_grid_dirty = True
+    if (pl.dirty or pl.sleep_grid_dirty
+            or displacement_since(sim.idx, sim.state.pos, pl.pos_build, sim.geom, sim.periodic) > 0.5 * sim.skin):
+        pl.rebuild()
 
 
 def relist_args(sim):
@@ -376,8 +377,8 @@ def relist_args(sim):
     sleeping grid and the pair buffers."""
     from .neighbours import empty_buffers
 
-    bufs = getattr(sim, "_pbufs", None) or empty_buffers()
-    return sim.ncell, bool(sim.single_bin), sim._sgrid, bufs
+    bufs = sim.pairs.bufs or empty_buffers()
+    return sim.ncell, bool(sim.single_bin), sim.pairs.sgrid, bufs
 
 
 def finish(sim, planes, pl_hist, pl_rhist, reaction, done, why, t, stats, n0, e_tol, ok):
@@ -407,13 +408,12 @@ def finish(sim, planes, pl_hist, pl_rhist, reaction, done, why, t, stats, n0, e_
         nleft = int(stats[3])
         sim.left_domain.extend(int(i) for i in sim._tmp_ids[:nleft])
         sim.idx = sim.idx[s.active[sim.idx]]
-        sim._dirty = True
-        sim._sleep_grid_dirty = True
+        sim.pairs.invalidate()
         sim.particle_steps += (done - 1) * n0 + sim.idx.size
     else:
         sim.particle_steps += done * n0
     if why in (LEFT, WAKE) and sim.sleeping:
-        sim._sleep_and_wake()
+        sim.sleepers.sleep_and_wake()
     elif why == SLEEP:
-        sim._after_sleep(int(stats[3]))
+        sim.sleepers.after_sleep(int(stats[3]))
     return done, (float(stats[0]), float(stats[1])), ok

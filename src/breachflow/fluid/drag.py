@@ -47,7 +47,7 @@ from ..errors import InputError
 from ..registry import Registry
 
 #: The registry of drag laws; ``DRAG_LAWS.get(name)`` returns a class, instantiate with keyword params.
-DRAG_LAWS: Registry = Registry("drag law", "breachflow.drag_laws")
+DRAG_LAWS: Registry = Registry("drag law", "breachflow.drag_laws", default="report")
 
 REPORT, SCHILLER_NAUMANN, CLIFT_GAUVIN, MORRISON, STOKES, CONSTANT, TABULATED = range(7)
 

@@ -11,7 +11,7 @@ import numpy as np
 import xarray as xr
 
 from ..errors import InputError
-from ..field.sampling import FieldSample, FieldSampler
+from ..field.sampling import SAMPLING_METHODS, FieldSample, FieldSampler
 
 
 class UniformWater:
@@ -74,7 +74,7 @@ class SnapshotField:
         return self.sampler.sample(px, py, radius)
 
 
-def as_field(field, sampling: str = "bilinear"):
+def as_field(field, sampling: str = SAMPLING_METHODS.default):
     """A field from None (air only), a float (still water surface elevation, m), a snapshot Dataset,
     a FieldSampler, or an object with ``sample``/``uniform``/``s_max`` (returned as is)."""
     if field is None:

@@ -11,8 +11,8 @@ Per particle, with ``V_sub`` the submerged volume (spherical cap while straddlin
   with ``x_pred = x + v dt`` in the frozen field (Fig 4.3 Step 7H);
 * fluid torque from the gridpoints in the particle's neighbourhood (Step 7E, Fig 4.4);
 * the water velocity at a particle is the depth-averaged one times the vertical profile factor at the
-  particle's centre height (``velocity_profile``: ``uniform`` (this class's default, the report), ``log``
-  (the closure run's default, ``[fluid] velocity_profile``, :data:`~breachflow.fluid.profile.DEFAULT_PROFILE`), ``power``;
+  particle's centre height (``velocity_profile``: ``log``, the default, :data:`~breachflow.fluid.profile.DEFAULT_PROFILE`,
+  also that of ``[fluid] velocity_profile``; ``uniform``, the report's setting; ``power``;
   :mod:`breachflow.fluid.profile`; the drag, the Basset history and the convective apparent-mass term use
   it; buoyancy and apparent mass do not depend on it, and the gridpoint torque still uses the
   depth-averaged gridpoint velocities);
@@ -47,11 +47,12 @@ import numpy as np
 from ..errors import InputError, PhysicsError
 from . import kernels as K
 from .basset import BassetHistory, basset_coefficient
+from ..field.sampling import SAMPLING_METHODS
 from .drag import DRAG_LAWS, DragLaw
 from .field import as_field
 from . import nearbed as NB
 from .profile import factors as profile_factors_np
-from .profile import profile_code, roughness_from_manning
+from .profile import DEFAULT_PROFILE, profile_code, roughness_from_manning
 
 #: standard gravity (m/s^2); the DEM's ``breachflow.dem.forces.G`` is the same value
 G = 9.80665
@@ -108,7 +109,7 @@ class FluidForces:
     gravity
         ``g`` (m/s^2) for buoyancy.
     velocity_profile
-        ``uniform`` | ``log`` | ``power`` (:mod:`breachflow.fluid.profile`): the water velocity a particle
+        ``log`` (default) | ``uniform`` | ``power`` (:mod:`breachflow.fluid.profile`): the water velocity a particle
         feels at its centre height ``z - z_bed`` is ``U * profile_factor(...)``.
     roughness, manning
         Roughness height ``k_s`` (m) of the log law; ``None`` derives it from Manning's *manning*
@@ -124,11 +125,11 @@ class FluidForces:
         evaluates term by term (the reference they are tested against).
     """
 
-    def __init__(self, field=0.0, *, drag_law: str | DragLaw = "report", sampling: str = "bilinear",
+    def __init__(self, field=0.0, *, drag_law: str | DragLaw = DRAG_LAWS.default, sampling: str = SAMPLING_METHODS.default,
                  water: Fluid = WATER, air: Fluid | None = AIR, xi: float = 0.5, torque: bool = True,
                  time_step: float | None = None, wind=(0.0, 0.0, 0.0), outside: str = "error",
                  gravity: float = G, torque_points: int = 5, basset: bool = False,
-                 basset_range=(1e-8, 1e5), velocity_profile: str = "uniform", roughness: float | None = None,
+                 basset_range=(1e-8, 1e5), velocity_profile: str = DEFAULT_PROFILE, roughness: float | None = None,
                  manning: float = 0.025, compiled: bool = True, near_bed=None):
         self.velocity_profile = str(velocity_profile)
         self.profile_code = profile_code(self.velocity_profile)

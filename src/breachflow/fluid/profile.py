@@ -38,9 +38,9 @@ from ..registry import Registry
 
 #: the velocity profiles, by name (entry-point group ``breachflow.velocity_profiles``); a profile is a class
 #: whose ``code`` is the integer :func:`profile_factor` takes (a plug-in cannot add a profile without a kernel)
-velocity_profiles: Registry = Registry("velocity profile", "breachflow.velocity_profiles")
-#: the profile of a closure run (``[fluid] velocity_profile``) unless the scenario names another
-DEFAULT_PROFILE = "log"
+velocity_profiles: Registry = Registry("velocity profile", "breachflow.velocity_profiles", default="log")
+#: the profile used unless another is named (``FluidForces``, ``[fluid] velocity_profile``): the registry's default
+DEFAULT_PROFILE = velocity_profiles.default
 
 
 class VelocityProfile(Protocol):

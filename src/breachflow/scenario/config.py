@@ -247,11 +247,12 @@ class BreachSection:
         return out
 
     def geometry(self) -> BreachGeometry | None:
+        """The breach of ``length`` and ``depth``; a key left out takes :class:`BreachGeometry`'s default."""
         if self.length is None or self.depth is None:
             return None
-        return BreachGeometry(length=float(self.length), depth=float(self.depth),
-                              wall_slope=0.5 if self.wall_slope is None else float(self.wall_slope),
-                              scour_depth=0.0 if self.scour_depth is None else float(self.scour_depth))
+        given = {k: float(v) for k, v in (("wall_slope", self.wall_slope), ("scour_depth", self.scour_depth))
+                 if v is not None}
+        return BreachGeometry(length=float(self.length), depth=float(self.depth), **given)
 
 
 @register_section("levee")

@@ -60,14 +60,15 @@ class SiteTerrainSection:
             terrain_variable=ctx.raw(table, "terrain_variable"),
             breach_at=q("breach_at", "length", nonnegative=True), breach_length=q("breach_length", "length", positive=True),
             breach_polygon=ctx.file(table, "breach_polygon"), breach_bottom=q("breach_bottom", "length"),
-            breach_wall_slope=q("breach_wall_slope", "dimensionless", default=0.0, default_unit="", nonnegative=True),
+            breach_wall_slope=q("breach_wall_slope", "dimensionless", default=SiteSpec.breach_wall_slope,
+                                default_unit="", nonnegative=True),
             flood_level=q("flood_level", "length"), flood_stage=ctx.file(table, "flood_stage"),
             flood_side=ctx.raw(table, "flood_side"),
-            manning_n=q("manning_n", "manning", default=0.03, default_unit="s/m**(1/3)", nonnegative=True),
+            manning_n=q("manning_n", "manning", default=SiteSpec.manning_n, default_unit="s/m**(1/3)", nonnegative=True),
             extent_along=q("extent_along", "length", positive=True), extent_flood=q("extent_flood", "length", positive=True),
             extent_protected=q("extent_protected", "length", positive=True),
             boundaries=ctx.raw(table, "boundaries", types=(dict,), default={}),
-            absorbing=ctx.raw(table, "absorbing", types=(bool,), default=True), scenario=ctx.path,
+            absorbing=ctx.raw(table, "absorbing", types=(bool,), default=SiteSpec.absorbing), scenario=ctx.path,
         )
         if spec.flood_level is None and spec.flood_stage is None:
             raise ctx.error("give flood_level or flood_stage", "terrain")

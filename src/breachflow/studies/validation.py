@@ -77,7 +77,7 @@ def settling_curves(diameters=FIG52_DIAMETERS, density: float = STEEL, drag_laws
         state = ParticleState.empty()
         for k, d in enumerate(diameters):  # soft contact stiffness: no contacts here, dt is free
             state.add(pos[k:k + 1], d / 2, Material(density=density, kn=1e-6, c_gn=0.0, c_gw=0.0))
-        model = FluidForces(UniformWater(surface=0.0), drag_law=law, water=fluid, xi=xi)
+        model = FluidForces(UniformWater(surface=0.0), drag_law=law, water=fluid, xi=xi, velocity_profile="uniform")
         if integrator in TABLEAUX:
             adaptive = integrator in ("dopri5", "bs32")
             res = integrate(state, [Gravity(), model], times, method=integrator, dt=None if adaptive else dt,

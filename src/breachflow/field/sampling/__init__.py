@@ -110,7 +110,7 @@ class FieldSampler:
     Dataset or a FieldSampler): the field sampled, with the same method, at points outside this one.
     """
 
-    def __init__(self, snapshot: xr.Dataset, method: str = "bilinear", time_index: int | None = None, *,
+    def __init__(self, snapshot: xr.Dataset, method: str = SAMPLING_METHODS.default, time_index: int | None = None, *,
                  fallback=None):
         self.kind = "mesh" if is_mesh(snapshot) else "grid"
         if fallback is not None and not isinstance(fallback, FieldSampler):

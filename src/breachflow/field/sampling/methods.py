@@ -17,7 +17,7 @@ if TYPE_CHECKING:
 
 #: Sampling methods by name; a plug-in is a class ``Method(sampler)`` with
 #: ``sample(px, py, radius) -> (bed, depth, u, v, inside)`` over 1-D float64 arrays.
-SAMPLING_METHODS: Registry = Registry("sampling method", "breachflow.sampling_methods")
+SAMPLING_METHODS: Registry = Registry("sampling method", "breachflow.sampling_methods", default="bilinear")
 
 
 def _outputs(n):
