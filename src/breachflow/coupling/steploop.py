@@ -273,22 +273,22 @@ def run(sim, nmax: int, e_tol: float = -1.0, crit: int = 0, consecutive: int = 1
         fluid = (np.zeros(3), 1.0, 1.0, 1.0, 1.0, False, 0.0, 0, np.zeros(1), 0.0, 0.0, False, 0.0)
         field = _NO_FIELD
     integ, w, dt = sim.integrator, sim.work, sim._dt
-    pl, sl = sim.pairs, sim.sleepers
+    nl, sl = sim.pairs, sim.sleepers
     sl.n_wake = np.zeros(1, np.int64)
     stats = np.zeros(5)
     n0 = sim.idx.size
     done, why, t, *pairs = fluid_verlet_steps(
         int(nmax), sim.t, sim.idx, s.pos, s.vel, s.omega, s.vel_prev, s.omega_prev, sim.force, sim.torque, w["fp"],
         w["tp"], w["v"], w["w"], inv_m, sim._inv_i, sim.lmask, sim.rmask, dt, bool(integ.predict_velocity),
-        float(integ.extrapolate), integ.force_window[0] * dt, integ.force_window[1] * dt, pl.pa, pl.pb,
-        pl.hist, pl.rhist, pl.touch, s.radius, s.mass, s.inertia, s._props, s.awake, s.active, sim.geom,
+        float(integ.extrapolate), integ.force_window[0] * dt, integ.force_window[1] * dt, nl.pa, nl.pb,
+        nl.hist, nl.rhist, nl.touch, s.radius, s.mass, s.inertia, s._props, s.awake, s.active, sim.geom,
         sim.periodic, sim.wake_velocity, sl.wake_flag, sl.wake_ids, sl.n_wake,
         (pl[0], pl[1], pl[2], pl[3], pl_hist, pl_rhist, reaction), hf_at, hf, model is not None, field, fluid,
-        sim._fm, sim._tm, sim.gravity.g, s.c_gn, s.c_gw, sim._box, sim._use_box, sim._tmp_ids, pl.pos_build,
+        sim._fm, sim._tm, sim.gravity.g, s.c_gn, s.c_gw, sim._box, sim._use_box, sim._tmp_ids, nl.pos_build,
         0.5 * sim.skin, sim.sleeping, sim.sleep_velocity, sim.sleep_steps, sl.count, sim._tmp_ids,
         sim.sleep_check, sim.steps, float(e_tol), int(crit), int(consecutive), int(ok), stats, sim._law,
         *steploop.relist_args(sim))
-    pl.pa, pl.pb, pl.hist, pl.rhist, pl.touch, pl.bufs = pairs
+    nl.pa, nl.pb, nl.hist, nl.rhist, nl.touch, nl.bufs = pairs
     if model is not None:
         model.evaluations += done
     return steploop.finish(sim, planes, pl_hist, pl_rhist, reaction, done, why, t, stats, n0, e_tol, ok)
