@@ -75,7 +75,7 @@ def fluid_verlet_steps(nmax, t, idx, pos, vel, omega, vel_prev, omega_prev, forc
     of the awake particles *idx*, rebuilding the pair list *pa*, *pb*, *hist*, *rhist*, *touch* after the drift,
     before the forces, when some awake particle moved more than *half_skin* since the build less the window
     law's reach ``max(-lo, hi) max|v|`` (so no unlisted pair is in contact within the window at the force
-    evaluation, ``DemSimulation.relist_after_drift``; :func:`.neighbours.rebuild` with cells per period *ncell*,
+    evaluation, ``PairList.relist_after_drift``; :func:`.neighbours.rebuild` with cells per period *ncell*,
     one cell per particle or not *single*, the current sleeping grid *sgrid* and the pair buffers *bufs*);
     returns (steps done, reason, time, the list pa, pb, hist, rhist, touch, the pair buffers).
 
