@@ -247,7 +247,8 @@ class BreachSection:
         return out
 
     def geometry(self) -> BreachGeometry | None:
-        """The breach of ``length`` and ``depth``; a key left out takes :class:`BreachGeometry`'s default."""
+        """The breach of ``length`` and ``depth``; a key left out takes the default of
+        :class:`~breachflow.scenario.geometry.BreachGeometry`."""
         if self.length is None or self.depth is None:
             return None
         given = {k: float(v) for k, v in (("wall_slope", self.wall_slope), ("scour_depth", self.scour_depth))
