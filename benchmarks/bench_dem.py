@@ -19,7 +19,7 @@ breachflow faster), and the two codes' results after the timed steps (difference
 the spheres, m; translational kinetic energy per sphere of each, J) as the error figure. The wall dashpot
 given to LAMMPS is halved: its ``wall/gran`` uses the sphere's mass as m_eff, breachflow the pair value.
 breachflow runs ``velocity_verlet`` (LAMMPS' ``fix nve/sphere`` scheme) and the default ``predicted_verlet``
-with the default contact law (``window_averaged``), and ``velocity_verlet`` with ``contact_law="hooke_history"``
+with the default contact law (``step_averaged``), and ``velocity_verlet`` with ``contact_law="hooke_history"``
 (LAMMPS' law exactly: the like-for-like ratio, and a result difference that shows only round-off growth).
 
 LAMMPS (``pair_style gran/hooke/history``, ``fix wall/gran hooke/history``, ``fix nve/sphere``, same
@@ -81,7 +81,7 @@ def release(n: int, L: float, seed: int = 0):
     return pos, rng.normal(0, 0.3, (n, 3))
 
 
-def make_sim(pos, vel, L, integrator="velocity_verlet", omega=None, law="window_averaged"):
+def make_sim(pos, vel, L, integrator="velocity_verlet", omega=None, law="step_averaged"):
     from breachflow.dem import DemSimulation, Plane
 
     mat, _ = material()
@@ -119,7 +119,7 @@ def summary(sim):
     return float(s.pos[:, 2].mean()), float(0.5 * np.sum(s.mass * np.sum(s.vel**2, axis=1)) / s.n)
 
 
-def time_breachflow(start, L, steps, integrator, law="window_averaged"):
+def time_breachflow(start, L, steps, integrator, law="step_averaged"):
     """Particle-steps per CPU second of *steps* steps from *start* = (pos, vel, omega); (rate, summary)."""
     sim = make_sim(*start[:2], L, integrator, omega=start[2], law=law)
     sim.step(1)  # F(t) of the start state (LAMMPS' setup) and the first step, not timed in either code
@@ -343,7 +343,7 @@ def main(argv) -> int:
     table = Table(title=f"DEM vs LAMMPS gran/hooke/history: d=1 m, kn=1e7 N/m, dt=1e-3 s, periodic x/y, "
                         f"{args.steps} timed steps, {args.reps} repeats (mean ± sd)")
     console.print("M p-steps/CPU s: million particle-steps per CPU second; VV velocity_verlet, PV predicted_verlet "
-                  "(default contact law window_averaged); HH velocity_verlet with contact_law hooke_history (LAMMPS' "
+                  "(default contact law step_averaged); HH velocity_verlet with contact_law hooke_history (LAMMPS' "
                   "law: the like-for-like ratio); error: after the timed steps, mean height breachflow - LAMMPS (m); "
                   "kinetic energy per sphere breachflow / LAMMPS (J)")
     for col in ("scene", "N", "contacts/particle", "bytes/particle", "VV M p-steps/CPU s", "PV M p-steps/CPU s",

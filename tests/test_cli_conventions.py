@@ -38,7 +38,7 @@ def test_resume_is_the_same_flag_everywhere(command):
 SPEC = """
 [ensemble]
 name = "conventions"
-runner = "window"
+runner = "closure_window"
 [ensemble.vary]
 "breach.length" = ["20 m"]
 [flood]

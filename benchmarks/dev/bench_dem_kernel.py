@@ -7,7 +7,7 @@ of a compiled step (issue 16).
     python3 tasks.py bench dem_kernel --steps-ab --old <src> [--scene bed|pour] [--n 1000] [--steps 2000] [--reps 3]
 
 On the settled bed (or the poured pile) of benchmarks/bench_dem.py (n spheres), times
-``contacts.pair_forces_window`` with the window-averaged law as ``predicted_verlet`` (dashpots at predicted
+``contacts.pair_forces_window`` with the step-averaged law as ``predicted_verlet`` (dashpots at predicted
 velocities) and ``velocity_verlet`` call it, and with ``contact_law = "hooke_history"`` (LAMMPS'
 point-evaluated law), in CPU ns per listed pair; ``contacts.plane_forces`` (the floor) in ns per particle;
 and a loop over the same pair list that only adds ``k_N overlap`` along the normal (what any contact code
@@ -30,7 +30,7 @@ events), and one rebuild is timed.
 
 ``--steps-ab``: whole steps (``sim.step``) of this tree and --old's from the same start, in fresh processes
 (``PYTHONPATH`` selects the tree, each tree its own numba cache), old and new interleaved, in the three modes
-of ``bench dem``: ``velocity_verlet`` and ``predicted_verlet`` with the window-averaged law and
+of ``bench dem``: ``velocity_verlet`` and ``predicted_verlet`` with the step-averaged law and
 ``velocity_verlet`` with ``hooke_history``; particle-steps per CPU second, mean ± sd, and the new/old ratio
 of paired runs (as ``benchmarks/bench_dem_ab.py``, which has no ``hooke_history`` mode).
 """
@@ -88,7 +88,7 @@ def _repeat_reset(calls, fn, args, h, h0):
     """Call fn(*args) *calls* times, each from the saved contact histories: *h* (one of *args*' arrays) is set
     to *h0* before each call. Without it the same positions are evaluated again and again and the shear
     histories grow by g_S dt each call, to the slip limit: on the 1000-sphere bed 2388 of 2400 contacts of the
-    window-averaged law slip after 1000 calls, against 353 in a real step, and the timed kernel runs another
+    step-averaged law slip after 1000 calls, against 353 in a real step, and the timed kernel runs another
     branch mix than a step's."""
     for _ in range(calls):
         h[:] = h0
@@ -136,7 +136,7 @@ def phases(a) -> int:
 
     sim0, L = bench_dem.settled_bed(a.n) if a.scene == "bed" else bench_dem.poured_pile(a.n)
     s0 = sim0.state
-    for integ, law in (("predicted_verlet", "window_averaged"), ("velocity_verlet", "window_averaged"),
+    for integ, law in (("predicted_verlet", "step_averaged"), ("velocity_verlet", "step_averaged"),
                        ("velocity_verlet", "hooke_history")):
         sim = bench_dem.make_sim(s0.pos.copy(), s0.vel.copy(), L, integ, omega=s0.omega.copy(), law=law)
         sim.step(20)
@@ -333,7 +333,7 @@ def steps_ab(a) -> int:
     sim, L = bench_dem.settled_bed(a.n) if a.scene == "bed" else bench_dem.poured_pile(a.n)
     np.savez(tmp / "s.npz", pos=sim.state.pos, vel=sim.state.vel, om=sim.state.omega, L=L)
     trees = {"old": Path(a.old).resolve(), "new": Path(__file__).resolve().parents[2] / "src"}
-    modes = (("velocity_verlet", "window_averaged"), ("predicted_verlet", "window_averaged"),
+    modes = (("velocity_verlet", "step_averaged"), ("predicted_verlet", "step_averaged"),
              ("velocity_verlet", "hooke_history"))
     rates = {}
     for _ in range(a.reps):

@@ -4,7 +4,7 @@ the compiled loop's before the candidate lists) against over the floor's candida
 
     python3 tasks.py bench dem_plane [--scene bed|pour] [--n 1000] [--calls 2000] [--reps 5] [--old <src>]
 
-For each mode of ``bench dem`` (``velocity_verlet`` / ``predicted_verlet`` with the window-averaged law,
+For each mode of ``bench dem`` (``velocity_verlet`` / ``predicted_verlet`` with the step-averaged law,
 ``velocity_verlet`` with ``hooke_history``) the scene is stepped 20 steps, the pair list rebuilt, and
 ``walls.plane_forces`` is called ``--calls`` times inside one compiled loop over ``sim.idx`` ("all") and
 over the candidate list ("listed"); "listed" includes the per-step guard's speed scan
@@ -51,7 +51,7 @@ def main(argv) -> int:
     trees = {"": walls} | ({"old ": _old_contacts(a.old)} if a.old else {})  # contacts re-exports plane_forces
     sim0, L = bench_dem.settled_bed(a.n) if a.scene == "bed" else bench_dem.poured_pile(a.n)
     s0 = sim0.state
-    for integ, law in (("velocity_verlet", "window_averaged"), ("predicted_verlet", "window_averaged"),
+    for integ, law in (("velocity_verlet", "step_averaged"), ("predicted_verlet", "step_averaged"),
                        ("velocity_verlet", "hooke_history")):
         sim = bench_dem.make_sim(s0.pos.copy(), s0.vel.copy(), L, integ, omega=s0.omega.copy(), law=law)
         sim.step(20)
@@ -82,7 +82,7 @@ def main(argv) -> int:
         for tag, mod in trees.items():
             runs |= {tag + "all": [(mod.plane_forces, args(idx))], tag + "listed": [(mod.plane_forces, args(cand))],
                      tag + "empty list": [(mod.plane_forces, args(cand[:0]))]}
-            if pred and law == "window_averaged":  # the guard's speed scan: in "empty list" too, so that it cancels
+            if pred and law == "step_averaged":  # the guard's speed scan: in "empty list" too, so that it cancels
                 runs[tag + "listed"].append((walls.max_speed, (idx, ve)))
                 runs[tag + "empty list"].append((walls.max_speed, (idx, ve)))
         runs["list build"] = [build]

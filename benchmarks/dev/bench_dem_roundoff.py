@@ -1,7 +1,7 @@
 """Is a DEM kernel change within round-off? Mean height and kinetic energy per particle after *steps* steps
 from one start (the settled bed or poured pile of bench_dem.py), two source trees, and the old tree again
 from the start's positions scaled by 1 + 1e-15 (the round-off yardstick), for velocity_verlet and
-predicted_verlet with the window-averaged law and velocity_verlet with hooke_history (issue 16).
+predicted_verlet with the step-averaged law and velocity_verlet with hooke_history (issue 16).
 
     python3 tasks.py shell python benchmarks/bench_dem_roundoff.py <old src> <new src> bed|pour <n> <steps>
 
@@ -25,7 +25,7 @@ import bench_dem as b
 d = np.load({f!r}); L = float(d["L"])
 pos = d["pos"] * (1.0 + {eps})
 out = {{}}
-for integ, law in (("velocity_verlet", "window_averaged"), ("predicted_verlet", "window_averaged"), ("velocity_verlet", "hooke_history")):
+for integ, law in (("velocity_verlet", "step_averaged"), ("predicted_verlet", "step_averaged"), ("velocity_verlet", "hooke_history")):
     sim = b.make_sim(pos.copy(), d["vel"].copy(), L, integ, omega=d["om"].copy(), law=law)
     sim.step({steps})
     out[integ[:2] + "/" + law[:4]] = b.summary(sim)

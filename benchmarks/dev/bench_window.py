@@ -11,7 +11,7 @@ is off-centre and large) — and re-solved warm:
 * the open breach solved cold at ``--cold`` (1/s), the warm start of every re-solve;
 * reference: the full domain at ``--reference`` (1/s), t_max ``--reference-t-max`` (s);
 * for each tolerance of ``--tolerances``: the full-domain re-solve (``[hydro] resolve = "full"``) and the
-  window re-solve (``resolve = "window"``, :mod:`breachflow.hydro.resolve_region`) with each far-field model of
+  window re-solve (``resolve = "region"``, :mod:`breachflow.hydro.resolve_region`) with each far-field model of
   ``--far`` (:mod:`breachflow.hydro.far_field`; ``coarse`` on cells ``--factor`` times larger). Each
   window re-solve is the first of a run (a new resolver): the coarse far field pays for two coarse solves.
 
@@ -39,7 +39,7 @@ resolution = "{res:g} m"
 tolerance = "{tol:g} 1/s"
 t_max_initial = "600 s"
 t_max = "{tmax:g} s"
-resolve = "window"
+resolve = "region"
 {margin}
 """
 
@@ -99,7 +99,7 @@ def main(argv) -> int:
     rows = [("reference full", a.reference, ref)]
     for tol in [float(t) for t in a.tolerances.split(",") if t]:
         s = setup_at(tol)
-        w = s.solver.window
+        w = s.solver.region
         solvers = [("full", s.solver.warm)] + [
             ("window" if far == "frozen" else f"win+{far}",
              RegionResolver(s.solver.warm, margin=w.margin, edge_level=w.edge_level, far=far,

@@ -18,7 +18,7 @@ its warm start, the open breach's steady state — is the problem every solve be
   speed near the pile with the standard error of that speed over the averaging window's checks
   (batch means over the checks, the same estimator);
 * for each tolerance of ``--tolerances``: the full-domain re-solve (``resolve = "full"``, skipped with
-  ``--no-full``) and the window re-solve (``resolve = "window"``, frozen far field, default margin 2 B
+  ``--no-full``) and the window re-solve (``resolve = "region"``, frozen far field, default margin 2 B
   and edge level 0.03 m), t_max ``--t-max``; at the tolerances of ``--frozen`` also the window that
   never grows (``win-nogrow``, edge level 1 km): the error of the frozen far field itself; at the
   tolerances of ``--average`` the full-domain re-solve with the averaged criterion (``full-avg``,

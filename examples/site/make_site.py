@@ -3,7 +3,7 @@
     python examples/site/make_site.py [OUT_DIR]        # default: this directory
     python examples/site/make_site.py OUT_DIR --angle 137   # the same site turned 137° counter-clockwise
 
-Writes ``dem.tif`` (GeoTIFF, float32, 1 m pixels, NAD83 / UTM zone 15N, EPSG:26915, elevations in m
+Writes ``terrain.tif`` (GeoTIFF, float32, 1 m pixels, NAD83 / UTM zone 15N, EPSG:26915, elevations in m
 rounded to 1 cm like a lidar product) and ``levee.geojson`` (the levee centreline, same CRS). The scene,
 deterministic (fixed seed), from south to north: a river channel (bed −4 m) flowing east, its bank up to
 a batture at +2 m, a clay levee (crest +5 m, crown 3 m, slopes 1V:3H) whose centreline runs east at
@@ -103,7 +103,7 @@ def write(out: Path, angle: float = 0.0) -> tuple[Path, Path]:
     from rasterio.transform import from_origin
 
     out.mkdir(parents=True, exist_ok=True)
-    tif = out / "dem.tif"
+    tif = out / "terrain.tif"
     west, north, nx, ny = raster_grid(angle)
     profile = dict(driver="GTiff", width=nx, height=ny, count=1, dtype="float32", crs=f"EPSG:{EPSG}",
                    transform=from_origin(west, north, PIXEL, PIXEL), nodata=-9999.0,

@@ -25,7 +25,7 @@ def turned_scenario(out: Path, angle: float, resolution: float) -> Path:
 
     tif, geo = make_site.write(out, angle)
     text = (HERE / "site.toml").read_text()
-    text = text.replace('"dem.tif"', f'"{tif}"').replace('"levee.geojson"', f'"{geo}"')
+    text = text.replace('"terrain.tif"', f'"{tif}"').replace('"levee.geojson"', f'"{geo}"')
     text = text.replace('resolution = "1 m"', f'resolution = "{resolution:g} m"')
     p = out / "site.toml"
     p.write_text(text)

@@ -130,7 +130,7 @@ def test_the_pile_of_a_closure_run_is_the_masses_that_stayed_put_over_the_last_r
     text = ci_scene(2, "raised_bed", {"closure.seed": seed, "dem.max_time": cap})
     setup = closure_setup(parse_scenario(text))
     d = setup.dem
-    assert (d.rest_rule, d.rest_speed, d.rest_time) == ("window", 0.05, 0.5)  # the defaults
+    assert (d.rest_rule, d.rest_speed, d.rest_time) == ("mean_speed", 0.05, 0.5)  # the defaults
     run = ClosureRun(setup, tmp_path / "run", text)
     run.run()
     checked = differ = 0

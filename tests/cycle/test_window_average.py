@@ -95,9 +95,9 @@ SCENE = (__import__("pathlib").Path(__file__).resolve().parents[1] / "data" / "c
 
 def test_steady_average_reaches_every_swe_solve_of_the_run():
     setup = closure_setup(parse_scenario(scenario_with(SCENE, {"hydro.steady_average": True,
-                                                               "hydro.resolve": "window"})))
+                                                               "hydro.resolve": "region"})))
     assert setup.solver.cold.average and setup.solver.warm.average
-    assert setup.solver.window.full is setup.solver.warm
+    assert setup.solver.region.full is setup.solver.warm
     default = closure_setup(parse_scenario(SCENE))
     assert not default.solver.cold.average and not default.solver.warm.average
 

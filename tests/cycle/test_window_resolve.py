@@ -29,7 +29,7 @@ protected_side_extent = "48 m"
 [hydro]
 resolution = "1.5 m"
 tolerance = "5e-5 1/s"
-resolve = "window"
+resolve = "region"
 resolve_margin = "6 m"
 """
 
@@ -53,12 +53,12 @@ def test_window_resolve_matches_the_full_resolve_after_an_asymmetric_pile(scene,
     near = (np.abs(X) <= B) & (np.abs(Y) <= B)
     out = {}
     # the window re-solve as `breachflow run` calls it: the scenario's solver with a warm start
-    for name, solver, last in (("full", setup.solver.warm, setup.solver.warm), ("window", setup.solver, setup.solver.window)):
+    for name, solver, last in (("full", setup.solver.warm, setup.solver.warm), ("window", setup.solver, setup.solver.region)):
         ds = solver.solve(piled, initial=snap)
         assert last.last.history.converged
         out[name] = (section_discharge(ds, setup.breach_x, setup.levee_y), np.hypot(ds.u.values, ds.v.values),
                      ds.depth.values, ds)
-    info = setup.solver.window.last_info
+    info = setup.solver.region.last_info
     assert info["mode"] == "window" and info["grown"] >= 1 and info["fraction"] < 0.5, info
     q0 = section_discharge(snap, setup.breach_x, setup.levee_y)
     (qf, sf, hf, full), (qw, sw, hw, win) = out["full"], out["window"]
@@ -92,7 +92,7 @@ def test_window_resolve_falls_back_to_the_full_domain_when_the_window_would_cove
 
 def test_resolve_options_are_checked():
     with pytest.raises(ParseError, match="resolve"):
-        parse_scenario(SCENE.replace('resolve = "window"', 'resolve = "local"'))
+        parse_scenario(SCENE.replace('resolve = "region"', 'resolve = "local"'))
     with pytest.raises(ParseError, match="refine"):
         parse_scenario(SCENE + 'refine = "2 m"\n')
     with pytest.raises(ParseError, match="resolve_far.*coarse"):
@@ -100,5 +100,5 @@ def test_resolve_options_are_checked():
     with pytest.raises(ParseError, match="resolve_far_factor"):
         parse_scenario(SCENE + 'resolve_far = "coarse"\nresolve_far_factor = 1\n')
     setup = closure_setup(parse_scenario(SCENE + 'resolve_far = "coarse"\nresolve_far_factor = 3\n'))
-    assert setup.solver.window.far_name == "coarse" and setup.solver.window.far.factor == 3
+    assert setup.solver.region.far_name == "coarse" and setup.solver.region.far.factor == 3
 

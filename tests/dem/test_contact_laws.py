@@ -4,7 +4,7 @@ The reference below is a transcription of LAMMPS' ``PairGranHookeHistory::comput
 pair_gran_hooke_history.cpp) in LAMMPS' own conventions (``del = x_i - x_j``, ``v_r = v_i - v_j``,
 ``shear`` = minus breachflow's history), so sign or ordering slips in the kernel show up. Its accuracy at
 impacts (restitution against onset phase, tests/dem/impact_cases.py) is measured against the analytic
-linear spring–dashpot, next to the default window-averaged law.
+linear spring–dashpot, next to the default step-averaged law.
 """
 import functools
 import math
@@ -96,11 +96,11 @@ def test_hooke_history_pair_kernel_is_lammps_compute(seed):
 
 
 def test_registry_names_and_errors():
-    assert resolve("hooke_history").code != resolve("window_averaged").code
-    assert DemSimulation().contact_law.code == resolve("window_averaged").code
+    assert resolve("hooke_history").code != resolve("step_averaged").code
+    assert DemSimulation().contact_law.code == resolve("step_averaged").code
     with pytest.raises(InputError, match="contact law"):
         DemSimulation(contact_law="hertz")
-    assert set(contact_laws.available()) >= {"hooke_history", "window_averaged"}
+    assert set(contact_laws.available()) >= {"hooke_history", "step_averaged"}
 
 
 def _restitution_errors(law, kind, zeta):
@@ -117,9 +117,9 @@ def _restitution_errors(law, kind, zeta):
 def test_hooke_history_restitution_depends_on_the_onset_phase(kind):
     """At the default step (10-25 steps per contact) and zeta 0.3, with velocity_verlet (LAMMPS' scheme):
     the point-evaluated law's restitution error spreads over the onset phases (LAMMPS' known step
-    dependence), the window-averaged law's does not; bounds from the measured figures (README)."""
+    dependence), the step-averaged law's does not; bounds from the measured figures (README)."""
     hooke = _restitution_errors("hooke_history", kind, 0.3)
-    window = _restitution_errors("window_averaged", kind, 0.3)
+    window = _restitution_errors("step_averaged", kind, 0.3)
     spread_h = np.ptp(hooke[:, 0])
     spread_w = np.ptp(window[:, 0])
     assert spread_h > 5 * spread_w, (hooke[:, 0], window[:, 0])

@@ -8,7 +8,7 @@ import pytest
 
 from breachflow.dem import DemSimulation, Material, Plane, steploop
 from breachflow.dem import pair_contacts as contacts
-from breachflow.dem.contact_law import HOOKE_HISTORY, WINDOW_AVERAGED
+from breachflow.dem.contact_law import HOOKE_HISTORY, STEP_AVERAGED
 from breachflow.dem.contact_law import contact_laws
 
 from .test_steploop import assert_same
@@ -46,7 +46,7 @@ def scene(integrator, law, damping, compiled):
     return sim
 
 
-@pytest.mark.parametrize("law", ["window_averaged", "hooke_history"])
+@pytest.mark.parametrize("law", ["step_averaged", "hooke_history"])
 @pytest.mark.parametrize("integrator", ["velocity_verlet", "predicted_verlet"])
 @pytest.mark.parametrize("damping", ["none", "some c_gn", "some c_gw"])
 def test_fused_plane_pass_and_damping_skip_equal_the_python_step(integrator, law, damping, monkeypatch):
@@ -98,7 +98,7 @@ def call_plane(a, law, lo, hi):
 def test_sphere_exactly_at_contact_distance(vz):
     """overlap = r - z = 0 exactly. hooke_history (point values): no contact, no force, histories cleared.
     Window-averaged law over [-dt/2, dt/2]: approaching or receding at 0.4 m/s it overlaps for half the
-    window, so the force is the law's (registry :class:`~breachflow.dem.contact_law.WindowAveraged`) with
+    window, so the force is the law's (registry :class:`~breachflow.dem.contact_law.StepAveraged`) with
     phi = 1/2; at rest: none."""
     a = one_sphere_on_floor(R, vz, (1e-4, -2e-4, 0.0))
     assert call_plane(a, HOOKE_HISTORY, 0.0, 0.0) == 0
@@ -107,9 +107,9 @@ def test_sphere_exactly_at_contact_distance(vz):
 
     a = one_sphere_on_floor(R, vz, (0.0, 0.0, 0.0))
     dt = a["dt"]
-    assert call_plane(a, WINDOW_AVERAGED, -0.5 * dt, 0.5 * dt) == 0  # not overlapping now
+    assert call_plane(a, STEP_AVERAGED, -0.5 * dt, 0.5 * dt) == 0  # not overlapping now
     h = np.zeros(3)
-    phi, f, _, _ = contact_laws.get("window_averaged")().force(
+    phi, f, _, _ = contact_laws.get("step_averaged")().force(
         (0.0, 0.0, -1.0), 0.0, (-0.2, 0.0, -vz), (-0.2, 0.0, -vz), h, ROCK.kn, ROCK.ks_value, ROCK.c_cn, ROCK.c_cs,
         ROCK.c_cf, ROCK.adhesion, ROCK.friction, dt, -0.5 * dt, 0.5 * dt)
     if vz != 0.0:  # in contact over half the window: after now (approaching) or before now (receding)
@@ -122,7 +122,7 @@ def test_sphere_exactly_at_contact_distance(vz):
 
 @pytest.mark.parametrize("row", [(3e-5, 0.0, 0.0), (0.0, 0.0, -1e-9), (-0.0, 0.0, 0.0), (0.0, -0.0, 0.0),
                                  (0.0, 0.0, -0.0)])
-@pytest.mark.parametrize("law", [WINDOW_AVERAGED, HOOKE_HISTORY])
+@pytest.mark.parametrize("law", [STEP_AVERAGED, HOOKE_HISTORY])
 def test_a_sphere_that_leaves_the_floor_has_its_histories_cleared_bit_for_bit(row, law):
     """Apart (z = r + 1 mm, receding): both history rows end as +0.0 in every bit, whatever they held
     (a shear or rolling history, or a signed zero)."""
@@ -137,7 +137,7 @@ def test_a_sphere_that_leaves_the_floor_has_its_histories_cleared_bit_for_bit(ro
 
 
 @pytest.mark.parametrize("row", [(3e-5, 0.0, 0.0), (0.0, -0.0, 0.0), (0.0, 0.0, -2e-7)])
-@pytest.mark.parametrize("law", [WINDOW_AVERAGED, HOOKE_HISTORY])
+@pytest.mark.parametrize("law", [STEP_AVERAGED, HOOKE_HISTORY])
 @pytest.mark.parametrize("uniform", [True, False])
 def test_a_pair_that_separates_has_its_histories_cleared_bit_for_bit(row, law, uniform):
     """Two listed spheres 1 mm apart and separating, with a shear or rolling history left from their
@@ -154,7 +154,7 @@ def test_a_pair_that_separates_has_its_histories_cleared_bit_for_bit(row, law, u
         (hist, rhist)[which][0] = row
         touch = np.array([True])
         dt = 1e-3
-        lo, hi = (-0.5 * dt, 0.5 * dt) if law == WINDOW_AVERAGED else (0.0, 0.0)
+        lo, hi = (-0.5 * dt, 0.5 * dt) if law == STEP_AVERAGED else (0.0, 0.0)
         force, torque = np.zeros((2, 3)), np.zeros((2, 3))
         n = contacts.pair_forces_window(
             np.array([0]), np.array([1]), hist, rhist, touch, pos, vel, np.zeros((2, 3)), vel, np.zeros((2, 3)),

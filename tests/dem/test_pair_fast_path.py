@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from breachflow.dem import pair_contacts as contacts
-from breachflow.dem.contact_law import HOOKE_HISTORY, WINDOW_AVERAGED
+from breachflow.dem.contact_law import HOOKE_HISTORY, STEP_AVERAGED
 
 DT = 1e-4
 
@@ -72,7 +72,7 @@ def run(c, law, split, periodic, extra=None):
     wake = np.zeros(m, bool)
     wake_ids = np.zeros(m, np.int64)
     n_wake = np.zeros(1, np.int64)
-    lo, hi = (-0.5 * DT, 0.5 * DT) if law == WINDOW_AVERAGED else (0.0, 0.0)
+    lo, hi = (-0.5 * DT, 0.5 * DT) if law == STEP_AVERAGED else (0.0, 0.0)
     nc = contacts.pair_forces_window(c["pa"], c["pb"], hist, rhist, touching, arrs["pos"], arrs["vel"], arrs["omega"],
                                      arrs["vel_h"], arrs["omega_h"], split, arrs["radius"], arrs["mass"],
                                      arrs["inertia"], props, awake, active, c["geom"],
@@ -83,7 +83,7 @@ def run(c, law, split, periodic, extra=None):
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2, 3])
-@pytest.mark.parametrize("law, split", [(WINDOW_AVERAGED, True), (WINDOW_AVERAGED, False), (HOOKE_HISTORY, False)])
+@pytest.mark.parametrize("law, split", [(STEP_AVERAGED, True), (STEP_AVERAGED, False), (HOOKE_HISTORY, False)])
 @pytest.mark.parametrize("periodic", [True, False])
 def test_fast_path_is_bitwise_the_general_path(seed, law, split, periodic):
     c = random_pile(seed)
@@ -123,7 +123,7 @@ def test_uniform_awake_detects_the_fast_path_case():
     assert contacts.uniform_awake(np.asfortranarray(props), yes, yes)  # any memory layout
 
 
-@pytest.mark.parametrize("law", [WINDOW_AVERAGED, HOOKE_HISTORY])
+@pytest.mark.parametrize("law", [STEP_AVERAGED, HOOKE_HISTORY])
 def test_mixed_materials_take_the_softer_partners_stiffness(law):
     """Two spheres at rest overlapping by u: the normal force is min(k_N) u (Hooke), whichever partner is
     the stiffer one; the fast path with row 0's stiffness would give the stiffer value."""
@@ -138,7 +138,7 @@ def test_mixed_materials_take_the_softer_partners_stiffness(law):
         f = np.zeros((2, 3))
         t = np.zeros((2, 3))
         one = np.ones(2)
-        lo, hi = (-0.5 * DT, 0.5 * DT) if law == WINDOW_AVERAGED else (0.0, 0.0)
+        lo, hi = (-0.5 * DT, 0.5 * DT) if law == STEP_AVERAGED else (0.0, 0.0)
         nc = contacts.pair_forces_window(np.array([0]), np.array([1]), np.zeros((1, 3)), np.zeros((1, 3)),
                                          np.zeros(1, bool), pos, zero, zero, zero, zero, False, np.full(2, 0.5), one,
                                          one, props, np.ones(2, bool), np.ones(2, bool), np.zeros(8),

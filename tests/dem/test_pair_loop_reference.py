@@ -17,7 +17,7 @@ import pytest
 
 from breachflow.dem import contact_law as cl
 from breachflow.dem import pair_contacts as contacts
-from breachflow.dem.contact_law import HOOKE_HISTORY, WINDOW_AVERAGED
+from breachflow.dem.contact_law import HOOKE_HISTORY, STEP_AVERAGED
 
 from .test_pair_fast_path import DT, random_pile
 
@@ -32,7 +32,7 @@ def reference_loop(pa, pb, hist, rhist, touching, pos, vel, omega, vel_h, omega_
     """``contacts._pair_loop`` in plain Python (general copy: properties as min of the partners')."""
     mr = np.empty(3)
     nc = 0
-    reach_t = max(-lo, hi) if law == WINDOW_AVERAGED else 0.0
+    reach_t = max(-lo, hi) if law == STEP_AVERAGED else 0.0
     for p in range(pa.shape[0]):
         i, j = int(pa[p]), int(pb[p])
         if not (awake[i] or awake[j]) or not (active[i] and active[j]):
@@ -114,7 +114,7 @@ def _run(fn, c, law, split, periodic, mixed):
     out = dict(hist=c["hist"].copy(), rhist=c["rhist"].copy(), touching=np.zeros(c["pa"].size, bool),
                force=np.zeros((n, 3)), torque=np.zeros((n, 3)), wake=np.zeros(n, bool),
                wake_ids=np.zeros(n, np.int64), n_wake=np.zeros(1, np.int64))
-    lo, hi = (-0.5 * DT, 0.5 * DT) if law == WINDOW_AVERAGED else (0.0, 0.0)
+    lo, hi = (-0.5 * DT, 0.5 * DT) if law == STEP_AVERAGED else (0.0, 0.0)
     out["nc"] = fn(c["pa"], c["pb"], out["hist"], out["rhist"], out["touching"], c["pos"], c["vel"], c["omega"],
                    c["vel_h"], c["omega_h"], split, c["radius"], c["mass"], c["inertia"], props, awake,
                    np.ones(n, bool), c["geom"], np.array([periodic, periodic], np.int64), DT, 0.05, out["force"],
@@ -123,7 +123,7 @@ def _run(fn, c, law, split, periodic, mixed):
 
 
 @pytest.mark.parametrize("seed", [0, 1])
-@pytest.mark.parametrize("law, split", [(WINDOW_AVERAGED, True), (WINDOW_AVERAGED, False), (HOOKE_HISTORY, False)])
+@pytest.mark.parametrize("law, split", [(STEP_AVERAGED, True), (STEP_AVERAGED, False), (HOOKE_HISTORY, False)])
 @pytest.mark.parametrize("periodic", [True, False])
 @pytest.mark.parametrize("mixed", [False, True])
 def test_compiled_pair_loop_matches_the_python_reference(seed, law, split, periodic, mixed):

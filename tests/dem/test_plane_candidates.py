@@ -2,7 +2,7 @@
 ``walls.plane_candidates`` / ``candidates_hold``): the plane loops run over the particles near each plane
 only, with results bit-identical to the Python step (which loops over all awake particles) at unfavourable
 cases: spheres exactly at the margin at a build, spheres approaching a plane fast right after a build (the
-window-averaged law's reach, drifts larger than the margin's reserve), spheres bouncing in and out of the
+step-averaged law's reach, drifts larger than the margin's reserve), spheres bouncing in and out of the
 lists between builds, leaving the domain, falling asleep and woken, several planes (floor, walls in x and
 y, a tilted one), a plane across a periodic axis, and plane histories left by a restored state."""
 import math
@@ -84,7 +84,7 @@ def assert_far_rows_are_plus_zero(sim):
             assert not rows[far].any() and not np.signbit(rows[far]).any()
 
 
-@pytest.mark.parametrize("law", ["window_averaged", "hooke_history"])
+@pytest.mark.parametrize("law", ["step_averaged", "hooke_history"])
 @pytest.mark.parametrize("integrator", ["velocity_verlet", "predicted_verlet"])
 def test_plane_lists_give_the_python_steps_bit_for_bit(integrator, law, monkeypatch):
     """Spheres at and around the margin approaching the floor and a wall at up to 60 m/s (drifts of 3 cm per
@@ -128,7 +128,7 @@ def test_a_sphere_just_outside_the_margin_hitting_the_floor_right_after_a_build(
     assert ref.state.vel[0, 2] > 0.0 or not ref.state.active[0]  # it hit the floor
 
 
-@pytest.mark.parametrize("law", ["window_averaged", "hooke_history"])
+@pytest.mark.parametrize("law", ["step_averaged", "hooke_history"])
 def test_sleeping_and_waking_spheres_on_the_floor(law):
     """The damped scene settles and sleeps on the floor (run to equilibrium), then spheres thrown onto it
     wake sleepers: compiled calls between the events give the Python steps' results bit for bit."""
@@ -151,7 +151,7 @@ def test_sleeping_and_waking_spheres_on_the_floor(law):
     assert int((~new.state.awake & new.state.active).sum()) < asleep  # some were woken
 
 
-@pytest.mark.parametrize("law", ["window_averaged", "hooke_history"])
+@pytest.mark.parametrize("law", ["step_averaged", "hooke_history"])
 def test_a_restored_history_of_a_far_sphere_is_cleared_as_by_the_full_loop(law):
     """Plane history rows left non-zero (or -0.0) on spheres far from the plane, as a restored state may hold
     them: the lists keep those spheres until the loop has cleared the rows to +0.0, as the Python step does."""

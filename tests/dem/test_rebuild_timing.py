@@ -94,7 +94,7 @@ def test_the_compiled_loop_decides_after_the_drift_within_one_call(integrator, k
     assert check_evaluation(sim, e) > 0.0
 
 
-def drifting_lattice(integrator, compiled, speed, law="window_averaged"):
+def drifting_lattice(integrator, compiled, speed, law="step_averaged"):
     """27 spheres on a lattice of spacing 2R + 2 skin (never within the skin of each other), all moving at
     *speed* along (1, 2, 2)/3: nothing touches, the list is rebuilt only for the displacement."""
     sim = DemSimulation(gravity=(0.0, 0.0, 0.0), integrator=integrator, sleeping=False, contact_law=law)
@@ -107,16 +107,16 @@ def drifting_lattice(integrator, compiled, speed, law="window_averaged"):
 
 @pytest.mark.parametrize("integrator", ["velocity_verlet", "predicted_verlet"])
 @pytest.mark.parametrize("frac", [0.23, 0.5, 0.77])
-@pytest.mark.parametrize("law", ["window_averaged", "hooke_history"])
+@pytest.mark.parametrize("law", ["step_averaged", "hooke_history"])
 def test_uniform_drift_rebuilds_once_per_half_skin(integrator, frac, law):
     """A uniform drift of ``s`` per step: the list is rebuilt at the end of every m-th step's drift, m the
-    least with ``m s + reach > skin/2`` (reach: ``dt/2 |v| = s/2`` for the window-averaged law, 0 for
+    least with ``m s + reach > skin/2`` (reach: ``dt/2 |v| = s/2`` for the step-averaged law, 0 for
     ``hooke_history``), and at no other step: the build positions change exactly at steps m, 2m, ...
     (Python path, each step) and, in the compiled loop (one call), are those of the last multiple of m."""
     probe = drifting_lattice(integrator, False, 1.0)
     skin, dt = probe.skin, probe.dt
     m = 6
-    reach = 0.5 if law == "window_averaged" else 0.0  # in units of s
+    reach = 0.5 if law == "step_averaged" else 0.0  # in units of s
     s = 0.5 * skin / (m - 1 + frac + reach)  # (m - 1) s + reach < skin/2 < m s + reach
     assert (m - 1 + reach) * s < 0.5 * skin < (m + reach) * s
     nsteps = 5 * m + 3
@@ -168,7 +168,7 @@ def test_a_resting_bed_is_not_rebuilt(integrator, monkeypatch):
     assert calls == []  # the Python path's rebuilds (the compiled loop's call numba directly)
 
 
-# The window-averaged law looks max(-lo, hi) |v_rel . n| = s ahead (velocity Verlet window [-dt/2, dt/2], two
+# The step-averaged law looks max(-lo, hi) |v_rel . n| = s ahead (velocity Verlet window [-dt/2, dt/2], two
 # spheres closing at 2 s per step): a pair apart by less than s gets the force of the part of the window in
 # contact. An unlisted pair can be there while each sphere moved no more than skin/2 since the build: the
 # rebuild decision is ``moved + reach > skin/2`` with reach = max(-lo, hi) max|v| (dem/pairlist.py
@@ -258,7 +258,7 @@ def test_a_pair_within_the_window_reach_gets_its_partial_force_compiled_loop(int
 
 
 @pytest.mark.parametrize("integrator", ["velocity_verlet", "predicted_verlet"])
-@pytest.mark.parametrize("law", ["window_averaged", "hooke_history"])
+@pytest.mark.parametrize("law", ["step_averaged", "hooke_history"])
 def test_the_reach_rebuild_is_the_window_laws_only(integrator, law):
     """One sphere approaching another at rest until it has moved just under skin/2 while its reach
     (``dt/2 |v|``) takes it over: the window law rebuilds at that step, ``hooke_history`` (point values,
@@ -276,4 +276,4 @@ def test_the_reach_rebuild_is_the_window_laws_only(integrator, law):
         x_build = sim.pairs.pos_build[0, 0]
         sim.step(k - 1)
         rebuilt = sim.pairs.pos_build[0, 0] != x_build
-        assert rebuilt == (law == "window_averaged"), (compiled, sim.pairs.pos_build[0, 0] - x_build)
+        assert rebuilt == (law == "step_averaged"), (compiled, sim.pairs.pos_build[0, 0] - x_build)

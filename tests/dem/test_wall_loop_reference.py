@@ -21,7 +21,7 @@ import pytest
 
 from breachflow.dem import contact_law as cl
 from breachflow.dem import wall_contacts as walls
-from breachflow.dem.contact_law import HOOKE_HISTORY, WINDOW_AVERAGED
+from breachflow.dem.contact_law import HOOKE_HISTORY, STEP_AVERAGED
 
 DT = 1e-3
 BASE = np.array([0.0, 0.5, 1e7, 1e7, 3.6e4, 1.8e4, 1.8e4, 0.1])  # alpha, mu, kn, ks, c_cn, c_cs, c_cf, mu_r
@@ -59,7 +59,7 @@ def _contact(i, n, overlap, u, hist, rhist, vel, omega, vel_h, omega_h, radius, 
 
 def reference_plane(idx, point, normal, wvel, wprops, hist, rhist, pos, vel, omega, radius, mass, inertia, props, dt,
                     force, torque, reaction, lo, hi, vel_h, omega_h, law):
-    reach_t = max(-lo, hi) if law == WINDOW_AVERAGED else 0.0
+    reach_t = max(-lo, hi) if law == STEP_AVERAGED else 0.0
     nc = 0
     for i in map(int, idx):
         dist = ((pos[i, 0] - point[0]) * normal[0] + (pos[i, 1] - point[1]) * normal[1]
@@ -82,7 +82,7 @@ def reference_plane(idx, point, normal, wvel, wprops, hist, rhist, pos, vel, ome
 
 def reference_heightfield(idx, x0, y0, hx, hy, bed, wprops, hist, rhist, pos, vel, omega, radius, mass, inertia,
                           props, dt, force, torque, lo, hi, vel_h, omega_h, law):
-    reach_t = max(-lo, hi) if law == WINDOW_AVERAGED else 0.0
+    reach_t = max(-lo, hi) if law == STEP_AVERAGED else 0.0
     xmax, ymax = x0 + (bed.shape[1] - 1) * hx, y0 + (bed.shape[0] - 1) * hy
     nc = 0
     for i in map(int, idx):
@@ -160,7 +160,7 @@ def plane_case(seed, moving):
 
 
 def _plane_args(c, pos, vel, point, normal, wvel, law, split):
-    lo, hi = (-0.5 * DT, 0.5 * DT) if law == WINDOW_AVERAGED else (0.0, 0.0)
+    lo, hi = (-0.5 * DT, 0.5 * DT) if law == STEP_AVERAGED else (0.0, 0.0)
     vel_h, omega_h = (vel + c["dv"], c["omega"] + c["dw"]) if split else (vel, c["omega"])
     return dict(idx=c["idx"], point=point, normal=normal, wvel=wvel, wprops=_wall_props(), hist=c["hist"].copy(),
                 rhist=c["rhist"].copy(), pos=pos, vel=vel, omega=c["omega"], radius=c["radius"], mass=c["mass"],
@@ -178,7 +178,7 @@ def _same(got, ref, keys):
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
-@pytest.mark.parametrize("law, split", [(WINDOW_AVERAGED, True), (WINDOW_AVERAGED, False), (HOOKE_HISTORY, False),
+@pytest.mark.parametrize("law, split", [(STEP_AVERAGED, True), (STEP_AVERAGED, False), (HOOKE_HISTORY, False),
                                         (HOOKE_HISTORY, True)])
 @pytest.mark.parametrize("moving", [False, True])
 def test_plane_loop_matches_the_python_reference_bit_for_bit(seed, law, split, moving):
@@ -192,7 +192,7 @@ def test_plane_loop_matches_the_python_reference_bit_for_bit(seed, law, split, m
     touched = np.any(ref["force"] != 0.25, axis=1)
     assert 0 < touched.sum() < c["idx"].size
     assert np.any(ref["rhist"][c["idx"]] != 0.0) and np.any(c["rhist"][c["idx"]] != ref["rhist"][c["idx"]])
-    if law == WINDOW_AVERAGED:  # contacts inside the window only: a force without an overlap now
+    if law == STEP_AVERAGED:  # contacts inside the window only: a force without an overlap now
         ov = c["radius"] - (pos - point) @ normal
         assert np.any(touched & (ov <= 0.0))
 
@@ -218,10 +218,10 @@ def heightfield_case(seed):
 
 
 @pytest.mark.parametrize("seed", [0, 1])
-@pytest.mark.parametrize("law, split", [(WINDOW_AVERAGED, True), (WINDOW_AVERAGED, False), (HOOKE_HISTORY, True)])
+@pytest.mark.parametrize("law, split", [(STEP_AVERAGED, True), (STEP_AVERAGED, False), (HOOKE_HISTORY, True)])
 def test_heightfield_loop_matches_the_python_reference_bit_for_bit(seed, law, split):
     c, pos, vel, bed, (x0, y0, hx, hy) = heightfield_case(seed)
-    lo, hi = (-0.5 * DT, 0.5 * DT) if law == WINDOW_AVERAGED else (0.0, 0.0)
+    lo, hi = (-0.5 * DT, 0.5 * DT) if law == STEP_AVERAGED else (0.0, 0.0)
     vel_h, omega_h = (vel + c["dv"], c["omega"] + c["dw"]) if split else (vel, c["omega"])
 
     def args():

@@ -23,7 +23,7 @@ mean_velocity = "3 m/s"
 
 def _spec(tmp_path, vary):
     path = tmp_path / "spec.toml"
-    path.write_text(f'[ensemble]\nname = "test"\nrunner = "window"\n\n[ensemble.vary]\n{vary}\n{BASE}')
+    path.write_text(f'[ensemble]\nname = "test"\nrunner = "closure_window"\n\n[ensemble.vary]\n{vary}\n{BASE}')
     return path
 
 

@@ -82,7 +82,7 @@ class CrashingRunner:
 member_runners.register("crashing_test_runner", CrashingRunner, overwrite=True)
 
 
-def write_spec(tmp_path, vary, runner="window", extra=""):
+def write_spec(tmp_path, vary, runner="closure_window", extra=""):
     path = tmp_path / "spec.toml"
     path.write_text(f'[ensemble]\nname = "test"\nrunner = "{runner}"\n{extra}\n[ensemble.vary]\n{vary}\n{BASE}')
     return path
@@ -366,7 +366,7 @@ def test_replicate_spec_common_random_numbers():
     from breachflow.errors import ParseError
     from breachflow.ensemble import parse_spec
 
-    spec = parse_spec('[ensemble]\nrunner = "window"\nreplicates = 3\n[ensemble.vary]\n"polder.area" = ["1 ha", "2 ha"]\n'
+    spec = parse_spec('[ensemble]\nrunner = "closure_window"\nreplicates = 3\n[ensemble.vary]\n"polder.area" = ["1 ha", "2 ha"]\n'
                       + BASE)
     assert spec.dims == ("polder_area", "replicate") and spec.shape == (2, 3)
     ms = spec.members()
@@ -378,7 +378,7 @@ def test_replicate_spec_common_random_numbers():
     assert "replicates = 3" in spec.to_toml()
     for bad in ("0", "1.5", "true"):
         with pytest.raises(ParseError, match="replicates"):
-            parse_spec(f'[ensemble]\nrunner = "window"\nreplicates = {bad}\n[ensemble.vary]\n"polder.area" = ["1 ha"]\n'
+            parse_spec(f'[ensemble]\nrunner = "closure_window"\nreplicates = {bad}\n[ensemble.vary]\n"polder.area" = ["1 ha"]\n'
                        + BASE)
 
 

@@ -25,7 +25,7 @@ mean_velocity = "3 m/s"
 
 
 def spec_text(vary: str, extra: str = "") -> str:
-    return f'[ensemble]\nname = "t"\nrunner = "window"\n{extra}\n[ensemble.vary]\n{vary}\n{BASE}'
+    return f'[ensemble]\nname = "t"\nrunner = "closure_window"\n{extra}\n[ensemble.vary]\n{vary}\n{BASE}'
 
 
 def test_factorial_dims_coordinates_and_si_values():
@@ -47,7 +47,7 @@ def test_factorial_dims_coordinates_and_si_values():
 
 
 def test_explicit_members_design():
-    text = ('[ensemble]\nrunner = "window"\n[[ensemble.members]]\n"breach.length" = "20 m"\n"polder.area" = "400 ha"\n'
+    text = ('[ensemble]\nrunner = "closure_window"\n[[ensemble.members]]\n"breach.length" = "20 m"\n"polder.area" = "400 ha"\n'
             '[[ensemble.members]]\n"breach.length" = "40 m"\n"polder.area" = "1000 ha"\n' + BASE)
     spec = parse_spec(text)
     assert spec.design == "members" and spec.dims == ("member",) and spec.shape == (2,)
@@ -68,7 +68,7 @@ def test_bad_vary_tables_name_the_parameter(vary, message):
 
 def test_unknown_ensemble_key_names_file_and_line():
     with pytest.raises(ParseError) as info:
-        parse_spec('[ensemble]\nrunner = "window"\nworkerz = 2\n[ensemble.vary]\n"breach.length" = ["1 m"]\n' + BASE,
+        parse_spec('[ensemble]\nrunner = "closure_window"\nworkerz = 2\n[ensemble.vary]\n"breach.length" = ["1 m"]\n' + BASE,
                    path="spec.toml")
     assert info.value.path == "spec.toml" and info.value.line == 3
 
@@ -160,7 +160,7 @@ def test_recorded_spec_reproduces_the_same_members():
 
 def test_unknown_runner_and_bad_options_fail_before_any_member_runs(tmp_path):
     with pytest.raises(InputError, match="available: .*window"):
-        plan(parse_spec(spec_text('"breach.length" = ["20 m"]').replace('runner = "window"', 'runner = "nope"')),
+        plan(parse_spec(spec_text('"breach.length" = ["20 m"]').replace('runner = "closure_window"', 'runner = "nope"')),
              out=tmp_path)
     with pytest.raises(InputError, match="options"):
         plan(parse_spec(spec_text('"breach.length" = ["20 m"]', extra="options = { steps = 3 }")), out=tmp_path)
@@ -173,7 +173,7 @@ def test_a_spec_file_is_also_a_scenario_file(tmp_path):
     path = tmp_path / "spec.toml"
     path.write_text(spec_text('"breach.length" = ["20 m", "30 m"]'))
     scenario = load_scenario(path)
-    assert scenario["ensemble"].table["runner"] == "window"
+    assert scenario["ensemble"].table["runner"] == "closure_window"
     assert scenario["polder"].area == pytest.approx(8e6)
     assert scenario["ensemble"].spec(scenario).shape == (2,)
     path.write_text(spec_text('"breach.length" = ["20 m"]', extra="runnr = 'window'"))

@@ -41,7 +41,7 @@ def cycle_file(request, tmp_path_factory):
     d = tmp_path_factory.mktemp(f"site{angle:g}")
     tif, geo = _make_site().write(d, angle)
     text = (SITE / "site.toml").read_text()
-    text = (text.replace('"dem.tif"', f'"{tif}"').replace('"levee.geojson"', f'"{geo}"')
+    text = (text.replace('"terrain.tif"', f'"{tif}"').replace('"levee.geojson"', f'"{geo}"')
             .replace('resolution = "1 m"', 'resolution = "3 m"').replace("max_cycles = 24", "max_cycles = 1"))
     assert 'resolution = "3 m"' in text and "max_cycles = 1" in text
     (d / "site.toml").write_text(text)

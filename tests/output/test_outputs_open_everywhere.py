@@ -97,7 +97,7 @@ def _ensemble(d):
 
     spec = parse_spec("""
 [ensemble]
-runner = "window"
+runner = "closure_window"
 [ensemble.vary]
 "breach.length" = ["20 m", "40 m"]
 [flood]

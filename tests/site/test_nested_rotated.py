@@ -334,9 +334,9 @@ def test_turned_nested_closure_from_the_users_adh_files_lands_on_the_map(tmp_pat
         np.testing.assert_allclose(c * ds.u_east + s * ds.v_north, ds.u, rtol=1e-5, atol=1e-6)
 
 
-def test_nested_on_the_crs_axes_is_unchanged_and_a_box_window_is_refused_when_turned(tmp_path):
+def test_nested_on_the_crs_axes_is_unchanged_and_a_nested_box_is_refused_when_turned(tmp_path):
     """A levee along the CRS x axis keeps the nested model on the CRS axes (no frame); a turned site with
-    ``[hydro] window`` (a box on the CRS axes) is refused with a clear error."""
+    ``[hydro] nested_box`` (a box on the CRS axes) is refused with a clear error."""
     scene = replace(demo_breach(), levee_length_each_side=20.0, flood_side_extent=20.0, protected_side_extent=20.0)
     X, Y = np.meshgrid(np.arange(-25.5, 26.0, 1.0), np.arange(-19.5, 20.0, 1.0))
     from breachflow.field.snapshot import grid_snapshot
@@ -353,10 +353,10 @@ def test_nested_on_the_crs_axes_is_unchanged_and_a_box_window_is_refused_when_tu
         sc.write_text(site_table(scene, angle, dem, files) + 'resolution = "1 m"\nt_max_initial = "5 s"\n')
         ns = closure_setup(load_scenario(sc)).solver
         assert (ns.frame is None) == (angle == 0.0)
-        sc.write_text(site_table(scene, angle, dem, files) + 'resolution = "1 m"\nwindow = ["-10 m", "10 m", "-10 m", "10 m"]\n')
+        sc.write_text(site_table(scene, angle, dem, files) + 'resolution = "1 m"\nnested_box = ["-10 m", "10 m", "-10 m", "10 m"]\n')
         if angle == 0.0:
             continue
-        with pytest.raises(InputError, match=r"\[hydro\] window = .* box on the CRS axes.*31\.0° from the CRS x axis"):
+        with pytest.raises(InputError, match=r"\[hydro\] nested_box = .* box on the CRS axes.*31\.0° from the CRS x axis"):
             closure_setup(load_scenario(sc))
 
 

@@ -14,8 +14,8 @@ rasterio = pytest.importorskip("rasterio")
 
 
 def _copy_dem(tmp_path, name, *, crs=True, nan_at=None, half=8.0):
-    """dem.tif copied to *name*: without its CRS, and/or NaN within *half* m of map point *nan_at*."""
-    with rasterio.open(SITE / "dem.tif") as src:
+    """terrain.tif copied to *name*: without its CRS, and/or NaN within *half* m of map point *nan_at*."""
+    with rasterio.open(SITE / "terrain.tif") as src:
         z = src.read(1).astype("float32")
         profile = dict(src.profile)
         t = src.transform

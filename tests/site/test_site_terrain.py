@@ -120,7 +120,7 @@ def test_breach_cut_reproduces_the_scene_builders_trapezoid(tmp_path):
 
 
 def test_example_site_domain_has_real_coordinates_and_flood_side(make_site, tmp_path):
-    spec = SiteSpec(terrain=SITE / "dem.tif", levee=SITE / "levee.geojson", breach_at=125.0, breach_length=12.0,
+    spec = SiteSpec(terrain=SITE / "terrain.tif", levee=SITE / "levee.geojson", breach_at=125.0, breach_length=12.0,
                     breach_bottom=2.0, flood_level=4.7)
     site = build_site(spec, 1.0)
     d = site.domain
@@ -137,7 +137,7 @@ def test_example_site_domain_has_real_coordinates_and_flood_side(make_site, tmp_
     rev["features"][0]["geometry"]["coordinates"] = coords
     (tmp_path / "rev.geojson").write_text(json.dumps(rev))
     lev = load_levee(tmp_path / "rev.geojson")
-    spec2 = SiteSpec(terrain=SITE / "dem.tif", levee=tmp_path / "rev.geojson", breach_at=lev.length - 125.0,
+    spec2 = SiteSpec(terrain=SITE / "terrain.tif", levee=tmp_path / "rev.geojson", breach_at=lev.length - 125.0,
                      breach_length=12.0, breach_bottom=2.0, flood_level=4.7)
     site2 = build_site(spec2, 1.0)
     assert site2.report["flood_side"] == "left of the levee line (south)"
@@ -146,7 +146,7 @@ def test_example_site_domain_has_real_coordinates_and_flood_side(make_site, tmp_
 
 def test_committed_example_files_are_what_the_script_writes(make_site, tmp_path):
     tif, geo = make_site.write(tmp_path)
-    a, b = load_terrain(tif), load_terrain(SITE / "dem.tif")
+    a, b = load_terrain(tif), load_terrain(SITE / "terrain.tif")
     np.testing.assert_array_equal(a.z, b.z)
     assert a.crs_wkt == b.crs_wkt
     assert json.loads(geo.read_text()) == json.loads((SITE / "levee.geojson").read_text())

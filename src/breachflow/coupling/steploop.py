@@ -18,7 +18,7 @@ The fixed planes' contact loops run over candidate lists (:func:`list_planes`, L
 of walls alike): built with the pair list, from the build positions, they hold the awake particles whose
 gap to the plane was below the skin ``margin`` or whose plane histories are not +0.0. Each step checks that
 no particle left out can reach its plane: it moved at most ``moved`` since the build (measured after the
-drift by ``first_pass``) and the window-averaged law looks ``max(-lo, hi) |v . n|`` further
+drift by ``first_pass``) and the step-averaged law looks ``max(-lo, hi) |v . n|`` further
 (``|v|`` at most ``mx / dt`` for ``velocity_verlet``, the predicted velocities' maximum for ``predicted_verlet``),
 which must stay below the margin (:func:`.wall_contacts.candidates_hold`). If it does not, that step and all up to
 the next build run over all particles, as the Python step does. The particles left out are far, as the full
@@ -39,7 +39,7 @@ import numba
 import numpy as np
 
 from ..fluid.compiled import apparent_mass, grid_added_masses, grid_fluid_forces_phi
-from ..dem.contact_law import WINDOW_AVERAGED
+from ..dem.contact_law import STEP_AVERAGED
 from ..dem.pair_contacts import heightfield_forces, pair_forces_window, plane_forces
 from ..dem.forces import _add_gravity, zero_rows
 from ..dem.neighbours import displacement_since, rebuild
@@ -111,7 +111,7 @@ def fluid_verlet_steps(nmax, t, idx, pos, vel, omega, vel_prev, omega_prev, forc
     # the fixed planes' loops run over candidate lists (module docstring), rebuilt with the pair list
     npl = pl_point.shape[0]
     margin = 2.0 * half_skin
-    reach_t = max(-lo, hi) if law == WINDOW_AVERAGED else 0.0
+    reach_t = max(-lo, hi) if law == STEP_AVERAGED else 0.0
     listable = np.empty(npl, np.bool_)
     for p in range(npl):  # a plane across a periodic axis: a wrapped particle jumps, no lists
         listable[p] = not ((periodic[0] and pl_normal[p, 0] != 0.0) or (periodic[1] and pl_normal[p, 1] != 0.0))

@@ -55,7 +55,7 @@ class DemSettings:
     (checked every ``record_interval``), or at the safety cap ``max_time`` of simulated time; masses
     carried out of the breach area are removed meanwhile (:mod:`~breachflow.cycle.losses`). Which masses
     count as resting (the pile the remap sees) when the cycle ends at ``max_time``: ``rest_rule``
-    (``window``, the default: mean speed over the last ``rest_time`` below ``rest_speed``; ``speed``: speed
+    (``mean_speed``, the default: mean speed over the last ``rest_time`` below ``rest_speed``; ``speed``: speed
     at the cap instant below ``rest_speed``; :mod:`~breachflow.cycle.rest`);
     ``record_interval`` the trajectory sampling interval (s)."""
 
@@ -76,7 +76,7 @@ class DemSettings:
     roughness: float | None = None
     stability_time: float = 5.0
     rest_time: float = 0.5
-    rest_rule: str = "window"
+    rest_rule: str = REST_RULES.default
     #: the ``[bed]`` settings (:class:`~breachflow.cycle.config.BedSettings`): rough terrain, near-bed forces,
     #: erosion; None: smooth terrain, centre-height flow
     bed: object = None
@@ -364,8 +364,8 @@ class ClosureRun:
         else:
             new_snapshot = s.solver.solve(solve_domain, obstacles=obstacle, initial=snapshot)
             hydro = f"solved (warm start, {changed} cells changed)"
-            if new_snapshot.attrs.get("hydro_window"):  # [hydro] resolve = "window": where it was re-solved
-                hydro = hydro[:-1] + f"; window {new_snapshot.attrs['hydro_window']})"
+            if new_snapshot.attrs.get("hydro_window"):  # [hydro] resolve = "region": where it was re-solved
+                hydro = hydro[:-1] + f"; region {new_snapshot.attrs['hydro_window']})"
         t_solve, c_solve = _time.perf_counter() - t_solve, _time.process_time() - c_solve
         new_rec = {"dem." + k: v for k, v in sim.save_state().items()}
         new_rec.update(placed_cycle=placed_cycle, resting=resting.copy())

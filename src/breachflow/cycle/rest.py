@@ -10,8 +10,9 @@ out by the phase at which the cap samples it (HEC-RAS nested scene, seed 1 with 
 placed in cycle 1 read 0.111 m/s > 0.05 m/s at the 10 s cap, dropped out, and the breach discharge
 jumped 0.94 → 18.41 m³/s).
 
-``window`` (default): the settle loop's own rest test (slower than ``rest_speed`` for ``rest_time``)
-judged on the mean speed over the window instead of a sample at one instant: a mass is pile when it is
+``mean_speed`` (default; formerly ``window``, still accepted with a deprecation warning): the settle
+loop's own rest test (slower than ``rest_speed`` for ``rest_time``) judged on the mean speed over the
+last ``rest_time`` instead of a sample at one instant: a mass is pile when it is
 asleep, or its net displacement over the last ``rest_time`` (window length ``W``, from the loop's checks
 every ``record_interval``, :class:`RestWindow`) is below what ``rest_speed`` covers in ``W``::
 
@@ -39,7 +40,9 @@ import numpy as np
 from ..registry import Registry
 
 #: the rules deciding which masses the remap counts as the pile at the end of a cycle's DEM
-REST_RULES: Registry = Registry("rest rule", "breachflow.rest_rules")
+REST_RULES: Registry = Registry("rest rule", "breachflow.rest_rules", default="mean_speed")
+#: deprecated rest-rule names and the current ones
+RENAMED_RULES = {"window": "mean_speed"}
 
 
 @dataclass
@@ -84,9 +87,10 @@ class SpeedRule:
         return s.active & ((~s.awake) | (s.speed < rest_speed) | s.converged)
 
 
-@REST_RULES.register("window")
-class WindowRule:
-    """Pile = asleep, or mean speed over the rest window below ``rest_speed``:
+@REST_RULES.register("window")  # the former name, kept as an alias (a scenario warns)
+@REST_RULES.register("mean_speed")
+class MeanSpeedRule:
+    """Pile = asleep, or mean speed over the last ``rest_time`` (length ``W``) below ``rest_speed``:
     ``|x(t) − x(t − W)| < rest_speed W`` (module docstring); all active masses when the DEM converged."""
 
     def members(self, s: RestSample, rest_speed: float) -> np.ndarray:

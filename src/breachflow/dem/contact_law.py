@@ -18,8 +18,8 @@ law over that window (issue 12), so contact onset and release inside a step are 
 The law is chosen by name from the registry ``breachflow.contact_laws`` (:data:`contact_laws`,
 ``DemSimulation(contact_law=...)``); both built-ins are this spring–dashpot, computed differently:
 
-* ``"window_averaged"`` (default, :class:`WindowAveraged`) — :func:`contact_law`: the law averaged over the
-  integrator's force window, the shear history turned into the tangent plane with its length kept, the
+* ``"step_averaged"`` (default, :class:`StepAveraged`; ``"window_averaged"`` is its former name, kept as an
+  alias) — :func:`contact_law`: the law averaged over the interval of the step the integrator applies it over, the shear history turned into the tangent plane with its length kept, the
   Coulomb limit on the spring;
 * ``"hooke_history"`` (:class:`HookeHistory`) — :func:`hooke_history`: LAMMPS ``pair_style
   gran/hooke/history`` exactly (point values at the evaluation time, history projected into the tangent
@@ -42,7 +42,7 @@ import numpy as np
 from ..registry import Registry
 
 #: kernel codes
-WINDOW_AVERAGED, HOOKE_HISTORY = 0, 1
+STEP_AVERAGED, HOOKE_HISTORY = 0, 1
 #: rolling stiffness ``k_r = ROLLING_STIFFNESS * k_N mu_r^2 R_r^2`` (Ai et al. 2011, 3-D value)
 ROLLING_STIFFNESS = 2.25
 #: rolling dashpot ``C_r = ROLLING_DAMPING_RATIO * 2 sqrt(I_r k_r)`` (Ai et al. 2011 eta_r)
@@ -84,7 +84,7 @@ def history_in_plane(hist, p, nx, ny, nz):
     ``x < 2^-14`` (less than 0.45 degrees: all but the fastest-turning contacts) the series
     ``1 + x/2 + 3x^2/8 + 5x^3/16`` is used (remainder ``< 35 x^4 / 128 < 4e-18``, below one rounding), with
     ``1 / |h|^2`` computed from the stored history alone, beside the normal's square root and division
-    instead of after them: on the 1000-sphere settled bed the window-averaged pair loop is about 7 % faster
+    instead of after them: on the 1000-sphere settled bed the step-averaged pair loop is about 7 % faster
     than with ``sqrt(|h|^2) / sqrt(|h_t|^2)`` (latency, not the count of roots and divisions, bounds it;
     ``python3 tasks.py bench dem_kernel --old <src>``). Otherwise, and for a zero history, the quotient of
     the two square roots.
@@ -342,18 +342,20 @@ def rolling_law(nx, ny, nz, wx, wy, wz, fn, r_eff, mu_r, kn, i_eff, rhist, p, dt
 # the choice of law
 
 #: the contact laws, by name (entry-point group ``breachflow.contact_laws``)
-contact_laws: Registry = Registry("DEM contact law", "breachflow.contact_laws")
+contact_laws: Registry = Registry("DEM contact law", "breachflow.contact_laws", default="step_averaged")
 
 
 def _props(kn, ks, c_cn, c_cs, c_cf, alpha, beta):
     return float(kn), float(ks), float(c_cn), float(c_cs), float(c_cf), float(alpha), float(beta)
 
 
-@contact_laws.register("window_averaged")
-class WindowAveraged:
-    """The default law, averaged over the force window ``[lo, hi]`` (:func:`contact_law`)."""
+@contact_laws.register("window_averaged")  # the former name, kept as an alias
+@contact_laws.register("step_averaged")
+class StepAveraged:
+    """The default law, averaged over the interval ``[lo, hi]`` of the step the force is applied over
+    (:func:`contact_law`)."""
 
-    code = WINDOW_AVERAGED
+    code = STEP_AVERAGED
 
     def force(self, n, overlap, v, g, hist, kn, ks, c_cn, c_cs, c_cf, alpha, beta, dt, lo=0.0, hi=0.0):
         """Force (on the particle n points away from) of one contact with history *hist* (3,), updated in
@@ -367,13 +369,13 @@ class WindowAveraged:
 
 
 @contact_laws.register("hooke_history")
-class HookeHistory(WindowAveraged):
+class HookeHistory(StepAveraged):
     """LAMMPS ``gran/hooke/history`` at points (:func:`hooke_history`; ``c_cf`` unused)."""
 
     code = HOOKE_HISTORY
 
     def force(self, n, overlap, v, g, hist, kn, ks, c_cn, c_cs, c_cf, alpha, beta, dt, lo=0.0, hi=0.0):
-        """As :meth:`WindowAveraged.force`, at the evaluation time (*lo*, *hi* ignored; *overlap* > 0)."""
+        """As :meth:`StepAveraged.force`, at the evaluation time (*lo*, *hi* ignored; *overlap* > 0)."""
         h = np.asarray(hist, float).reshape(1, 3)
         kn, ks, c_cn, c_cs, c_cf, alpha, beta = _props(kn, ks, c_cn, c_cs, c_cf, alpha, beta)
         r = hooke_history(*map(float, n), float(overlap), *map(float, v), *map(float, g), h, 0, kn, ks, c_cn, c_cs,
@@ -388,7 +390,7 @@ def resolve(law) -> object:
     from ..errors import InputError
 
     obj = contact_laws.create(law)
-    if getattr(obj, "code", None) not in (WINDOW_AVERAGED, HOOKE_HISTORY):
-        raise InputError(f"contact law {law!r} has no compiled kernel (choose one of: window_averaged, "
+    if getattr(obj, "code", None) not in (STEP_AVERAGED, HOOKE_HISTORY):
+        raise InputError(f"contact law {law!r} has no compiled kernel (choose one of: step_averaged, "
                          f"hooke_history)")
     return obj

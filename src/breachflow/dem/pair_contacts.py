@@ -2,7 +2,7 @@
 :mod:`.wall_contacts` (re-exported here).
 
 Neighbour search: :mod:`.neighbours` (cell grid, half stencil, skin check; re-exported here). Contact
-laws (docs/theory.md, *DEM contact*): :mod:`.contact_law` (the window-averaged spring–dashpot with rolling resistance, and
+laws (docs/theory.md, *DEM contact*): :mod:`.contact_law` (the step-averaged spring–dashpot with rolling resistance, and
 LAMMPS' ``gran/hooke/history``), chosen by name in :data:`.contact_law.contact_laws`.
 """
 from __future__ import annotations
@@ -12,7 +12,7 @@ import math
 import numba
 import numpy as np
 
-from .contact_law import (HOOKE_HISTORY, ROLLING_DAMPING_RATIO, ROLLING_STIFFNESS, WINDOW_AVERAGED,  # noqa: F401
+from .contact_law import (HOOKE_HISTORY, ROLLING_DAMPING_RATIO, ROLLING_STIFFNESS, STEP_AVERAGED,  # noqa: F401
                           contact_law, averaging_window, hooke_history, rolling_law)
 from .neighbours import (build_grid, displacement_since, find_pairs, min_image,  # noqa: F401  (re-exported)
                          wrap_and_check)
@@ -68,14 +68,14 @@ def pair_forces_window(pa, pb, hist, rhist, touching, pos, vel, omega, vel_h, om
                               wake_ids, n_wake, lo, hi, HOOKE_HISTORY, True)
         return _pair_loop(pa, pb, hist, rhist, touching, pos, vel, omega, vel_h, omega_h, split, radius,
                           mass, inertia, props, awake, active, geom, periodic, dt, wake_speed, force, torque, wake,
-                          wake_ids, n_wake, lo, hi, WINDOW_AVERAGED, True)
+                          wake_ids, n_wake, lo, hi, STEP_AVERAGED, True)
     if law == HOOKE_HISTORY:
         return _pair_loop(pa, pb, hist, rhist, touching, pos, vel, omega, vel_h, omega_h, split, radius,
                           mass, inertia, props, awake, active, geom, periodic, dt, wake_speed, force, torque, wake,
                           wake_ids, n_wake, lo, hi, HOOKE_HISTORY, False)
     return _pair_loop(pa, pb, hist, rhist, touching, pos, vel, omega, vel_h, omega_h, split, radius,
                       mass, inertia, props, awake, active, geom, periodic, dt, wake_speed, force, torque, wake,
-                      wake_ids, n_wake, lo, hi, WINDOW_AVERAGED, False)
+                      wake_ids, n_wake, lo, hi, STEP_AVERAGED, False)
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -128,7 +128,7 @@ def _pair_loop(pa, pb, hist, rhist, touching, pos, vel, omega, vel_h, omega_h, s
     kn_u, ks_u, ccn_u, ccs_u, ccf_u, al_u, be_u, mur_u = (props[0, 2], props[0, 3], props[0, 4], props[0, 5], props[0, 6],
                                                           props[0, 0], props[0, 1], props[0, 7]) if uniform else (
                                                           0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
-    reach_t = max(-lo, hi) if law == WINDOW_AVERAGED else 0.0
+    reach_t = max(-lo, hi) if law == STEP_AVERAGED else 0.0
     # the list is sorted by i: i's force and torque are summed in registers and stored when i changes (as
     # LAMMPS' fxtmp); any order gives the same sums up to round-off
     ci = np.uint64(0)

@@ -2,7 +2,7 @@
 list, its rebuild and the pair histories it carries.
 
 Pairs closer than ``skin`` are listed (hashed cell grid, :mod:`.pair_contacts`; dense bins, :mod:`.neighbours`)
-and reused until some awake particle has moved more than ``skin/2`` (less the window-averaged law's reach
+and reused until some awake particle has moved more than ``skin/2`` (less the step-averaged law's reach
 ``dt/2 max|v|``: ``relist_after_drift``) or particles fell asleep / woke / were inserted. Each pair keeps its shear history across steps and across rebuilds; when both partners
 sleep the history is parked in a sorted "frozen" store and restored when one wakes (:mod:`.sleeping`).
 Each listed pair keeps a shear history (``hist``, m) and a rolling-moment history (``rhist``, N m, for
@@ -65,7 +65,7 @@ class PairList:
         ``skin/2 + |v| dt`` from the build, so two spheres that each moved nearly ``skin/2`` toward each
         other could touch while unlisted. *reach* (m, :meth:`DemSimulation.window_reach <breachflow.dem.simulation.DemSimulation.window_reach>` times the largest speed the law
         uses: the step displacement over ``dt`` for velocity Verlet, the predicted speed for predicted Verlet,
-        as ``fluid_verlet_steps``): how far beyond its gap the window-averaged law looks for any particle.
+        as ``fluid_verlet_steps``): how far beyond its gap the step-averaged law looks for any particle.
         The list is rebuilt when ``moved + reach > skin/2``: an unlisted pair was more than ``skin`` apart
         at the build, so it is still more than ``2 reach >= max(-lo, hi) dt |v_rel . n|`` apart and gets no
         force in the window either (with ``moved`` alone, a pair apart by less than the reach got its

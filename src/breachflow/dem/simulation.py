@@ -32,10 +32,10 @@ from ..errors import InputError, PhysicsError
 from . import neighbours, pair_contacts, steploop
 from .boundaries import Boundary, Plane  # Plane: the example above
 from . import checkpoint
-from .contact_law import resolve as resolve_contact_law
+from .contact_law import contact_laws, resolve as resolve_contact_law
 from .forces import G, ForceModel, Gravity, add_global_damping, zero_rows
 from .integrators import integrators
-from .contact_law import WINDOW_AVERAGED
+from .contact_law import STEP_AVERAGED
 from .pairlist import PairList
 from .sleeping import Sleepers
 from .state import Material, ParticleState
@@ -65,7 +65,7 @@ class DemSimulation:
     median diameter + skin); ``sleeping`` on/off; ``plane_2d`` restricts motion to the x–z plane
     (translation in x, z and rotation about y; the report's 2-D setting; out-of-plane components of
     inserted velocities are dropped); ``contact_law`` name in ``breachflow.contact_laws``
-    (:data:`.contact_law.contact_laws`: ``window_averaged``, the default, or LAMMPS' ``hooke_history``).
+    (:data:`.contact_law.contact_laws`: ``step_averaged``, the default, or LAMMPS' ``hooke_history``).
     """
 
     def __init__(self, state: ParticleState | None = None, *, boundaries=(), models=(), gravity=(0.0, 0.0, -G),
@@ -74,7 +74,7 @@ class DemSimulation:
                  sleep_velocity: float = 1e-3, wake_velocity: float | None = None, sleep_steps: int = 100,
                  sleep_check: int = 25,
                  wake_force_fraction: float = 0.05, static_models: bool = False,
-                 plane_2d: bool = False, contact_law="window_averaged"):
+                 plane_2d: bool = False, contact_law=contact_laws.default):
         self.state = state if state is not None else ParticleState.empty()
         self.boundaries: list[Boundary] = list(boundaries)
         self.models: list[ForceModel] = list(models)
@@ -468,10 +468,10 @@ class DemSimulation:
 
     def window_reach(self, window) -> float:
         """How far ahead in time (s) the contact law looks with the force *window* ``(lo, hi)`` in steps:
-        ``max(-lo, hi) dt`` for the window-averaged law (it gives a force to a pair apart by less than
+        ``max(-lo, hi) dt`` for the step-averaged law (it gives a force to a pair apart by less than
         ``max(-lo, hi) dt |v_rel . n|``, :func:`.contact_law.contact_law`), 0 for point values. Times the
         largest speed the law uses, the reach of :meth:`.pairlist.PairList.relist_after_drift`."""
-        return max(-(window[0] * self._dt), window[1] * self._dt) if self._law == WINDOW_AVERAGED else 0.0
+        return max(-(window[0] * self._dt), window[1] * self._dt) if self._law == STEP_AVERAGED else 0.0
 
     def sleep(self, ids) -> np.ndarray:
         """Put particles *ids* to sleep now (e.g. masses that were at rest at the end of the previous

@@ -12,7 +12,7 @@ import math
 import numba
 import numpy as np
 
-from .contact_law import HOOKE_HISTORY, WINDOW_AVERAGED, contact_law, hooke_history, rolling_law
+from .contact_law import HOOKE_HISTORY, STEP_AVERAGED, contact_law, hooke_history, rolling_law
 from .pocket import pocket_tangent
 
 
@@ -37,7 +37,7 @@ def plane_forces(idx, point, normal, wvel, wprops, hist, rhist, pos, vel, omega,
         return _wall_loop(idx, geom, hist, wprops, hist, rhist, pos, vel, omega, radius, mass, inertia, props, dt,
                           force, torque, reaction, lo, hi, vel_h, omega_h, HOOKE_HISTORY, PLANE)
     return _wall_loop(idx, geom, hist, wprops, hist, rhist, pos, vel, omega, radius, mass, inertia, props, dt, force,
-                      torque, reaction, lo, hi, vel_h, omega_h, WINDOW_AVERAGED, PLANE)
+                      torque, reaction, lo, hi, vel_h, omega_h, STEP_AVERAGED, PLANE)
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -77,7 +77,7 @@ def _wall_loop(idx, geom, bed, wprops, hist, rhist, pos, vel, omega, radius, mas
     """
     mr = np.empty(3)
     n = 0
-    reach_t = max(-lo, hi) if law == WINDOW_AVERAGED else 0.0  # hooke_history: point values
+    reach_t = max(-lo, hi) if law == STEP_AVERAGED else 0.0  # hooke_history: point values
     # plane: point p, unit normal q into the domain, velocity u (locals: a store into the histories may alias
     # the arrays, which would otherwise be reloaded for every particle)
     px, py, pz, qx, qy, qz, ux, uy, uz = geom
@@ -254,7 +254,7 @@ def plane_candidates(idx, pos_ref, radius, point, normal, margin, hist, rhist, o
 def candidates_hold(moved, reach, margin):
     """Whether every particle left out of the :func:`plane_candidates` lists built with *margin* is far from
     its plane now: each moved at most *moved* from its reference position and reaches at most *reach* further
-    within the force window (``max(-lo, hi) |v . n|``, the window-averaged law's test in :func:`plane_forces`;
+    within the force window (``max(-lo, hi) |v . n|``, the step-averaged law's test in :func:`plane_forces`;
     0 for point values), so its gap is at least ``margin - moved - reach`` > 0 with
     :data:`CANDIDATE_RESERVE` of the margin to spare."""
     return moved + reach <= (1.0 - CANDIDATE_RESERVE) * margin

@@ -214,7 +214,8 @@ _WINDOW_FLOAT = {
 _WINDOW_FLAGS = ("balance_reached", "inundation_reached", "wind_calm_reached")
 
 
-@member_runners.register("window")
+@member_runners.register("window")  # the former name, kept as an alias (an ensemble spec warns)
+@member_runners.register("closure_window")
 class WindowRunner:
     """Closure window of the member's scenario (docs/theory.md, *Closure window*): ``breachflow.scenario.closure_window`` on the
     member's ``[flood]``, ``[polder]``, ``[breach]`` (and ``[wind]``), reduced to scalars: t_B, t_Q, t_I,
@@ -234,7 +235,7 @@ class WindowRunner:
 
     def __init__(self, **options):
         if options:
-            raise InputError(f"member runner 'window' takes no options, got {sorted(options)}")
+            raise InputError(f"member runner 'closure_window' takes no options, got {sorted(options)}")
 
     def run(self, member: MemberScenario, run_dir: Path, seed: int) -> dict[str, Any]:
         from ..scenario import closure_window

@@ -5,7 +5,7 @@ base scenario (inline), optionally on top of a scenario file named by ``base``::
 
     [ensemble]
     name = "closure feasibility"
-    runner = "window"               # a name in the registry ``breachflow.member_runners``
+    runner = "closure_window"       # a name in the registry ``breachflow.member_runners``
     base = "site.toml"              # optional; this file's scenario tables override the file's
     seed = 2026                     # optional base seed of the per-member seeds (default 0)
     replicates = 10                 # optional: N placement seeds per parameter combination (dimension
@@ -57,6 +57,8 @@ _NUMBER_START = re.compile(r"^\s*[-+]?(\d|\.\d)")
 _DIM_NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 ENSEMBLE_KEYS = {"name", "description", "runner", "base", "design", "seed", "output", "workers", "scheduler",
                  "vary", "members", "options", "replicates"}
+#: deprecated member-runner names and the current ones
+RENAMED_RUNNERS = {"window": "closure_window"}
 
 
 def looks_like_quantity(value) -> bool:
@@ -135,7 +137,7 @@ class EnsembleSpec:
 
     base: dict                     # base scenario tables (raw TOML values, relative file paths resolved)
     parameters: list[Parameter]
-    runner: str = "window"
+    runner: str = "closure_window"
     design: str = "factorial"      # "factorial" or "members"
     member_values: list[dict[str, Any]] = field(default_factory=list)   # design "members"
     options: dict = field(default_factory=dict)
@@ -186,9 +188,17 @@ class EnsembleSpec:
             if not isinstance(value, dict):
                 raise ParseError(f"top-level key {section!r} outside any [section]", path=where if path else None)
 
-        runner = table.get("runner", "window")
+        runner = table.get("runner", "closure_window")
         if not isinstance(runner, str):
             raise err("expected the name of a member runner", "runner")
+        if runner in RENAMED_RUNNERS:
+            import warnings
+
+            line = _line_of(text, "runner")
+            warnings.warn(f"{path or '<ensemble spec>'}" + (f", line {line}" if line else "") + f": [ensemble] runner = "
+                          f"{runner!r} is deprecated; write runner = {RENAMED_RUNNERS[runner]!r}", DeprecationWarning,
+                          stacklevel=2)
+            runner = RENAMED_RUNNERS[runner]
         vary = table.get("vary")
         members = table.get("members")
         design = table.get("design", "members" if members is not None and vary is None else "factorial")

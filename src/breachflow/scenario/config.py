@@ -64,6 +64,31 @@ class SectionContext:
         where = f"[{self.section}]" + (f" {key}" if key else "")
         return ParseError(f"{where}: {message}", path=self.path, line=self.line_of(key))
 
+    def renamed(self, table: dict, old: str, new: str | None = None, *, values: dict | None = None) -> dict:
+        """Accept an old spelling with a DeprecationWarning naming the file, line, key and new spelling.
+        The key *old* becomes *new* (a copy of *table* is returned; both given is an error); with *values*
+        ``{old value: new value}`` instead, those values of the key *old* are renamed."""
+        import warnings
+
+        def warn(key, was, now):
+            line = self.line_of(key)
+            where = f"{self.path or '<scenario>'}" + (f", line {line}" if line else "")
+            warnings.warn(f"{where}: [{self.section}] {was} is deprecated; write {now}", DeprecationWarning,
+                          stacklevel=4)
+
+        if values is not None:
+            value = table.get(old)
+            if isinstance(value, str) and value in values:
+                warn(old, f"{old} = {value!r}", f"{old} = {values[value]!r}")
+                table = {**table, old: values[value]}
+            return table
+        if old in table:
+            if new in table:
+                raise self.error(f"give {new!r} only ({old!r} is its deprecated spelling)", old)
+            warn(old, old, new)
+            table = {(new if k == old else k): v for k, v in table.items()}
+        return table
+
     def check_keys(self, table: dict, allowed, *, subtables=()) -> None:
         """Raise for any key of *table* not in *allowed* (nor an allowed sub-table name)."""
         allowed = set(allowed) | set(subtables)

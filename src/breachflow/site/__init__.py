@@ -1,7 +1,7 @@
 """A real site: terrain, levee and breach from the user's files, and the domain around the breach (issue 13).
 
 >>> from breachflow.site import build_site, SiteSpec   # doctest: +SKIP
->>> site = build_site(SiteSpec(terrain="dem.tif", levee="levee.geojson", breach_at=120, breach_length=12,
+>>> site = build_site(SiteSpec(terrain="terrain.tif", levee="levee.geojson", breach_at=120, breach_length=12,
 ...                            breach_bottom=2.0, flood_level=4.7), resolution=1.0)   # doctest: +SKIP
 """
 from .domain import Site, SiteSpec, build_site

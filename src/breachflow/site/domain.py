@@ -387,7 +387,7 @@ def _place_breach(spec: SiteSpec, terrain: Terrain, levee: LeveeLine) -> Breach:
             n_bad = int(np.count_nonzero(~np.isfinite(zc)))
             raise InputError(f"{terrain.path}: the terrain has no elevation (NODATA / NaN cells) at the breach: "
                              f"{n_bad} of {zc.size} points of the levee line across the breach, the first at "
-                             f"({bad[0]:.1f}, {bad[1]:.1f}); fill the gap in the DEM (e.g. gdal_fillnodata) or move "
+                             f"({bad[0]:.1f}, {bad[1]:.1f}); fill the gap in the terrain (e.g. gdal_fillnodata) or move "
                              f"the breach")
         raise InputError(f"{terrain.path}: the terrain (x {x0:.1f}…{x1:.1f}, y {y0:.1f}…{y1:.1f}) does not cover the "
                          f"breach (no elevation at ({bad[0]:.1f}, {bad[1]:.1f}) on the levee line)")

@@ -14,7 +14,7 @@ from ..driver import DemSettings
 class DemSection:
     """``[dem]``: material (``kn``, ``ks``, ``friction``, ``rolling_friction``, ``adhesion``, ``restitution``, ``global_damping``)
     and run control (``integrator``, ``e_tol``, ``max_time`` per cycle (safety cap), ``rest_speed``, ``rest_time``,
-    ``rest_rule`` (``window`` | ``speed``: which masses are the pile at the cap, :mod:`~breachflow.cycle.rest`),
+    ``rest_rule`` (``mean_speed`` | ``speed``: which masses are the pile at the cap, :mod:`~breachflow.cycle.rest`),
     ``record_interval``, ``sleeping``, ``stability_time``)."""
 
     values: dict = field(default_factory=dict)
@@ -52,8 +52,9 @@ class DemSection:
         if "sleeping" in table:
             vals["sleeping"] = ctx.raw(table, "sleeping", types=(bool,))
         if "rest_rule" in table:
-            from ..rest import REST_RULES
+            from ..rest import REST_RULES, RENAMED_RULES
 
+            table = ctx.renamed(table, "rest_rule", values=RENAMED_RULES)
             vals["rest_rule"] = ctx.raw(table, "rest_rule")
             try:
                 REST_RULES.get(vals["rest_rule"])

@@ -1,5 +1,5 @@
 """The ``[hydro]`` section: the flow solver of a closure run, its resolution and steady-state tolerance,
-the warm re-solve (full domain or a window) and the nested fine grid (docs/theory.md, *Shallow-water equations*)."""
+the warm re-solve (full domain or a region) and the nested fine grid (docs/theory.md, *Shallow-water equations*)."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -7,8 +7,12 @@ from dataclasses import dataclass, field
 from ...scenario.config import register_section
 
 
-#: warm re-solve of the ``swe`` solver: whole domain, or a window around the changed cells (hydro/window.py)
-RESOLVE_MODES = ("full", "window")
+#: warm re-solve of the ``swe`` solver: whole domain, or a region around the changed cells
+#: (:mod:`breachflow.hydro.resolve_region`)
+RESOLVE_MODES = ("full", "region")
+#: deprecated spellings: ``[hydro] window`` is ``nested_box``, ``resolve = "window"`` is ``"region"``
+RENAMED_KEYS = {"window": "nested_box"}
+RENAMED_RESOLVE = {"window": "region"}
 
 #: solvers that take ingested snapshot files
 SNAPSHOT_SOLVERS = ("snapshot", "snapshot_frozen", "nested")
@@ -24,23 +28,23 @@ class HydroSection:
     solve), ``monitor_radius`` (steady state is judged within this distance of the breach),
     ``snapshots`` (files for the ``snapshot_frozen`` / ``nested`` solvers: snapshot NetCDF from ``breachflow
     ingest``; ``nested`` also takes the model's own export files forming one snapshot — ADH ``.3dm`` +
-    ``.dat`` + ``.bc``, a HEC-RAS ``.sdf`` or 6.x plan ``.hdf`` — read with ``open_snapshot``), ``window``
-    (``[x0, x1, y0, y1]`` of the ``nested`` local model; default the breach ± (B/2 + 3 B) along the levee,
+    ``.dat`` + ``.bc``, a HEC-RAS ``.sdf`` or 6.x plan ``.hdf`` — read with ``open_snapshot``), ``nested_box``
+    (``[x0, x1, y0, y1]`` of the ``nested`` local model, formerly ``window``; default the breach ± (B/2 + 3 B) along the levee,
     ± 3 B across), ``threads`` (numba threads of one solve; default 1, the least CPU time; more threads
     can cut its wall time on free cores, docs/performance.md, *Shallow water against ANUGA*). The default 2e-4 1/s puts the warm re-solves of the default scene within 0.37 % of
     their steady breach discharge (the former 2e-3 1/s and 60 s: 2.71 %; issue 12,
     ``python3 tasks.py bench steady``).
 
-    ``resolve`` (``full`` | ``window``): a warm re-solve of the ``swe`` solver over the whole domain, or
-    only in a window around the cells the remap changed, ``resolve_margin`` (default 2 B) beyond them and
+    ``resolve`` (``full`` | ``region``, formerly ``window``): a warm re-solve of the ``swe`` solver over the
+    whole domain, or only in a region around the cells the remap changed, ``resolve_margin`` (default 2 B) beyond them and
     the breach, the rest frozen at the previous steady state, grown when the water level at its edge moves
     by more than ``resolve_edge_level`` (:mod:`breachflow.hydro.resolve_region`); ``resolve_far`` (``frozen`` |
-    ``coarse``, :mod:`breachflow.hydro.far_field`) how the domain outside the window follows the pile,
+    ``coarse``, :mod:`breachflow.hydro.far_field`) how the domain outside the region follows the pile,
     ``resolve_far_factor`` the coarsening of ``coarse`` (default 2). ``steady_average`` (default false): the
-    ``swe`` solves (cold, warm, window) also accept the running mean of the breach discharge when its
+    ``swe`` solves (cold, warm, region) also accept the running mean of the breach discharge when its
     batch-means error is within the tolerance (``run_to_steady(average=True)``,
     :mod:`breachflow.swe.steady_mean`; the state is then the time mean). ``refine`` (a length, with
-    ``solver = "swe"``): a nested fine grid of that cell size around the breach (``window``, default the
+    ``solver = "swe"``): a nested fine grid of that cell size around the breach (``nested_box``, default the
     breach ± (B/2 + 3 B) along the levee, ± 3 B across) inside the coarse domain at ``resolution``: the
     coarse open-breach steady state is solved once and is the regional field of the ``nested`` local model
     (:mod:`breachflow.hydro.nested`) the closure runs on. ``cold_start`` (``cold`` | ``coarse``): the first
@@ -56,7 +60,7 @@ class HydroSection:
     t_max: float = 300.0
     monitor_radius: float = 20.0
     snapshots: list = field(default_factory=list)
-    window: tuple | None = None
+    nested_box: tuple | None = None
     threads: int = 1
     resolve: str = "full"
     resolve_margin: float | None = None
@@ -69,8 +73,11 @@ class HydroSection:
 
     @classmethod
     def from_table(cls, table, ctx):
+        for old, new in RENAMED_KEYS.items():
+            table = ctx.renamed(table, old, new)
+        table = ctx.renamed(table, "resolve", values=RENAMED_RESOLVE)
         ctx.check_keys(table, {"solver", "resolution", "order", "courant", "tolerance", "t_max_initial", "t_max",
-                               "monitor_radius", "snapshots", "window", "threads", "resolve", "resolve_margin",
+                               "monitor_radius", "snapshots", "nested_box", "threads", "resolve", "resolve_margin",
                                "resolve_edge_level", "resolve_far", "resolve_far_factor", "refine",
                                "steady_average", "cold_start"})
         out = cls(
@@ -99,14 +106,14 @@ class HydroSection:
             raise ctx.error(f"threads = {out.threads}: needs at least 1", "threads")
         out.refine = ctx.quantity(table, "refine", "length", positive=True)
         out.resolve_margin = ctx.quantity(table, "resolve_margin", "length", positive=True)
-        if "window" in table:
-            w = ctx.raw(table, "window", types=(list,))
+        if "nested_box" in table:
+            w = ctx.raw(table, "nested_box", types=(list,))
             if len(w) != 4:
-                raise ctx.error("window = [x0, x1, y0, y1] (lengths) of the nested local model", "window")
-            vals = [ctx.quantity({"window": v}, "window", "length") for v in w]
+                raise ctx.error("nested_box = [x0, x1, y0, y1] (lengths) of the nested local model", "nested_box")
+            vals = [ctx.quantity({"nested_box": v}, "nested_box", "length") for v in w]
             if not (vals[1] > vals[0] and vals[3] > vals[2]):
-                raise ctx.error(f"window {w}: needs x0 < x1 and y0 < y1", "window")
-            out.window = tuple(vals)
+                raise ctx.error(f"nested_box {w}: needs x0 < x1 and y0 < y1", "nested_box")
+            out.nested_box = tuple(vals)
         if out.resolve not in RESOLVE_MODES:
             raise ctx.error(f"resolve = {out.resolve!r}; use one of {list(RESOLVE_MODES)}", "resolve")
         from ...hydro.far_field import far_fields

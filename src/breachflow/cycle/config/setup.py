@@ -73,12 +73,12 @@ def closure_setup(scenario, *, overrides: dict | None = None):
         # (a refine's coarse steady state is already on the site's grid)
         frame = built.frame if built is not None and hydro.refine is None and built.frame.rotated else None
         window, spacing = breach_window(xc, yc, 2.0 * half, fine)
-        if hydro.window is not None:
+        if hydro.nested_box is not None:
             if frame is not None:
-                raise InputError(f"[hydro] window = {list(hydro.window)} is a box on the CRS axes, but the grid of this "
+                raise InputError(f"[hydro] nested_box = {list(hydro.nested_box)} is a box on the CRS axes, but the grid of this "
                                  f"site runs along the levee ({frame.angle_deg:.1f}° from the CRS x axis); leave it out "
-                                 f"(the default window is the breach ± (B/2 + 3 B) along the levee and ± 3 B across)")
-            window, spacing = hydro.window, fine
+                                 f"(the default box is the breach ± (B/2 + 3 B) along the levee and ± 3 B across)")
+            window, spacing = hydro.nested_box, fine
         nested = NestedSolver(regional, window, spacing, manning=float(np.mean(dom.manning)),
                               order=hydro.order, courant=hydro.courant, tolerance=hydro.tolerance,
                               t_max_initial=hydro.t_max_initial, t_max=hydro.t_max, frame=frame)
@@ -234,18 +234,18 @@ class _WarmStartSWE:
             from ...hydro.coarse_start import CoarseStartSWE
 
             self.cold = CoarseStartSWE(self.cold)
-        self.window = None
-        if hydro.resolve == "window":
+        self.region = None
+        if hydro.resolve == "region":
             from ...hydro.resolve_region import RegionResolver
 
-            self.window = RegionResolver(self.warm, margin=hydro.resolve_margin, edge_level=hydro.resolve_edge_level,
+            self.region = RegionResolver(self.warm, margin=hydro.resolve_margin, edge_level=hydro.resolve_edge_level,
                                          far=hydro.resolve_far,
                                          far_factor=hydro.resolve_far_factor if hydro.resolve_far == "coarse" else None)
 
     def solve(self, domain, obstacles=None, initial=None):
         if initial is None:
             return self.cold.solve(domain, obstacles=obstacles, initial=initial)
-        return (self.window or self.warm).solve(domain, obstacles=obstacles, initial=initial)
+        return (self.region or self.warm).solve(domain, obstacles=obstacles, initial=initial)
 
 
 class _StageSolver:
