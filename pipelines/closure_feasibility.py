@@ -35,22 +35,9 @@ import numpy as np
 DEFAULT_GRID = {"lengths": [8, 12, 16], "areas": [20, 60, 200], "sizes": [1.5, 2.0, 2.5]}
 FULL_GRID = {"lengths": [6, 8, 10, 12, 14, 16], "areas": [10, 20, 50, 100, 200], "sizes": [1.0, 1.5, 2.0, 2.5, 3.0]}
 
-SPEC = """
-[ensemble]
-name = "closure feasibility"
-description = "breach length x polder area x mass size: closure simulation and closure window (docs/theory.md: Closure window, The closure cycle)"
-runner = "closure"
-seed = 2026
-replicates = {replicates}
-
-[ensemble.vary]
-"breach.length" = [{lengths}]
-"polder.area" = [{areas}]
-mass_size = {{ parameter = "placement.diameter", values = [{sizes}], long_name = "diameter of the dropped masses" }}
-
-[scenario]
-name = "closure feasibility member"
-
+#: the quick site every member of the feasibility pipelines runs on: the demo breach (3 m levee, 12 m
+#: breach) on a coarse grid (2 m, first order), a hurricane flood (fall 0.3 m/h), a 100 ha polder
+QUICK_SITE = """
 [site]
 preset = "demo_breach"
 levee_length_each_side = "16 m"
@@ -80,7 +67,25 @@ monitor_radius = "12 m"
 
 [dem]
 max_time = "4 s"
+"""
 
+SPEC = """
+[ensemble]
+name = "closure feasibility"
+description = "breach length x polder area x mass size: closure simulation and closure window (docs/theory.md: Closure window, The closure cycle)"
+runner = "closure"
+seed = 2026
+replicates = {replicates}
+
+[ensemble.vary]
+"breach.length" = [{lengths}]
+"polder.area" = [{areas}]
+mass_size = {{ parameter = "placement.diameter", values = [{sizes}], long_name = "diameter of the dropped masses" }}
+
+[scenario]
+name = "closure feasibility member"
+
+""" + QUICK_SITE + """
 [placement]
 batch = 6
 rate = "30 1/hr"
@@ -122,6 +127,15 @@ def categories(ds) -> "np.ndarray":
     return np.where(~ok, 3, np.where(feasible, 0, np.where(achieved, 1, 2)))
 
 
+def _label(ax, lengths, areas_ha, size):
+    """The axes of one map panel: breach length across, polder area up, the mass size in the title."""
+    ax.set_xticks(range(len(lengths)), [f"{v:g}" for v in lengths])
+    ax.set_yticks(range(len(areas_ha)), [f"{v:g}" for v in areas_ha])
+    ax.set_xlabel("breach length B (m)")
+    ax.set_ylabel("polder area A_P (ha)")
+    ax.set_title(f"masses of {size:g} m")
+
+
 def probability_figure(ds, path: Path) -> Path:
     """One panel per mass size over breach length × polder area: P(closure inside the window) over the
     replicates (colour), with its 95 % Wilson interval and the median closure duration / window (h)."""
@@ -144,11 +158,7 @@ def probability_figure(ds, path: Path) -> Path:
     im = None
     for k, (ax, size) in enumerate(zip(axes[0], sizes)):
         im = ax.imshow(p[k], origin="lower", cmap="RdYlGn", vmin=0, vmax=1, aspect="auto")
-        ax.set_xticks(range(len(lengths)), [f"{v:g}" for v in lengths])
-        ax.set_yticks(range(len(areas_ha)), [f"{v:g}" for v in areas_ha])
-        ax.set_xlabel("breach length B (m)")
-        ax.set_ylabel("polder area A_P (ha)")
-        ax.set_title(f"masses of {size:g} m")
+        _label(ax, lengths, areas_ha, size)
         for j in range(len(areas_ha)):
             for i in range(len(lengths)):
                 text = ("no member ran" if not np.isfinite(p[k, j, i]) else
@@ -189,11 +199,7 @@ def figure(ds, path: Path) -> Path:
                              constrained_layout=True)
     for k, (ax, size) in enumerate(zip(axes[0], sizes)):
         ax.imshow(cat[k], origin="lower", cmap=cmap, vmin=-0.5, vmax=len(CATEGORIES) - 0.5, aspect="auto")
-        ax.set_xticks(range(len(lengths)), [f"{v:g}" for v in lengths])
-        ax.set_yticks(range(len(areas_ha)), [f"{v:g}" for v in areas_ha])
-        ax.set_xlabel("breach length B (m)")
-        ax.set_ylabel("polder area A_P (ha)")
-        ax.set_title(f"masses of {size:g} m")
+        _label(ax, lengths, areas_ha, size)
         for j in range(len(areas_ha)):
             for i in range(len(lengths)):
                 text = "failed" if cat[k, j, i] == 3 else f"{duration_h[k, j, i]:.2f} / {window_h[k, j, i]:.2f} h"

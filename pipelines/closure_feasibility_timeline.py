@@ -30,6 +30,8 @@ import sys
 import time
 from pathlib import Path
 
+from closure_feasibility import QUICK_SITE  # the base site, shared with the feasibility map (this folder)
+
 DEFAULT_STARTS = [0.0, 2.0, 4.0]
 DEFAULT_METHODS = ["split_barge", "end_dumping"]
 
@@ -37,36 +39,7 @@ BASE = """
 [scenario]
 name = "closure in time: {method}, start {start:g} h"
 
-[site]
-preset = "demo_breach"
-levee_length_each_side = "16 m"
-flood_side_extent = "24 m"
-protected_side_extent = "24 m"
-
-[flood]
-surge_height = "3 m"
-rise_rate = "0.3 m/hr"
-fall_rate = "0.3 m/hr"
-
-[polder]
-area = "100 ha"
-inundation_depth = "1.5 m"
-
-[breach]
-length = "12 m"
-depth = "3 m"
-wall_slope = 0
-
-[hydro]
-resolution = "2 m"
-order = 1
-t_max_initial = "90 s"
-t_max = "20 s"
-monitor_radius = "12 m"
-
-[dem]
-max_time = "4 s"
-
+""" + QUICK_SITE + """
 [placement]
 diameter = ["1.5 m", "1.8 m"]
 batch = 6
