@@ -64,7 +64,7 @@ def execute_member(task: MemberTask) -> dict:
     (run_dir / RESULT_FILE).unlink(missing_ok=True)
     record = _record_head(task)
     record["started"] = time.time()
-    t0, c0 = time.perf_counter(), time.thread_time()
+    t0, c0, p0 = time.perf_counter(), time.thread_time(), time.process_time()
     try:
         with using_command(task.command):
             sections = getattr(task.runner_cls, "sections", None)
@@ -78,6 +78,8 @@ def execute_member(task: MemberTask) -> dict:
                       traceback=traceback.format_exc(limit=20))
     record["elapsed"] = time.perf_counter() - t0
     record["cpu_time"] = time.thread_time() - c0   # CPU time of this thread: elapsed - cpu = waiting for a core
+    # CPU time of the whole worker process meanwhile (the member's thread and the worker's own threads)
+    record["process_cpu_time"] = time.process_time() - p0
     record["worker"] = _worker_name()
     write_record(run_dir / RESULT_FILE, record)
     return record
