@@ -13,7 +13,8 @@ spread of the open-breach discharge as its error figure: the same locations at h
 ``--detailed``: the district of ``--length`` metres (default 3 km) is screened first (not timed); then its
 detailed tier -- ``--worst`` locations x ``--replicates`` closure simulations with the closure template
 ``--scenario`` (default: the example district's ``examples/district/closure.toml``) -- runs on a local
-cluster of 1 worker and of 2 workers, each started and warmed up (``breachflow.warmup`` in every worker, so
+cluster of 1 worker and of 2 workers (``--max-cycles``, default 4, replaces the template's cycle limit so
+that the command takes minutes), each started and warmed up (``breachflow.warmup`` in every worker, so
 that no member loads the numba kernels) before the clock starts. Printed for each:
 
 * the wall time of the tier (``breachflow.atlas.detailed.run_detailed``: member checks, submission, the
@@ -186,6 +187,8 @@ def detailed_main(argv):
     ap.add_argument("--replicates", type=int, default=3)
     ap.add_argument("--scenario", default=str(ROOT / "examples" / "district" / "closure.toml"),
                     help="closure template of the detailed tier")
+    ap.add_argument("--max-cycles", type=int, default=4,
+                    help="the template's [criteria] max_cycles replaced by this (0: as the template says)")
     ap.add_argument("--workers", default="1,2", help="cluster sizes to run, in this order")
     a = ap.parse_args(argv)
 
@@ -205,17 +208,31 @@ def detailed_main(argv):
     runs = {}
     try:
         mod.write(tmp, length=a.length)
+        template = Path(a.scenario).resolve()
+        if a.max_cycles:
+            import re
+
+            text, k = re.subn(r"(?m)^max_cycles\s*=\s*\d+", f"max_cycles = {a.max_cycles}", template.read_text())
+            if k != 1:
+                raise SystemExit(f"{template}: no single [criteria] max_cycles to replace")
+            template = tmp / "closure.toml"
+            template.write_text(text)
         path = tmp / "district.toml"
         path.write_text(TOML.format(terrain=tmp / "terrain.tif", levee=tmp / "levee.geojson", spacing=a.spacing,
                                     flow=a.flow, resolution=a.resolution)
                         + f'\n[detailed]\nworst = {a.worst}\nreplicates = {a.replicates}\n'
-                          f'scenario = "{Path(a.scenario).resolve()}"\n')
+                          f'scenario = "{template}"\n')
+        from breachflow.warmup import warm_up
+
+        print(f"load average {_load()}; numba kernels into the cache (this process, not timed): "
+              f"{warm_up():.1f} CPU s", flush=True)
         t0 = time.perf_counter()
         ds = run_atlas(path, tmp / "screening", workers=2, progress=False, detailed=False, write=False)
         district, locations = plan(path)
         print(f"screening: {ds.sizes['location']} locations along {a.length / 1000:g} km in "
               f"{time.perf_counter() - t0:.1f} s wall (not timed below); detailed tier: {a.worst} locations x "
-              f"{a.replicates} replicates, template {a.scenario}", flush=True)
+              f"{a.replicates} replicates, template {a.scenario}"
+              + (f" with max_cycles = {a.max_cycles}" if a.max_cycles else ""), flush=True)
         for n in sizes:
             cluster, client = _cluster(n)
             try:
