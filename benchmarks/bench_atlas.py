@@ -3,7 +3,7 @@
 scheduling efficiency of the detailed tier (closure simulations) on 1 and 2 workers.
 
     python3 tasks.py bench atlas [--length 20000] [--spacing "200 m"] [--workers 2] [--flow swe] [--reps 1]
-    python3 tasks.py bench atlas --detailed [--length 3000] [--worst 3] [--replicates 3] [--scenario closure.toml]
+    python3 tasks.py bench atlas --detailed [--length 3000] [--worst 2] [--replicates 4] [--scenario closure.toml]
 
 Prints the wall time of the whole atlas (terrain made beforehand, not timed), the CPU time of the locations
 (the workers' ``solve_cpu_s``), the scheduling efficiency ``sum(location CPU) / (workers x wall)`` and the
@@ -13,8 +13,8 @@ spread of the open-breach discharge as its error figure: the same locations at h
 ``--detailed``: the district of ``--length`` metres (default 3 km) is screened first (not timed); then its
 detailed tier -- ``--worst`` locations x ``--replicates`` closure simulations with the closure template
 ``--scenario`` (default: the example district's ``examples/district/closure.toml``) -- runs on a local
-cluster of 1 worker and of 2 workers (``--max-cycles``, default 4, replaces the template's cycle limit so
-that the command takes minutes), each started and warmed up (``breachflow.warmup`` in every worker, so
+cluster of 1 worker and of 2 workers (``--max-cycles``, default 4, and ``--cell``, default 8 m, replace
+the template's cycle limit and cell size so that the command takes minutes), each started and warmed up (``breachflow.warmup`` in every worker, so
 that no member loads the numba kernels) before the clock starts. Printed for each:
 
 * the wall time of the tier (``breachflow.atlas.detailed.run_detailed``: member checks, submission, the
@@ -183,12 +183,14 @@ def detailed_main(argv):
     ap.add_argument("--spacing", default="200 m")
     ap.add_argument("--flow", default="swe")
     ap.add_argument("--resolution", default="8 m")
-    ap.add_argument("--worst", type=int, default=3)
-    ap.add_argument("--replicates", type=int, default=3)
+    ap.add_argument("--worst", type=int, default=2)
+    ap.add_argument("--replicates", type=int, default=4)
     ap.add_argument("--scenario", default=str(ROOT / "examples" / "district" / "closure.toml"),
                     help="closure template of the detailed tier")
     ap.add_argument("--max-cycles", type=int, default=4,
                     help="the template's [criteria] max_cycles replaced by this (0: as the template says)")
+    ap.add_argument("--cell", default="8 m",
+                    help="the template's [hydro] resolution replaced by this (\"\": as the template says)")
     ap.add_argument("--workers", default="1,2", help="cluster sizes to run, in this order")
     a = ap.parse_args(argv)
 
@@ -209,12 +211,16 @@ def detailed_main(argv):
     try:
         mod.write(tmp, length=a.length)
         template = Path(a.scenario).resolve()
-        if a.max_cycles:
+        edits = ([(r"(?m)^max_cycles\s*=\s*\d+", f"max_cycles = {a.max_cycles}")] if a.max_cycles else []) + (
+            [(r'(?m)^resolution\s*=\s*"[^"]*"', f'resolution = "{a.cell}"')] if a.cell else [])
+        if edits:
             import re
 
-            text, k = re.subn(r"(?m)^max_cycles\s*=\s*\d+", f"max_cycles = {a.max_cycles}", template.read_text())
-            if k != 1:
-                raise SystemExit(f"{template}: no single [criteria] max_cycles to replace")
+            text = template.read_text()
+            for pattern, new in edits:
+                text, k = re.subn(pattern, new, text)
+                if k != 1:
+                    raise SystemExit(f"{template}: {pattern!r} matched {k} times (one expected)")
             template = tmp / "closure.toml"
             template.write_text(text)
         path = tmp / "district.toml"
@@ -232,7 +238,8 @@ def detailed_main(argv):
         print(f"screening: {ds.sizes['location']} locations along {a.length / 1000:g} km in "
               f"{time.perf_counter() - t0:.1f} s wall (not timed below); detailed tier: {a.worst} locations x "
               f"{a.replicates} replicates, template {a.scenario}"
-              + (f" with max_cycles = {a.max_cycles}" if a.max_cycles else ""), flush=True)
+              + (f" with max_cycles = {a.max_cycles}" if a.max_cycles else "")
+              + (f", [hydro] resolution = {a.cell}" if a.cell else ""), flush=True)
         for n in sizes:
             cluster, client = _cluster(n)
             try:
