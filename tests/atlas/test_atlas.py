@@ -473,6 +473,32 @@ def test_detailed_tier_spec_takes_the_worst_locations_with_their_screening_figur
         ensemble_table(district, ds, locations, chosen, replicates=3, template={"site": {}})
 
 
+def test_detailed_tier_members_find_the_terrain_of_a_district_given_by_a_relative_path(atlas_runs, small_district,
+                                                                                     monkeypatch, tmp_path):
+    """A district file named relative to the working directory, with its terrain and levee relative to it: the
+    members' scenarios (written in their own directories) still find both."""
+    from breachflow.atlas.detailed import ensemble_table
+    from breachflow.atlas.execute import plan
+    from breachflow.ensemble.spec import parse_spec
+    from breachflow.scenario import parse_scenario
+    from breachflow.scenario.toml import dump_toml
+
+    path, runs = atlas_runs
+    text = path.read_text().replace(str(small_district / "terrain.tif"), "terrain.tif").replace(
+        str(small_district / "levee.geojson"), "levee.geojson")
+    assert 'terrain = "terrain.tif"' in text
+    (small_district / "relative.toml").write_text(text)
+    monkeypatch.chdir(small_district.parent)
+    district, locations = plan(Path(small_district.name) / "relative.toml")
+    table = ensemble_table(district, runs[2][1], locations, [0], replicates=2, template={})
+    assert Path(table["site"]["terrain"]).is_absolute() and Path(table["site"]["terrain"]).is_file()
+    spec = parse_spec(dump_toml(table), path=tmp_path / "detailed.toml")
+    member_dir = tmp_path / "detailed" / "members" / "m0"
+    member_dir.mkdir(parents=True)
+    scenario = parse_scenario(dump_toml(spec.member_table(spec.members()[0])), path=member_dir / "scenario.toml")
+    assert "site" in scenario.sections
+
+
 @pytest.mark.slow
 def test_detailed_tier_runs_the_closure_at_the_worst_location(small_district, tmp_path):
     """The whole atlas with a [detailed] table: P(closure) and the tonnage range land in the layer."""

@@ -61,7 +61,10 @@ def ensemble_table(district: District, ds: xr.Dataset, locations: list[Location]
         if s in template:
             raise InputError(f"[detailed] scenario: the template must not set [{s}] (the atlas fills it from the "
                              f"district and the location)")
-    site = {"terrain": str(district.terrain), "levee": str(district.levee), "flood_level": f"{district.flood_level} m",
+    # absolute paths: the members' scenarios live in their own directories, where a path relative to the
+    # directory the atlas was started in would not resolve
+    site = {"terrain": str(Path(district.terrain).resolve()), "levee": str(Path(district.levee).resolve()),
+            "flood_level": f"{district.flood_level} m",
             "flood_side": district.flood_side, "manning_n": district.manning_n}
     if district.crs:
         site["crs"] = district.crs
