@@ -23,6 +23,10 @@ that no member loads the numba kernels) before the clock starts. Printed for eac
   and ``time.thread_time`` (the member's thread alone);
 * scheduling efficiency = sum of member CPU / (workers x wall of the tier);
 * against the 1-worker run of the same command: speed-up wall(1) / wall(2) and its efficiency speed-up / 2;
+* where the wall time goes: before the first member starts (the members' checks, submission), while
+  members run, after the last one ends (results, Dataset, NetCDF); the occupancy sum(member wall) /
+  (workers x wall) -- the scheduling efficiency with a member's waits for a core counted as its own time,
+  which a loaded machine does not lower -- and the fraction of a core the members got;
 * the bound the members themselves set: the longest-first schedule of the measured member CPU times on 2
   workers (no scheduling overhead at all), and the efficiency it would give;
 * the load average before and after each run: on a machine shared with other work, a worker waiting for a
@@ -244,9 +248,9 @@ def detailed_main(argv):
             cluster, client = _cluster(n)
             try:
                 load0 = _load()
-                t0 = time.perf_counter()
+                t0, e0 = time.perf_counter(), time.time()
                 out = run_detailed(district, ds, locations, tmp / f"workers{n}", client=client, progress=False)
-                wall = time.perf_counter() - t0
+                wall, e1 = time.perf_counter() - t0, time.time()
                 load1 = _load()
             finally:
                 with _quiet_distributed():
@@ -257,6 +261,8 @@ def detailed_main(argv):
             pcpu = [float(r["process_cpu_time"]) for r in recs]
             tcpu = [float(r["cpu_time"]) for r in recs]
             elapsed = [float(r["elapsed"]) for r in recs]
+            first = min(float(r["started"]) for r in recs)
+            last = max(float(r["started"]) + float(r["elapsed"]) for r in recs)
             runs[n] = dict(ds=out, wall=wall, pcpu=pcpu, tcpu=tcpu, elapsed=elapsed, load0=load0, load1=load1,
                            failed=sum(r["status"] != "ok" for r in recs))
             print(f"{n} worker(s): {len(recs)} members ({runs[n]['failed']} failed), wall of the tier {wall:.1f} s, "
@@ -264,6 +270,11 @@ def detailed_main(argv):
                   f"{sum(elapsed):.1f} s, members {min(pcpu):.1f}-{max(pcpu):.1f} s CPU; scheduling efficiency "
                   f"CPU / ({n} x wall) = {sum(pcpu) / (n * wall):.3f} (thread_time: {sum(tcpu) / (n * wall):.3f}); "
                   f"load average before {load0}, after {load1}", flush=True)
+            print(f"    where the wall goes: {first - e0:.1f} s before the first member starts (member checks, "
+                  f"submission), {last - first:.1f} s from the first member's start to the last one's end, "
+                  f"{e1 - last:.1f} s after it (results, Dataset, NetCDF); occupancy sum(member wall) / "
+                  f"({n} x wall) = {sum(elapsed) / (n * wall):.3f}; the members got {sum(pcpu) / sum(elapsed):.2f} "
+                  f"of a core each on average (< 1: they waited for one)", flush=True)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
     if 2 in runs:
