@@ -547,3 +547,12 @@ def test_cli_atlas_follows_the_run_conventions(small_district, tmp_path):
     err = subprocess.run(cmd[:4] + [str(bad), "--out", str(tmp_path / "x")], capture_output=True, text=True, timeout=600)
     assert err.returncode != 0 and "bad.toml" in err.stdout + err.stderr and "spacing" in err.stdout + err.stderr
     assert not (tmp_path / "x").exists()
+
+
+def test_detailed_members_are_handed_out_largest_screening_tonnage_first():
+    from breachflow.atlas.detailed import longest_first
+
+    ds = xr.Dataset({"tonnage_t": ("location", [5000.0, np.nan, 9000.0, 7000.0, 9000.0])})
+    # ties keep the screening's order (worst first); a location without tonnage goes last
+    assert longest_first(ds, [0, 4, 1, 2, 3]) == [4, 2, 3, 0, 1]
+    assert longest_first(ds, []) == []
