@@ -194,6 +194,7 @@ def test_no_head_is_not_at_risk(small_district):
     (('working_hours = "16 h"', 'working_hours = "30 h"'), "per day"),
     (('[methods.end_dumping]\ncapacity = "350 t/h"', '[methods.catapult]'), "not a delivery method"),
     (('[polder]', '[poldr]'), "unknown section"),
+    (('[polder]', '[detailed]\nreplicates = 1\n\n[polder]'), "replicates"),
 ])
 def test_bad_district_files_name_the_key(small_district, change, match):
     text = _district(small_district).read_text().replace(*change)
@@ -248,6 +249,84 @@ def test_outputs_carry_the_crs_and_open_in_gis_tools(atlas_runs):
     assert CRS.from_wkt(nc.crs.attrs["crs_wkt"]).to_epsg() == 26915
     assert nc.attrs["featureType"] == "point"
     assert (out / "atlas.png").stat().st_size > 10_000
+
+
+def _map_parts(fig):
+    """The map axes, the colour bars' axes by label, and the map's levee reaches as (linewidth, RGBA)."""
+    from matplotlib.colors import to_rgba
+
+    axes = [a for a in fig.axes if a.get_xlabel() == "easting (m)"]
+    assert len(axes) == 1
+    ax = axes[0]
+    bars = {a.get_ylabel(): a for a in fig.axes if a is not ax}
+    reaches = [(ln.get_linewidth(), to_rgba(ln.get_color())) for ln in ax.lines if ln.get_linewidth() >= 3]
+    return ax, bars, reaches
+
+
+@pytest.mark.parametrize("p_at", [{}, {0: 0.0, 2: 1.0}, {1: 2 / 3, 2: 1 / 3, 3: 0.5}])
+def test_map_colours_simulated_reaches_by_p_closure_and_shows_the_district_in_full(atlas_runs, p_at):
+    """The map: the extent holds the whole levee line, coordinates are written in full (no offset or
+    scientific notation), the title lies inside the figure; reaches where the closure was simulated are drawn
+    in the P(closure) colour map (darker for a larger P, with a 0-1 colour bar), the other reaches in the
+    screening class colours under a legend titled "screening only"."""
+    from matplotlib.colors import to_rgba
+
+    from breachflow.atlas.execute import plan
+    from breachflow.atlas.locations import load_inputs
+    from breachflow.atlas.outputs import CLASSES, reach_lines, render_map
+
+    path, runs = atlas_runs
+    ds = runs[2][1].copy()
+    district, locations = plan(path)
+    terrain, levee = load_inputs(str(district.terrain), str(district.levee), None, None)
+    n = ds.sizes["location"]
+    p = np.full(n, np.nan)
+    for i, v in p_at.items():
+        p[i] = v
+    ds["p_closure"] = ("location", p)
+    fig = render_map(ds, terrain, reach_lines(locations, levee), title="a district: closure feasibility and P(closure)")
+    fig.canvas.draw()
+    ax, bars, reaches = _map_parts(fig)
+    x0, x1 = ax.get_xlim()
+    y0, y1 = ax.get_ylim()
+    xs, ys = levee.coords[:, 0], levee.coords[:, 1]
+    assert x0 <= xs.min() and xs.max() <= x1 and y0 <= ys.min() and ys.max() <= y1
+    # coordinates in full: no offset text, tick labels are the eastings / northings themselves
+    assert ax.xaxis.get_offset_text().get_text() == "" and ax.yaxis.get_offset_text().get_text() == ""
+    for labels, k in ((ax.get_xticklabels(), 0), (ax.get_yticklabels(), 1)):
+        shown = [(float(t.get_text().replace(",", "")), t.get_position()[k]) for t in labels if t.get_text()]
+        assert len(shown) >= 3 and all(text == pos and text > 1e5 for text, pos in shown)
+    # the title is inside the figure
+    fb, tb = fig.bbox, ax.title.get_window_extent()
+    assert ax.title.get_text() and fb.x0 <= tb.x0 and tb.x1 <= fb.x1 and tb.y1 <= fb.y1
+    assert "ground elevation (m)" in bars
+    legend = ax.get_legend()
+    assert legend is not None
+    simulated = [i for i in range(n) if np.isfinite(p[i])]
+    assert len(reaches) == n
+    names = list(CLASSES)
+    if simulated:
+        assert "screening only" in legend.get_title().get_text()
+        bar = [a for label, a in bars.items() if "P(closure)" in label]
+        assert len(bar) == 1
+        assert bar[0].get_ylim() == pytest.approx((0.0, 1.0))
+        assert any("closure simulated" in t.get_text() for t in legend.get_texts())
+        wide = [reaches[i] for i in simulated]
+        assert all(w > max(r[0] for k, r in enumerate(reaches) if k not in simulated) for w, _ in wide)
+        # darker for a larger P (the sum of R, G, B falls), and no class colour is used for them
+        order = np.argsort([p[i] for i in simulated])
+        brightness = [sum(wide[k][1][:3]) for k in order]
+        assert all(a > b for a, b in zip(brightness, brightness[1:]))
+        assert not {c for _, c in wide} & {to_rgba(c) for c in CLASSES.values()}
+    else:
+        assert not any("P(closure)" in label for label in bars)
+        assert "screening" in legend.get_title().get_text()
+    for i in range(n):
+        if i not in simulated:
+            assert reaches[i][1] == to_rgba(CLASSES[names[int(ds.feasibility.values[i])]])
+    import matplotlib.pyplot as plt
+
+    plt.close(fig)
 
 
 def test_resume_reuses_records_and_a_changed_district_recomputes(atlas_runs, tmp_path):
@@ -394,6 +473,32 @@ def test_detailed_tier_spec_takes_the_worst_locations_with_their_screening_figur
         ensemble_table(district, ds, locations, chosen, replicates=3, template={"site": {}})
 
 
+def test_detailed_tier_members_find_the_terrain_of_a_district_given_by_a_relative_path(atlas_runs, small_district,
+                                                                                     monkeypatch, tmp_path):
+    """A district file named relative to the working directory, with its terrain and levee relative to it: the
+    members' scenarios (written in their own directories) still find both."""
+    from breachflow.atlas.detailed import ensemble_table
+    from breachflow.atlas.execute import plan
+    from breachflow.ensemble.spec import parse_spec
+    from breachflow.scenario import parse_scenario
+    from breachflow.scenario.toml import dump_toml
+
+    path, runs = atlas_runs
+    text = path.read_text().replace(str(small_district / "terrain.tif"), "terrain.tif").replace(
+        str(small_district / "levee.geojson"), "levee.geojson")
+    assert 'terrain = "terrain.tif"' in text
+    (small_district / "relative.toml").write_text(text)
+    monkeypatch.chdir(small_district.parent)
+    district, locations = plan(Path(small_district.name) / "relative.toml")
+    table = ensemble_table(district, runs[2][1], locations, [0], replicates=2, template={})
+    assert Path(table["site"]["terrain"]).is_absolute() and Path(table["site"]["terrain"]).is_file()
+    spec = parse_spec(dump_toml(table), path=tmp_path / "detailed.toml")
+    member_dir = tmp_path / "detailed" / "members" / "m0"
+    member_dir.mkdir(parents=True)
+    scenario = parse_scenario(dump_toml(spec.member_table(spec.members()[0])), path=member_dir / "scenario.toml")
+    assert "site" in scenario.sections
+
+
 @pytest.mark.slow
 def test_detailed_tier_runs_the_closure_at_the_worst_location(small_district, tmp_path):
     """The whole atlas with a [detailed] table: P(closure) and the tonnage range land in the layer."""
@@ -442,3 +547,12 @@ def test_cli_atlas_follows_the_run_conventions(small_district, tmp_path):
     err = subprocess.run(cmd[:4] + [str(bad), "--out", str(tmp_path / "x")], capture_output=True, text=True, timeout=600)
     assert err.returncode != 0 and "bad.toml" in err.stdout + err.stderr and "spacing" in err.stdout + err.stderr
     assert not (tmp_path / "x").exists()
+
+
+def test_detailed_members_are_handed_out_largest_screening_tonnage_first():
+    from breachflow.atlas.detailed import longest_first
+
+    ds = xr.Dataset({"tonnage_t": ("location", [5000.0, np.nan, 9000.0, 7000.0, 9000.0])})
+    # ties keep the screening's order (worst first); a location without tonnage goes last
+    assert longest_first(ds, [0, 4, 1, 2, 3]) == [4, 2, 3, 0, 1]
+    assert longest_first(ds, []) == []

@@ -480,3 +480,33 @@ def test_closure_ensemble_refuses_impossible_members_before_anything_runs(tmp_pa
     assert "placement_density = 900" in msg and "placement_density = 1000" in msg
     assert "not heavier than water" in msg and "= 2650" not in msg
     assert not out.exists()
+
+
+def test_member_checks_run_once_per_scenario_and_count_every_replicate(tmp_path):
+    """Replicates differ only in their placement seed: the runner checks each distinct scenario once, and
+    the warnings and refusals still count (and name) every member."""
+    from breachflow.ensemble.execute import check_members, plan
+
+    path = tmp_path / "spec.toml"
+    path.write_text('[ensemble]\nname = "t"\nrunner = "closure"\nreplicates = 3\n[ensemble.vary]\n'
+                    '"placement.density" = ["2650 kg/m^3", "900 kg/m^3"]\n' + CLOSURE_BASE)
+    _, _, _, tasks = plan(path, tmp_path / "out")
+    assert len(tasks) == 6
+    calls = []
+
+    class Counting(tasks[0].runner_cls):
+        def check(self, member):
+            calls.append(member.values["placement_density"])
+            if member.values["placement_density"].startswith("900"):
+                raise InputError("not heavier than water")
+            return ["a warning"]
+
+    for t in tasks:
+        t.runner_cls = Counting
+    with pytest.raises(InputError) as err:
+        check_members(tasks)
+    assert sorted(calls) == ["2650 kg/m^3", "900 kg/m^3"]
+    assert "3 of 6 ensemble members cannot run" in str(err.value)
+    calls.clear()
+    ok = [t for t in tasks if t.scenario.values["placement_density"].startswith("2650")]
+    assert check_members(ok) == ["a warning (3 of 3 members)"] and calls == ["2650 kg/m^3"]

@@ -241,8 +241,9 @@ def parse_district(text: str, path: Path | None = None) -> District:
         if not (worst == "all" or (isinstance(worst, int) and not isinstance(worst, bool) and worst >= 1)):
             raise ct.error(f"expected a positive integer or \"all\", got {worst!r}", "worst")
         reps = t.get("replicates", 4)
-        if not (isinstance(reps, int) and not isinstance(reps, bool) and reps >= 1):
-            raise ct.error(f"expected a positive integer, got {reps!r}", "replicates")
+        if not (isinstance(reps, int) and not isinstance(reps, bool) and reps >= 2):
+            raise ct.error(f"expected an integer of at least 2 (P(closure) and its interval are counted over the "
+                           f"replicates), got {reps!r}", "replicates")
         detailed = {"worst": worst, "replicates": reps, "scenario": ct.file(t, "scenario")}
 
     base = path.parent if path is not None else Path.cwd()

@@ -45,6 +45,15 @@ def choose(ds: xr.Dataset, worst) -> list[int]:
     return order[:worst]
 
 
+def longest_first(ds: xr.Dataset, chosen: list[int]) -> list[int]:
+    """*chosen* in the order their members are handed to the workers: the largest screening tonnage first (a
+    closure simulation lasts about as many cycles as its tonnage takes batches), so that the longest members
+    start first and the short ones fill the gaps at the end instead of one long member running alone. The
+    order changes no result: a member's seed depends on its replicate number only and its key on its values."""
+    tonnage = np.nan_to_num(ds.tonnage_t.values[chosen], nan=0.0)
+    return [chosen[k] for k in np.argsort(-tonnage, kind="stable")]
+
+
 def ensemble_table(district: District, ds: xr.Dataset, locations: list[Location], chosen: list[int], *,
                    replicates: int, template: dict, seed: int = 2026) -> dict:
     """The ensemble spec (a TOML table) of the detailed tier."""
@@ -52,7 +61,10 @@ def ensemble_table(district: District, ds: xr.Dataset, locations: list[Location]
         if s in template:
             raise InputError(f"[detailed] scenario: the template must not set [{s}] (the atlas fills it from the "
                              f"district and the location)")
-    site = {"terrain": str(district.terrain), "levee": str(district.levee), "flood_level": f"{district.flood_level} m",
+    # absolute paths: the members' scenarios live in their own directories, where a path relative to the
+    # directory the atlas was started in would not resolve
+    site = {"terrain": str(Path(district.terrain).resolve()), "levee": str(Path(district.levee).resolve()),
+            "flood_level": f"{district.flood_level} m",
             "flood_side": district.flood_side, "manning_n": district.manning_n}
     if district.crs:
         site["crs"] = district.crs
@@ -101,7 +113,7 @@ def run_detailed(district: District, ds: xr.Dataset, locations: list[Location], 
     from ..scenario.toml import dump_toml
 
     cfg = district.detailed or {}
-    chosen = choose(ds, cfg.get("worst", 5))
+    chosen = longest_first(ds, choose(ds, cfg.get("worst", 5)))
     if not chosen:
         return ds
     template = load_template(cfg.get("scenario"))

@@ -85,6 +85,11 @@ def run_atlas(district, out, *, scheduler: str | None = None, workers: int | Non
 
     console = console or Console(stderr=True)
     district, locations = plan(district)
+    if detailed is None:
+        detailed = district.detailed is not None
+    if detailed and district.detailed is None:
+        raise InputError("the detailed tier needs a [detailed] table in the district file (worst, replicates, "
+                         "scenario)")
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise InputError(f"--out {out}: exists and is not a directory")
@@ -107,20 +112,30 @@ def run_atlas(district, out, *, scheduler: str | None = None, workers: int | Non
     console.print(f"atlas [bold]{district.name}[/]: {len(locations)} locations along {_length(district):.1f} km "
                   f"at {district.spacing:g} m" + (f", {len(locations) - len(pending)} done earlier (resume)"
                                                  if len(pending) < len(locations) else ""), highlight=False)
-    if pending:
-        _execute(district, locations, keys, paths, pending, records, scheduler=scheduler, workers=workers,
-                 client=client, progress=progress, console=console)
-    ds = build_dataset(district, locations, records)
-    if detailed is None:
-        detailed = district.detailed is not None
-    if detailed:
-        from .detailed import run_detailed
+    # one client (and local cluster) for both tiers, started only when something is to be computed
+    own_client = own_cluster = None
+    try:
+        if client is None and (pending or detailed):
+            own_client, own_cluster = _client_for(scheduler, workers)
+            client = own_client
+            workers = None if own_cluster is not None else workers
+        if pending:
+            _execute(district, locations, keys, paths, pending, records, client=client, progress=progress,
+                     console=console)
+        ds = build_dataset(district, locations, records)
+        if detailed:
+            from .detailed import run_detailed
 
-        if district.detailed is None:
-            raise InputError("the detailed tier needs a [detailed] table in the district file (worst, replicates, "
-                             "scenario)")
-        ds = run_detailed(district, ds, locations, out, client=client, scheduler=scheduler, workers=workers,
-                          progress=progress, console=console)
+            ds = run_detailed(district, ds, locations, out, client=client, workers=workers, progress=progress,
+                              console=console)
+    finally:
+        from ..ensemble.execute import _quiet_distributed
+
+        with _quiet_distributed():
+            if own_client is not None:
+                own_client.close()
+            if own_cluster is not None:
+                own_cluster.close()
     if write:
         for p in write_outputs(ds, district, locations, out):
             console.print(f"wrote {p}", highlight=False)
@@ -146,41 +161,28 @@ def _client_for(scheduler: str | None, workers: int | None):
     return Client(cluster), cluster
 
 
-def _execute(district, locations, keys, paths, pending, records, *, scheduler, workers, client, progress,
-             console) -> None:
+def _execute(district, locations, keys, paths, pending, records, *, client, progress, console) -> None:
     from distributed import as_completed
 
-    from ..ensemble.execute import _quiet_distributed
     from ..progress import Progress
 
-    own_client = own_cluster = None
-    try:
-        if client is None:
-            own_client, own_cluster = _client_for(scheduler, workers)
-            client = own_client
-        n = len(client.scheduler_info()["workers"])
-        console.print(f"dask scheduler {client.scheduler.address}, {n} worker(s)", highlight=False)
-        futures = client.map(screen_location, [district] * len(pending), [locations[i] for i in pending],
-                             [str(paths[i]) for i in pending], [keys[i] for i in pending],
-                             key=[f"atlas-screen-{keys[i]}" for i in pending], pure=False, retries=1)
-        index = dict(zip(futures, pending))
-        failed = 0
-        with Progress("screening locations", total=len(pending), console=console, unit="locations",
-                      quiet=not progress) as bar:
-            for fut in as_completed(futures):
-                i = index.pop(fut)
-                try:
-                    rec = fut.result()
-                except Exception as exc:  # the task could not run at all (e.g. a worker died twice)
-                    rec = {"format": RECORD_FORMAT, "key": keys[i], "location": locations[i].as_dict(),
-                           "result": {"status": "failed", "message": f"{type(exc).__name__}: {exc}"}}
-                fut.release()
-                records[i] = rec
-                failed += rec["result"].get("status") == "failed"
-                bar.update(advance=1, note=f"{failed} failed" if failed else "")
-    finally:
-        with _quiet_distributed():
-            if own_client is not None:
-                own_client.close()
-            if own_cluster is not None:
-                own_cluster.close()
+    n = len(client.scheduler_info()["workers"])
+    console.print(f"dask scheduler {client.scheduler.address}, {n} worker(s)", highlight=False)
+    futures = client.map(screen_location, [district] * len(pending), [locations[i] for i in pending],
+                         [str(paths[i]) for i in pending], [keys[i] for i in pending],
+                         key=[f"atlas-screen-{keys[i]}" for i in pending], pure=False, retries=1)
+    index = dict(zip(futures, pending))
+    failed = 0
+    with Progress("screening locations", total=len(pending), console=console, unit="locations",
+                  quiet=not progress) as bar:
+        for fut in as_completed(futures):
+            i = index.pop(fut)
+            try:
+                rec = fut.result()
+            except Exception as exc:  # the task could not run at all (e.g. a worker died twice)
+                rec = {"format": RECORD_FORMAT, "key": keys[i], "location": locations[i].as_dict(),
+                       "result": {"status": "failed", "message": f"{type(exc).__name__}: {exc}"}}
+            fut.release()
+            records[i] = rec
+            failed += rec["result"].get("status") == "failed"
+            bar.update(advance=1, note=f"{failed} failed" if failed else "")

@@ -102,7 +102,10 @@ def write_outputs(ds: xr.Dataset, district: District, locations: list[Location],
     lines = reach_lines(locations, levee)
     paths = [atomic_write_netcdf(ds, out / "atlas.nc")]
     paths.append(write_geopackage(ds, lines, out / "atlas.gpkg", terrain.crs_wkt))
-    paths.append(plot_map(ds, terrain, levee, lines, out / "atlas.png", title=f"{district.name}: closure feasibility"))
+    detailed = "p_closure" in ds and bool(np.isfinite(ds["p_closure"].values).any())
+    title = f"{district.name}: closure feasibility" + (" (screening) and P(closure) (closure simulation)" if detailed
+                                                       else " (screening)")
+    paths.append(plot_map(ds, terrain, levee, lines, out / "atlas.png", title=title))
     return paths
 
 
@@ -135,19 +138,40 @@ def write_geopackage(ds: xr.Dataset, lines: list, path: Path, crs_wkt: str | Non
     return path
 
 
+#: colour map of P(closure) on the map (light: unlikely, dark: likely); distinct from the screening classes'
+#: green-yellow-red and from the terrain's colours
+P_CMAP = "Purples"
+
+
 def plot_map(ds: xr.Dataset, terrain, levee, lines: list, path: Path, *, title: str = "") -> Path:
-    """The levee coloured by feasibility over a shaded terrain, in map coordinates (PNG)."""
+    """The map of :func:`render_map` as a PNG file."""
+    import matplotlib.pyplot as plt
+
+    fig = render_map(ds, terrain, lines, title=title)
+    atomic_write(path, lambda tmp: fig.savefig(tmp, format="png"))
+    plt.close(fig)
+    return path
+
+
+def render_map(ds: xr.Dataset, terrain, lines: list, *, title: str = ""):
+    """The levee over a shaded terrain, in map coordinates (a matplotlib Figure): coloured by P(closure) where
+    the detailed tier ran (a colour bar), by the screening's feasibility class elsewhere (thinner, a legend
+    "screening only")."""
     import matplotlib
 
     matplotlib.use("Agg")
+    import matplotlib.patheffects as pe
     import matplotlib.pyplot as plt
-    from matplotlib.colors import LightSource
+    from matplotlib.cm import ScalarMappable
+    from matplotlib.colors import LightSource, Normalize
     from matplotlib.lines import Line2D
     from matplotlib.ticker import FuncFormatter
 
     names = list(CLASSES)
     x0, x1, y0, y1 = terrain.bounds
     pad = 0.03 * max(x1 - x0, y1 - y0)
+    p = ds["p_closure"].values.astype(float) if "p_closure" in ds else np.full(ds.sizes["location"], np.nan)
+    detailed = np.isfinite(p)
     fig, ax = plt.subplots(figsize=(11, 8), dpi=110, layout="constrained")
     z = np.ma.masked_invalid(terrain.z)
     shade = LightSource(azdeg=315, altdeg=45).hillshade(np.nan_to_num(terrain.z, nan=float(np.nanmin(terrain.z))),
@@ -155,16 +179,37 @@ def plot_map(ds: xr.Dataset, terrain, levee, lines: list, path: Path, *, title: 
                                                        dy=abs(terrain.y[1] - terrain.y[0]))
     ax.imshow(shade, extent=(x0, x1, y0, y1), origin="lower", cmap="gray", alpha=0.6)
     im = ax.imshow(z, extent=(x0, x1, y0, y1), origin="lower", cmap="terrain", alpha=0.45)
-    for line, k in zip(lines, ds["feasibility"].values):
+    norm = Normalize(0.0, 1.0)
+    from matplotlib.colors import ListedColormap
+
+    pmap = ListedColormap(plt.get_cmap(P_CMAP)(np.linspace(0.2, 1.0, 256)), name="p_closure")  # no white at P = 0
+    outline = [pe.Stroke(linewidth=9, foreground="black"), pe.Normal()]
+    for line, k, pk, det in zip(lines, ds["feasibility"].values, p, detailed):
         xs, ys = line.xy
-        ax.plot(xs, ys, color=CLASSES[names[int(k)]], lw=5, solid_capstyle="butt")
-    ax.plot(ds.x.values, ds.y.values, "k.", ms=3)
-    for i in range(0, ds.sizes["location"], max(1, ds.sizes["location"] // 10)):
-        ax.annotate(f"{ds.breach_chainage.values[i] / 1000:.1f} km", (ds.x.values[i], ds.y.values[i]),
-                    xytext=(6, 6), textcoords="offset points", fontsize=8)
-    handles = [Line2D([], [], color=c, lw=5, label=f"{n} ({int(np.sum(ds.feasibility.values == i))})")
-               for i, (n, c) in enumerate(CLASSES.items())]
-    ax.legend(handles=handles, loc="best", title="closure feasibility")
+        if det:
+            ax.plot(xs, ys, color=pmap(norm(pk)), lw=7, solid_capstyle="butt", path_effects=outline, zorder=4)
+        else:
+            ax.plot(xs, ys, color=CLASSES[names[int(k)]], lw=3.5, solid_capstyle="butt", zorder=3)
+    ax.plot(ds.x.values, ds.y.values, "k.", ms=3, zorder=5)
+    n = ds.sizes["location"]
+    labelled = set(range(0, n, max(1, n // 10))) | set(np.flatnonzero(detailed).tolist())
+    rank = {i: r for r, i in enumerate(np.flatnonzero(detailed))}
+    for i in sorted(labelled):
+        text = f"{ds.breach_chainage.values[i] / 1000:.1f} km"
+        offset = (6, 6)
+        if detailed[i]:
+            text += f"\nP = {p[i]:.2f}"
+            offset = (10, 8) if rank[i] % 2 == 0 else (-12, -30)  # neighbours' labels on opposite sides
+        ax.annotate(text, (ds.x.values[i], ds.y.values[i]), xytext=offset, textcoords="offset points", fontsize=8,
+                    fontweight="bold" if detailed[i] else "normal", zorder=6,
+                    bbox=dict(boxstyle="round,pad=0.15", fc="white", ec="none", alpha=0.7) if detailed[i] else None)
+    handles = [Line2D([], [], color=c, lw=3.5, label=f"{name} ({int(np.sum((ds.feasibility.values == i) & ~detailed))})")
+               for i, (name, c) in enumerate(CLASSES.items())]
+    if detailed.any():
+        handles.append(Line2D([], [], color=pmap(0.6), lw=7, path_effects=outline,
+                              label=f"closure simulated ({int(detailed.sum())}): P(closure), colour bar"))
+    ax.legend(handles=handles, loc="best", fontsize=9,
+              title="screening only: closure feasibility" if detailed.any() else "closure feasibility (screening)")
     fmt = FuncFormatter(lambda v, _: f"{v:,.0f}")
     ax.xaxis.set_major_formatter(fmt)
     ax.yaxis.set_major_formatter(fmt)
@@ -173,8 +218,9 @@ def plot_map(ds: xr.Dataset, terrain, levee, lines: list, path: Path, *, title: 
     ax.set_aspect("equal")
     ax.set_xlabel("easting (m)")
     ax.set_ylabel("northing (m)")
-    ax.set_title(title, fontsize=11)
-    fig.colorbar(im, ax=ax, label="ground elevation (m)", shrink=0.6)
-    atomic_write(path, lambda tmp: fig.savefig(tmp, format="png"))
-    plt.close(fig)
-    return path
+    ax.set_title(title, fontsize=11, wrap=True)
+    if detailed.any():
+        fig.colorbar(ScalarMappable(norm=norm, cmap=pmap), ax=ax, shrink=0.6, pad=0.01,
+                     label="P(closure) of the closure simulation (replicates)")
+    fig.colorbar(im, ax=ax, label="ground elevation (m)", shrink=0.6, pad=0.01)
+    return fig

@@ -39,6 +39,7 @@ def register(app: typer.Typer) -> None:
             import shutil
 
             shutil.rmtree(out / "locations", ignore_errors=True)
+            shutil.rmtree(out / "detailed", ignore_errors=True)  # the closure simulations' members too
         ds = run_atlas(district, out, scheduler=scheduler, workers=workers, resume=resume, progress=progress,
                        console=console, detailed=detailed)
         console.print(summary(ds))

@@ -64,7 +64,7 @@ def execute_member(task: MemberTask) -> dict:
     (run_dir / RESULT_FILE).unlink(missing_ok=True)
     record = _record_head(task)
     record["started"] = time.time()
-    t0, c0 = time.perf_counter(), time.thread_time()
+    t0, c0, p0 = time.perf_counter(), time.thread_time(), time.process_time()
     try:
         with using_command(task.command):
             sections = getattr(task.runner_cls, "sections", None)
@@ -78,6 +78,8 @@ def execute_member(task: MemberTask) -> dict:
                       traceback=traceback.format_exc(limit=20))
     record["elapsed"] = time.perf_counter() - t0
     record["cpu_time"] = time.thread_time() - c0   # CPU time of this thread: elapsed - cpu = waiting for a core
+    # CPU time of the whole worker process meanwhile (the member's thread and the worker's own threads)
+    record["process_cpu_time"] = time.process_time() - p0
     record["worker"] = _worker_name()
     write_record(run_dir / RESULT_FILE, record)
     return record
@@ -196,14 +198,23 @@ def check_members(tasks: list[MemberTask]) -> list[str]:
     check_scenarios(tasks)
     if not tasks or not hasattr(tasks[0].runner_cls, "check"):
         return []
+    import json
+
     runner = tasks[0].runner_cls(**tasks[0].options)
     refused, warned = [], {}
+    checked: dict[str, tuple[list[str], InputError | None]] = {}  # replicates share their scenario: checked once
     for t in tasks:
         values = ", ".join(f"{k} = {v}" for k, v in t.scenario.values.items())
-        try:
-            for w in runner.check(t.scenario) or []:
-                warned[w] = warned.get(w, 0) + 1
-        except InputError as exc:
+        same = json.dumps(t.scenario.table, sort_keys=True, default=str)
+        if same not in checked:
+            try:
+                checked[same] = (list(runner.check(t.scenario) or []), None)
+            except InputError as exc:
+                checked[same] = ([], exc)
+        warnings, exc = checked[same]
+        for w in warnings:
+            warned[w] = warned.get(w, 0) + 1
+        if exc is not None:
             refused.append(f"member {t.scenario.number} ({values}): {exc}")
     if refused:
         shown = refused[:10] + ([f"... and {len(refused) - 10} more"] if len(refused) > 10 else [])
