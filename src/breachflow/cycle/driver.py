@@ -276,6 +276,7 @@ class ClosureRun:
             t0, c0 = _time.perf_counter(), _time.process_time()
             if s.timeline is not None:  # the breach grows and the polder fills until the start of the closure
                 s.timeline.begin()
+                self._t_op = float(s.timeline.time)  # an erodible bed's first flow time: the first delivery
             snapshot = s.solver.solve(s.domain)
             self.initial_solve_time = _time.perf_counter() - t0
             initial_solve_cpu = _time.process_time() - c0
