@@ -130,8 +130,7 @@ def test_the_swe_re_solves_on_the_lowered_terrain_and_a_resume_keeps_it(tmp_path
     sc.write_text(text)
     setup = closure_setup(parse_scenario(text))
     bed0 = np.array(setup.domain.bed)
-    run_closure(sc, tmp_path / "run", plots=False, check=False) if _takes_check() else run_closure(
-        sc, tmp_path / "run", plots=False)
+    run_closure(sc, tmp_path / "run", plots=False)
     man = json.loads((tmp_path / "run" / "manifest.json").read_text())
     s1 = man["cycles"][0]["summary"]
     assert s1["bed_lowering"] > 0.0 and s1["bed_change_time"] > 0.0 and np.isfinite(s1["bed_lowering_x"])
@@ -146,12 +145,6 @@ def test_the_swe_re_solves_on_the_lowered_terrain_and_a_resume_keeps_it(tmp_path
 
     rec = RunDirectory(tmp_path / "run").load_restart(1)
     assert (np.asarray(rec["terrain_bed"]) < bed0 - 1e-9).any()
-
-
-def _takes_check():
-    import inspect
-
-    return "check" in inspect.signature(run_closure).parameters
 
 
 def test_the_verdict_names_the_bed_model():
