@@ -52,12 +52,26 @@ def test_closure_strategies_pipeline_on_a_tiny_scene(tmp_path, capsys):
                 placed = cyc.particle_placed_cycle.values[0] > 0
                 assert row["lost_masses"] == int((placed & ~act).sum())
                 # the peak gap speed is at least the gap-section speed of the last cycle, recomputed from
-                # its fields: the grid row at the levee centreline (y = 0) across the 12 m breach
-                j0 = int(np.argmin(np.abs(cyc.y.values)))
-                sel = (np.abs(cyc.x.values) <= 6.0) & (cyc.wet.values[0, j0] > 0)
-                if "obstacle" in cyc:
-                    sel &= cyc.obstacle.values[0, j0] == 0
-                speed = np.hypot(cyc.u.values[0, j0], cyc.v.values[0, j0])[sel]
+                # its fields on the levee centreline (y = 0) across the 12 m breach: per column open in the
+                # row nearest it, depth and unit discharges linearly between the two rows around y = 0
+                ys = cyc.y.values
+                j0 = int(np.argmin(np.abs(ys)))
+                k0 = j0 + 1 if ys[j0] < 0.0 else j0 - 1
+                w = (0.0 - ys[j0]) / (ys[k0] - ys[j0])
+
+                def is_open(j):
+                    ok = cyc.wet.values[0, j] > 0
+                    return ok & (cyc.obstacle.values[0, j] == 0) if "obstacle" in cyc else ok
+
+                sel = (np.abs(cyc.x.values) <= 6.0) & is_open(j0)
+                wk = np.where(is_open(k0), w, 0.0)[sel]
+                wj = (1.0 - w) / (1.0 - w + wk)
+                wk = wk / (1.0 - w + wk)
+                hh = cyc.depth.values[0]
+                h = wj * hh[j0, sel] + wk * hh[k0, sel]
+                qu = wj * (hh * cyc.u.values[0])[j0, sel] + wk * (hh * cyc.u.values[0])[k0, sel]
+                qv = wj * (hh * cyc.v.values[0])[j0, sel] + wk * (hh * cyc.v.values[0])[k0, sel]
+                speed = (np.hypot(qu, qv) / np.where(h > 0, h, np.inf))[h > 0]
                 assert float(cyc["gap_max_speed"].values[0]) == pytest.approx(speed.max() if speed.size else 0.0)
                 assert row["peak_gap_max_speed"] >= speed.max() - 1e-12
                 assert row["peak_gap_max_speed"] >= row["peak_gap_mean_speed"] > 0

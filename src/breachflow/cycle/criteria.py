@@ -34,7 +34,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..swe.section import open_wet as _open_wet
-from ..swe.section import snapshot_discharge
+from ..swe.section import snapshot_discharge, snapshot_section_speeds
 from ..registry import Registry
 from ..units import to_si
 
@@ -143,20 +143,12 @@ def seepage_in_section(ds, x_range, y: float, seepage_row: float) -> float:
 
 
 def gap_section_speeds(ds, x_range, y: float) -> tuple[float, float]:
-    """Flow speed in the gap: ``(max, mean)`` (m/s) over the open wet cells of the grid row nearest *y*
-    between ``x_range`` (the section :func:`section_discharge` integrates over). The mean is
-    depth-weighted, ``Σ h |u| Δx / Σ h Δx`` — the mean velocity through the gap's wet flow area that
-    closure design compares with the stones' critical speed (Izbash & Khaldre 1970); (0, 0) when no cell
-    of the section is open."""
-    x = np.asarray(ds["x"].values, float)
-    j = int(np.argmin(np.abs(np.asarray(ds["y"].values, float) - y)))
-    sel = (x >= x_range[0]) & (x <= x_range[1]) & _open_wet(ds)[j]
-    if not sel.any():
-        return 0.0, 0.0
-    h = np.asarray(ds["depth"].values, float)[j, sel]
-    speed = np.hypot(np.asarray(ds["u"].values, float)[j, sel], np.asarray(ds["v"].values, float)[j, sel])
-    mean = float(np.sum(h * speed) / np.sum(h)) if np.sum(h) > 0 else 0.0
-    return float(speed.max()), mean
+    """Flow speed in the gap: ``(max, mean)`` (m/s) on the exact section ``y`` between ``x_range`` (the
+    section :func:`section_discharge` integrates over), interpolated between the grid rows that bracket it
+    (:func:`breachflow.swe.section.section_speeds`). The mean is depth-weighted, ``Σ h |u| Δx / Σ h Δx`` —
+    the mean velocity through the gap's wet flow area that closure design compares with the stones'
+    critical speed (Izbash & Khaldre 1970); (0, 0) when no cell of the section is open."""
+    return snapshot_section_speeds(ds, x_range, y)
 
 
 @criteria.register("blocked_fraction")

@@ -188,6 +188,15 @@ class CycleReport:
     scour_depth: float = 0.0
     scour_x: float = float("nan")
     scour_y: float = float("nan")
+    #: the erodible bed's change over this cycle's flow time (:func:`~breachflow.cycle.scour.cycle_bed_change`):
+    #: deepest lowering of the terrain (m) and where, largest rise (m), flow time reached of the one asked (s)
+    bed_lowering: float = 0.0
+    bed_lowering_x: float = float("nan")
+    bed_lowering_y: float = float("nan")
+    bed_rise: float = 0.0
+    bed_change_time: float = 0.0
+    bed_change_duration: float = 0.0
+    bed_change_steps: int = 0
 
     def as_dict(self) -> dict:
         d = dict(self.__dict__)
@@ -216,6 +225,21 @@ class ClosureRun:
                                         cells=setup.pile_sampling == "cell_average")
         self._pile_height = None  # porous remap: the pile heights of the last solve
         self._q_open = float("nan")  # breach discharge of the open breach (the initial solve), m³/s
+        self._t_op = 0.0  # operation time of the last cycle (s): the erodible bed's flow time runs from it
+
+    def _set_terrain(self, bed) -> None:
+        """The erodible bed's new terrain: the domain the SWE re-solves on, the pile's base, the DEM's height
+        field (rebuilt from the saved state at the next cycle)."""
+        from dataclasses import replace as _replace
+
+        from ..swe.domain import _copy_spacing
+
+        s, old = self.setup, self.setup.domain
+        s.domain = _replace(old, bed=np.array(bed, float))
+        _copy_spacing(old, s.domain)
+        self._pile = IncrementalPileTop(s.domain.x, s.domain.y, s.domain.bed, sub=self._pile.sub,
+                                        cells=self._pile.cells)
+        self.dem.live = None
 
     # ------------------------------------------------------------------ restart record
     def _initial_record(self) -> dict:
@@ -237,6 +261,9 @@ class ClosureRun:
             rec = self.rundir.load_restart(g0)
             if "pile_height" in rec:
                 self._pile_height = np.asarray(rec["pile_height"], float)
+            if "terrain_bed" in rec:  # an erodible bed: the terrain as the last cycle left it
+                self._set_terrain(rec["terrain_bed"])
+            self._t_op = float(self.rundir.manifest()["cycles"][-1]["summary"].get("operation_time", 0.0))
             snapshot = self._grid_only(self.rundir.open_cycle(g0))
             self._q_open = float(self.rundir.manifest().get("metadata", {}).get("initial", {}).get(
                 "breach_discharge", float("nan")))
@@ -251,6 +278,7 @@ class ClosureRun:
             t0, c0 = _time.perf_counter(), _time.process_time()
             if s.timeline is not None:  # the breach grows and the polder fills until the start of the closure
                 s.timeline.begin()
+                self._t_op = float(s.timeline.time)  # an erodible bed's first flow time: the first delivery
             snapshot = s.solver.solve(s.domain)
             self.initial_solve_time = _time.perf_counter() - t0
             initial_solve_cpu = _time.process_time() - c0
@@ -421,6 +449,16 @@ class ClosureRun:
             rep.flood_level, rep.polder_level = s.timeline.flood_level, s.timeline.polder_level
         else:
             rep.flood_level = float(s.flood_level)
+        # an erodible bed changes under this cycle's flow until the next cycle's masses (the pile's cells hold)
+        from .scour import cycle_bed_change
+
+        new_terrain, bed_info = cycle_bed_change(s, new_snapshot, rep.operation_time - self._t_op,
+                                                 fixed=np.isfinite(top) & (top > dom.bed + 1e-6))
+        self._t_op = rep.operation_time
+        if new_terrain is not None:
+            new_rec["terrain_bed"] = new_terrain
+            for k, v in bed_info.items():
+                setattr(rep, k, v)
         t_out = _time.perf_counter()
         field_ds = self._field_dataset(new_snapshot, st, placed_cycle, resting, rep)
         if scour_map is not None:
@@ -436,6 +474,8 @@ class ClosureRun:
         rep.time_output = _time.perf_counter() - t_out  # the summary records the time up to the write itself
         self.rundir.write_cycle(g, field_ds, traj, new_rec, _summary(rep))
         self.dem.live = (g, sim)
+        if new_terrain is not None:
+            self._set_terrain(new_terrain)
         return rep, new_rec, new_snapshot
 
     def _verdict(self, g, closed, losses, lost_now, new_ids, rel, snapshot, area) -> str:

@@ -123,10 +123,14 @@ class CheckResult:
     flow_difference: dict = field(default_factory=dict)  #: relative difference fine vs coarse
     wall_time: float = 0.0
     cpu_time: float = 0.0
+    #: the bed model the runs used, in words (:func:`bed_model`): the verdict holds for that bed
+    bed: str = ""
 
     def rows(self) -> list[tuple[str, str]]:
         """Lines of the run's summary table."""
         out = [("verdict check", self.statement)]
+        if self.bed:
+            out.append(("  bed model of the check", self.bed))
         closures = [r for r in self.runs if r.closed is not None and not r.error]
         if closures:
             lo, hi = self.p_interval
@@ -148,7 +152,7 @@ class CheckResult:
 
     def summary(self) -> dict:
         """JSON-able summary (the manifest's ``metadata.check``)."""
-        return {"statement": self.statement, "robust": self.robust, "p_closure": _f(self.p_closure),
+        return {"statement": self.statement, "robust": self.robust, "bed_model": self.bed, "p_closure": _f(self.p_closure),
                 "p_closure_interval": [_f(v) for v in self.p_interval],
                 "tonnage_in_place_range_t": [_f(v) for v in self.tonnage_range],
                 "flow_difference": {k: _f(v) for k, v in self.flow_difference.items()}, "tolerance": self.tolerance,
@@ -190,7 +194,7 @@ class CheckResult:
         ds.attrs.update(title="breachflow verdict check", statement=self.statement, robust=int(self.robust),
                         p_closure=_f(self.p_closure), p_closure_interval=f"{self.p_interval[0]:.4f} {self.p_interval[1]:.4f}",
                         tonnage_in_place_range_t=f"{self.tonnage_range[0]:.1f} {self.tonnage_range[1]:.1f}",
-                        tolerance=self.tolerance, Conventions="CF-1.8",
+                        tolerance=self.tolerance, Conventions="CF-1.8", bed_model=self.bed,
                         **{f"grid_difference_{k.replace(' ', '_')}": v for k, v in self.flow_difference.items()})
         return ds
 
@@ -268,7 +272,7 @@ def run_check(run_dir, scenario_text: str, scenario_path=None, *, section: Check
     if section.refine and refine_allowed and section.refine_seeds == 0:
         runs.append(_open_breach_cached(out_dir / "grid" / f"open_breach_{section.grid}.json", scenario_text, sc,
                                         scenario_path, res, section))
-    result = judge(runs, section.tolerance)
+    result = judge(runs, section.tolerance, bed=bed_model(sc))
     result.wall_time, result.cpu_time = _time.perf_counter() - w0, _time.process_time() - c0
     ds = result.dataset()
     tmp = run_dir / "check.nc.tmp"
@@ -369,11 +373,20 @@ def _open_breach_on(sc, scenario_path, res: float, section: CheckSection) -> Che
 
 
 # ---------------------------------------------------------------------------------------------- judging
-def judge(runs: list[CheckRun], tolerance: float) -> CheckResult:
-    """Read the runs: P(closure), tonnage range, grid differences of the open breach, the statement."""
+def bed_model(sc) -> str:
+    """The bed model of the parsed scenario *sc* in words: grain size, bottom protection, erodible or not."""
+    sec = sc.get("bed") if hasattr(sc, "get") else None
+    if sec is None:
+        return "smooth bed (no [bed] section: no grain roughness, no near-bed forces, not erodible)"
+    return sec.settings.describe()
+
+
+def judge(runs: list[CheckRun], tolerance: float, *, bed: str = "") -> CheckResult:
+    """Read the runs: P(closure), tonnage range, grid differences of the open breach, the statement (which
+    ends with the bed model *bed* the runs used, when given)."""
     from .dataset import wilson_interval
 
-    out = CheckResult(runs=runs, tolerance=tolerance)
+    out = CheckResult(runs=runs, tolerance=tolerance, bed=bed)
     done = [r for r in runs if r.closed is not None and not r.error]
     n, k = len(done), sum(bool(r.closed) for r in done)
     if n:
@@ -423,6 +436,8 @@ def judge(runs: list[CheckRun], tolerance: float) -> CheckResult:
         out.robust = not flow_off and not failed
     else:
         out.statement = "no check run completed" + grid_note
+    if bed:
+        out.statement += f" — bed: {bed}"
     return out
 
 

@@ -107,3 +107,48 @@ class BedRoughness:
         if not self.rough:
             return np.zeros_like(np.asarray(diameter, float))
         return np.tan(np.radians(pivot_angle(diameter, self.grain_size, self.z_star)))
+
+
+@dataclass(frozen=True)
+class ProtectionRegion:
+    """A bottom protection laid over part of the bed (a mattress or a stone layer at the toe or the breach
+    floor): stones of ``grain_size`` (m) in a layer ``thickness`` (m) inside ``box`` ``(x0, x1, y0, y1)`` and/or
+    ``polygon`` (vertices ``(x, y)``), in the run's grid coordinates (m). Outside it the natural bed lies bare."""
+
+    grain_size: float
+    thickness: float
+    box: tuple | None = None
+    polygon: tuple | None = None
+
+    def __post_init__(self):
+        if not (math.isfinite(self.grain_size) and self.grain_size > 0):
+            raise InputError(f"bottom protection: grain_size must be > 0 m, got {self.grain_size!r}")
+        if not (math.isfinite(self.thickness) and self.thickness >= self.grain_size):
+            raise InputError(f"bottom protection: thickness must be >= its grain size {self.grain_size!r} m, "
+                             f"got {self.thickness!r}")
+        if self.box is None and self.polygon is None:
+            raise InputError("bottom protection: give its region, box = [x0, x1, y0, y1] or polygon = [[x, y], ...]")
+        if self.box is not None:
+            x0, x1, y0, y1 = self.box
+            if not (x1 > x0 and y1 > y0):
+                raise InputError(f"bottom protection: box {list(self.box)} needs x0 < x1 and y0 < y1")
+        if self.polygon is not None and len(self.polygon) < 3:
+            raise InputError(f"bottom protection: a polygon needs at least 3 vertices, got {len(self.polygon)}")
+
+    def mask(self, x, y) -> np.ndarray:
+        """Cells (y, x) of the grid with centres *x*, *y* (1-D) covered by the protection."""
+        X, Y = np.meshgrid(np.asarray(x, float), np.asarray(y, float))
+        inside = np.zeros(X.shape, bool)
+        if self.box is not None:
+            x0, x1, y0, y1 = self.box
+            inside |= (X >= x0) & (X <= x1) & (Y >= y0) & (Y <= y1)
+        if self.polygon is not None:
+            from matplotlib.path import Path  # a well-tested point-in-polygon
+
+            pts = np.column_stack([X.ravel(), Y.ravel()])
+            inside |= Path(np.asarray(self.polygon, float)).contains_points(pts).reshape(X.shape)
+        return inside
+
+    def grain_map(self, x, y, d_bed: float) -> np.ndarray:
+        """Grain size per cell (m): the protection's stones inside, the natural bed's *d_bed* outside."""
+        return np.where(self.mask(x, y), self.grain_size, float(d_bed))

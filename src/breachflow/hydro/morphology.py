@@ -137,8 +137,14 @@ def scour(bed, depth, u, v, d, manning, duration, *, dx, dy, porosity=0.4, rho_s
         ux, uy = qx / hs, qy / hs
         sp = np.hypot(ux, uy)
         dc = np.where(z > z0, d_dep, dmap)  # a deposit is of the mobile material
-        qb = mpm_transport(shields(bed_shear(h, ux, uy, n, rho, g, dry), dc, rho_s, rho, g), dc, rho_s, rho, g,
-                           theta_c)
+        tau = bed_shear(h, ux, uy, n, rho, g, dry)
+        qb = mpm_transport(shields(tau, dc, rho_s, rho, g), dc, rho_s, rho, g, theta_c)
+        # a deposit over a base that holds (a protection): it carries at most what lies on the base, the
+        # transport falling with the deposit's thickness over one grain of it (a non-erodible layer), so the
+        # base is never eroded through the deposit
+        hard = (dmap > d_dep) & (shields(tau, dmap, rho_s, rho, g) <= theta_c)
+        thin = np.clip((z - z0) / d_dep, 0.0, 1.0)
+        qb = np.where(hard, qb * thin, qb)
         with np.errstate(invalid="ignore", divide="ignore"):
             bx = np.where(sp > 0, qb * ux / sp, 0.0)
             by = np.where(sp > 0, qb * uy / sp, 0.0)
@@ -149,6 +155,11 @@ def scour(bed, depth, u, v, d, manning, duration, *, dx, dy, porosity=0.4, rho_s
             break
         # explicit step: no wet cell's bed changes by more than max_change of its depth
         dt = min(duration - t, max_change * float(np.min(np.maximum(h[act], dry) / np.abs(rate[act]))))
+        # and a deposit on a holding base loses less than itself per step: its outflow, at most sqrt(2) q_b
+        # through the cell's faces, empties it in d (1 - p) min(dx, dy) (z - z0) / (sqrt(2) q_b d) s
+        lay = hard & (qb > 0.0)
+        if lay.any():
+            dt = min(dt, 0.5 * float(np.min(d_dep * (1.0 - porosity) * min(dx, dy) * thin[lay] / qb[lay])))
         z -= rate * dt
         t += dt
         steps += 1

@@ -56,3 +56,55 @@ def snapshot_discharge(ds, x_range, y: float) -> float:
     """:func:`channel_discharge` of the snapshot *ds* (``depth``, ``v`` on ``x``, ``y``)."""
     hv = np.asarray(ds["depth"].values, float) * np.asarray(ds["v"].values, float)
     return channel_discharge(ds["x"].values, ds["y"].values, hv, open_wet(ds), x_range, y)
+
+
+def section_speeds(x, y, depth, u, v, open_wet, x_range, y0: float) -> tuple[float, float]:
+    """Flow speed through the section ``y = y0`` between ``x_range``: ``(max, mean)`` (m/s), on the exact
+    section, whatever the grid.
+
+    Per grid column whose centre is in ``x_range``, the depth and the unit discharges ``(h u, h v)`` at *y0*
+    are interpolated linearly between the two grid rows whose centres bracket *y0* (over the open wet ones of
+    the two: beside a wall or the pile the open row's value); the column belongs to the section when the cell
+    that contains the section's point — the row nearest *y0* — is open and wet (the cells
+    :func:`channel_discharge` sums). The speed there is ``|q| / h``; the mean is depth-weighted,
+    ``Σ |q| Δx / Σ h Δx``, the mean velocity through the gap's wet flow area. (0, 0) when no column is open.
+
+    The row nearest *y0* alone sits up to half a cell off the section, and in the contraction of a breach the
+    speed changes fast along the flow: on a 4 m grid that row's value can differ from the section's by several
+    per cent, so two grids would disagree on a measurement, not on the flow (docs/verdict-check.md)."""
+    x = np.asarray(x, float)
+    yy = np.asarray(y, float)
+    sel = (x >= x_range[0]) & (x <= x_range[1])
+    if not sel.any() or yy.size == 0:
+        return 0.0, 0.0
+    jn = int(np.argmin(np.abs(yy - y0)))
+    inside = sel & open_wet[jn]
+    if not inside.any():
+        return 0.0, 0.0
+    # the row on the other side of y0 (ascending or descending y); none beyond the outer row centres
+    d = yy - y0
+    other = [k for k in (jn - 1, jn + 1) if 0 <= k < yy.size and d[k] * d[jn] < 0]
+    ja = jn
+    jb = other[0] if other else jn
+    w = 0.0 if jb == ja else (y0 - yy[ja]) / (yy[jb] - yy[ja])
+    h_ = np.asarray(depth, float)
+    qx = h_ * np.asarray(u, float)
+    qy = h_ * np.asarray(v, float)
+    wa = np.where(open_wet[ja, inside], 1.0 - w, 0.0)
+    wb = np.where(open_wet[jb, inside], w, 0.0)
+    s = wa + wb
+    s = np.where(s > 0, s, 1.0)
+    wa, wb = wa / s, wb / s
+    h = wa * h_[ja, inside] + wb * h_[jb, inside]
+    q = np.hypot(wa * qx[ja, inside] + wb * qx[jb, inside], wa * qy[ja, inside] + wb * qy[jb, inside])
+    wet = h > 0
+    if not wet.any():
+        return 0.0, 0.0
+    speed = q[wet] / h[wet]
+    return float(speed.max()), float(np.sum(q[wet]) / np.sum(h[wet]))
+
+
+def snapshot_section_speeds(ds, x_range, y: float) -> tuple[float, float]:
+    """:func:`section_speeds` of the snapshot *ds* (``depth``, ``u``, ``v`` on ``x``, ``y``)."""
+    return section_speeds(ds["x"].values, ds["y"].values, ds["depth"].values, ds["u"].values, ds["v"].values,
+                          open_wet(ds), x_range, y)
