@@ -3,6 +3,7 @@ in capitals; `--resume` is an explicit flag, off by default, in `run` and `ensem
 directory holding results is continued or replaced only when asked; `solve` writes no PNG unasked and its
 snapshot carries the CRS a closure run writes."""
 import re
+from pathlib import Path
 
 import pytest
 import typer.main
@@ -115,9 +116,13 @@ def test_solve_out_ending_in_nc_still_writes_that_file_and_warns(tmp_path, monke
     DeprecationWarning that names the directory form."""
     monkeypatch.chdir(tmp_path)
     for _ in range(2):
-        with pytest.warns(DeprecationWarning, match=r"--out old writes old/snapshot\.nc"):
-            res = runner.invoke(app, [*SOLVE, "-o", "old.nc"])
+        res = runner.invoke(app, [*SOLVE, "-o", "old.nc"])
         assert res.exit_code == 0, res.output
+        assert "deprecated" in res.output and "--out old writes old/snapshot.nc" in res.output, res.output
+    from breachflow.cli.solve import solve_target
+
+    with pytest.warns(DeprecationWarning, match=r"--out old writes old/snapshot\.nc"):
+        assert solve_target(Path("old.nc"), False) == Path("old.nc")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["old.nc"]
     with xr.open_dataset(tmp_path / "old.nc") as ds:
         assert "depth" in ds
