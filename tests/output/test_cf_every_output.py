@@ -103,15 +103,77 @@ def files(tmp_path_factory):
     from breachflow.cli import app
 
     res = CliRunner().invoke(app, ["solve", "demo_breach", "--resolution", "4 m", "--t-max", "5 s", "--order", "1",
-                                   "-o", str(tmp / "solve.nc")])
+                                   "-o", str(tmp / "solve")])
     assert res.exit_code == 0, res.output
-    out["solve output"] = tmp / "solve.nc"
+    out["solve output"] = tmp / "solve" / "snapshot.nc"
     res = CliRunner().invoke(app, ["window", "--surge-height", "2.8 m", "--fall-rate", "40 cm/hr", "--polder-area",
                                    "800 ha", "--inundation-depth", "90 cm", "--breach-length", "30 m",
                                    "--mean-velocity", "3 m/s", "-o", str(tmp / "window.nc")])
     assert res.exit_code == 0, res.output
     out["window output"] = tmp / "window.nc"
+    out["check.nc"] = _check_file(tmp)
+    out["atlas.nc"] = _atlas_file(tmp)
     return out
+
+
+def _check_file(tmp: Path) -> Path:
+    """check.nc of a verdict check (the run, a second seed, the finer grid with a failed closure), written by
+    the check's own writer."""
+    from breachflow.ensemble.check import CheckRun, judge, write_check
+
+    runs = [CheckRun("4 m", 4.0, 2, True, tonnage=310.0, lost_tonnage=12.0, cycles=8, discharge=180.0,
+                     gap_mean_speed=2.1, gap_max_speed=3.2, own=True),
+            CheckRun("4 m", 4.0, 3, False, verdict="not closed: max_cycles", tonnage=400.0, cycles=12, discharge=181.0,
+                     gap_mean_speed=2.1, gap_max_speed=3.3),
+            CheckRun("2 m", 2.0, 2, None, discharge=176.0, gap_mean_speed=2.0, gap_max_speed=3.5),
+            CheckRun("2 m", 2.0, 3, False, error="RuntimeError: crane broke")]
+    return write_check(judge(runs, 0.05).dataset(), tmp / "check.nc")
+
+
+def _atlas_file(tmp: Path) -> Path:
+    """atlas.nc of the example district generator's 1.6 km levee screened at 3 locations, one of them failed,
+    written by the atlas's own writer."""
+    from breachflow.atlas.execute import plan, screen_location
+    from breachflow.atlas.outputs import build_dataset, write_outputs
+
+    spec = importlib.util.spec_from_file_location("make_district", ROOT / "examples" / "district" / "make_district.py")
+    mod = importlib.util.module_from_spec(spec)
+    sys.modules["make_district"] = mod
+    spec.loader.exec_module(mod)
+    folder = tmp / "district"
+    folder.mkdir()
+    mod.write(folder, length=1600.0)
+    (folder / "district.toml").write_text(DISTRICT.format(folder=folder))
+    district, locations = plan(folder / "district.toml")
+    records = [screen_location(district, loc, str(tmp / f"loc{loc.index}.json"), "k") for loc in locations]
+    records[0] = {"result": {"status": "failed", "message": "RuntimeError: no terrain"}}
+    write_outputs(build_dataset(district, locations, records), district, locations, tmp / "atlas")
+    return tmp / "atlas" / "atlas.nc"
+
+
+DISTRICT = """
+[district]
+terrain = "{folder}/terrain.tif"
+levee = "{folder}/levee.geojson"
+flood_side = "left"
+spacing = "400 m"
+margin = "100 m"
+[flood]
+level = "5.0 m"
+fall_rate = "1 cm/h"
+[polder]
+area = "12000 ha"
+inundation_depth = "1 m"
+pump_capacity = "5 m^3/s"
+[breach]
+growth = "verheij_clay"
+max_length = "von_thun_gillette"
+development_time = "12 h"
+flow = "weir"
+[methods.split_barge]
+capacity = "1000 t/h"
+mobilisation = "24 h"
+"""
 
 
 def _ensemble_file(tmp: Path) -> Path:
@@ -159,7 +221,7 @@ batch = 10
 
 
 KINDS = ["cycle file", "trajectories", "combine archive", "model-problem output", "settle output", "ensemble.nc",
-         "solve output", "window output"]
+         "solve output", "window output", "check.nc", "atlas.nc"]
 
 
 @pytest.mark.parametrize("kind", KINDS)
@@ -200,3 +262,35 @@ def test_every_written_grid_opens_in_gdal_without_a_warning(checker, files, kind
         assert not warn, f"{kind}: gdalinfo {name}:\n" + "\n".join(warn)
         if name.endswith((":depth", ":u", ":bed_elevation")):  # the run's CRS; solve: the local one
             assert ("UTM zone 15N" if kind != "solve output" else "breachflow local transverse Mercator") in text, text
+
+
+def _gdal(*cmd) -> tuple[int, list[str], str]:
+    """Exit code, the "Warning" lines and the whole text of a GDAL command."""
+    res = subprocess.run(list(cmd), capture_output=True, text=True)
+    text = res.stdout + res.stderr
+    return res.returncode, [ln for ln in text.splitlines() if "warning" in ln.lower()], text
+
+
+#: the files whose records have map positions: GDAL reads them as a vector layer (name, geometry, count)
+POINT_LAYERS = {"atlas.nc": ("breach_atlas", "Point", 3)}
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_every_written_file_opens_in_gdal_without_a_warning(checker, files, kind):
+    """``gdalinfo`` on every written file prints no "Warning" line (before: the trajectories, "dimension #1
+    (obs) is not a Longitude/X dimension"); a map file opens as a raster, a table of map positions (the atlas)
+    opens in ``ogrinfo`` as a point layer with its CRS and every record, without a warning or an error (before:
+    "Unable to open datasource"). Tables without positions are no GIS data: GDAL's raster side does not open
+    them or lists their arrays as subdatasets (docs/outputs.md)."""
+    path = str(files[kind])
+    rc, warn, text = _gdal("gdalinfo", path)
+    assert not warn, f"{kind}: gdalinfo {path}:\n" + "\n".join(warn)
+    if kind in GRIDS:
+        assert rc == 0, text
+    if kind in POINT_LAYERS:
+        name, geometry, count = POINT_LAYERS[kind]
+        rc, warn, text = _gdal("ogrinfo", "-ro", "-so", "-al", path)
+        assert rc == 0 and not warn and "ERROR" not in text, f"{kind}: ogrinfo {path}:\n{text[-2000:]}"
+        assert f"Layer name: {name}" in text and f"Geometry: {geometry}" in text, text[-2000:]
+        assert f"Feature Count: {count}" in text, text[-2000:]
+        assert 'ID["EPSG",26915]' in text, "the layer's CRS is the district terrain's (EPSG:26915)"

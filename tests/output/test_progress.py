@@ -59,7 +59,7 @@ def test_piped_settle_and_solve_print_progress_lines(tmp_path):
     assert res.exit_code == 0, res.output
     assert "settling: started" in res.output and "settling: done" in res.output
     res = runner.invoke(app, ["solve", "demo_breach", "--resolution", "4 m", "--t-max", "5 s", "--order", "1",
-                              "-o", str(tmp_path / "snap.nc")])
+                              "-o", str(tmp_path / "snap")])
     assert res.exit_code == 0, res.output
     assert "solving: started" in res.output and "solving: done" in res.output and "s simulated" in res.output
 

@@ -201,8 +201,8 @@ def test_cli_solve_writes_snapshot_and_png(tmp_path):
 
     from breachflow.cli import app
 
-    nc, png = tmp_path / "s.nc", tmp_path / "s.png"
-    res = CliRunner().invoke(app, ["solve", "--resolution", "30 m", "--t-max", "40 s", "--output", str(nc), "--png", str(png)])
+    nc, png = tmp_path / "s" / "snapshot.nc", tmp_path / "s.png"
+    res = CliRunner().invoke(app, ["solve", "--resolution", "30 m", "--t-max", "40 s", "--output", str(nc.parent), "--png", str(png)])
     assert res.exit_code == 0, res.output
     assert "Ritter" in res.output and "peak speed" in res.output
     ds = xr.open_dataset(nc)
@@ -220,8 +220,8 @@ def test_cli_solve_the_demo_breach(tmp_path):
 
     from breachflow.cli import app
 
-    nc = tmp_path / "demo.nc"
-    res = CliRunner().invoke(app, ["solve", "demo_breach", "--resolution", "3 m", "--t-max", "20 s", "-o", str(nc), "--png", ""])
+    nc = tmp_path / "demo" / "snapshot.nc"
+    res = CliRunner().invoke(app, ["solve", "demo_breach", "--resolution", "3 m", "--t-max", "20 s", "-o", str(nc.parent)])
     assert res.exit_code == 0, res.output
     assert "report (ADH)" not in res.output  # the report's ADH figure belongs to the typical breach only
     ds = xr.open_dataset(nc)

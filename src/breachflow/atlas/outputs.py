@@ -20,6 +20,7 @@ from .screening import FIELDS, feasibility_class
 CLASSES = {"feasible": "#1a9850", "tight": "#fee08b", "not feasible": "#d73027", "not at risk": "#9e9e9e",
            "failed": "#000000"}
 LAYER = "breach_atlas"
+GEOMETRY = "breach_atlas"  #: the CF geometry container of atlas.nc (GDAL's layer name, as the GeoPackage's)
 
 
 def build_dataset(district: District, locations: list[Location], records: list[dict]) -> xr.Dataset:
@@ -54,9 +55,9 @@ def build_dataset(district: District, locations: list[Location], records: list[d
     ds = xr.Dataset(data, coords={
         "location": ("location", np.arange(n, dtype="i4"), {"long_name": "candidate breach index", "units": "1"}),
         "x": ("location", np.array([loc.x for loc in locations]), {"units": "m", "standard_name": "projection_x_coordinate",
-                                                                    "long_name": "easting of the breach centre"}),
+                                                                    "axis": "X", "long_name": "easting of the breach centre"}),
         "y": ("location", np.array([loc.y for loc in locations]), {"units": "m", "standard_name": "projection_y_coordinate",
-                                                                    "long_name": "northing of the breach centre"}),
+                                                                    "axis": "Y", "long_name": "northing of the breach centre"}),
     })
     from .locations import load_inputs
 
@@ -70,6 +71,22 @@ def build_dataset(district: District, locations: list[Location], records: list[d
                 "summary": district.description, "source": "breachflow atlas (screening tier)",
                 "flood_level_m": district.flood_level, "spacing_m": district.spacing,
                 "methods": ", ".join(m.name for m in district.methods)}
+    return ds
+
+
+def point_geometry(ds: xr.Dataset) -> xr.Dataset:
+    """*ds* with the locations declared as a CF-1.8 point geometry (CF §7.5): a geometry container whose
+    node coordinates are ``x y``, named by every variable along ``location``. GDAL's netCDF driver reads a
+    CF-1.8 file's geometry container as a vector layer (here: ``breach_atlas``, one point per location,
+    every variable a field) with the CRS of ``crs``; xarray reads the file as before, plus the container."""
+    ds = ds.copy()
+    ds[GEOMETRY] = xr.DataArray(np.int32(0), attrs={"geometry_type": "point", "node_coordinates": "x y",
+                                                    "grid_mapping": "crs",
+                                                    "long_name": "candidate breach locations (points)"})
+    for v in ds.data_vars:
+        if v not in ("crs", GEOMETRY) and "location" in ds[v].dims:
+            ds[v].attrs["geometry"] = GEOMETRY
+            ds[v].attrs["grid_mapping"] = "crs"
     return ds
 
 
@@ -100,7 +117,7 @@ def write_outputs(ds: xr.Dataset, district: District, locations: list[Location],
 
     terrain, levee = _inputs(str(district.terrain), str(district.levee), district.crs, district.terrain_units)
     lines = reach_lines(locations, levee)
-    paths = [atomic_write_netcdf(ds, out / "atlas.nc")]
+    paths = [atomic_write_netcdf(point_geometry(ds), out / "atlas.nc")]
     paths.append(write_geopackage(ds, lines, out / "atlas.gpkg", terrain.crs_wkt))
     detailed = "p_closure" in ds and bool(np.isfinite(ds["p_closure"].values).any())
     title = f"{district.name}: closure feasibility" + (" (screening) and P(closure) (closure simulation)" if detailed

@@ -1,7 +1,8 @@
 """``breachflow solve``: run the embedded shallow-water solver on a breach scene to steady state.
 
-Writes the hydrodynamic snapshot (CF NetCDF, schema data_schemas/snapshot_grid.json) and a plan-view speed map (PNG), both
-atomically, and prints the peak depth-averaged velocity near the breach next to the report's ADH value
+Writes the hydrodynamic snapshot ``snapshot.nc`` (CF NetCDF, schema data_schemas/snapshot_grid.json) into its
+output directory ``--out`` (as ``run``, ``ensemble`` and ``atlas`` do: an existing result there is replaced
+only with ``--overwrite``) and, when asked, a plan-view speed map (PNG), both atomically, and prints the peak depth-averaged velocity near the breach next to the report's ADH value
 and Ritter's dam-break estimate ``u = 2/3 sqrt(g h_L)`` (docs/theory.md, *Breach discharge*).
 """
 from __future__ import annotations
@@ -17,7 +18,37 @@ import typer
 from ..atomic import atomic_write as _atomic_write
 
 SCENES = ("typical_breach", "demo_breach")  #: the presets of ``[site] preset`` (breachflow.cycle.config.SITE_PRESETS)
+DEFAULT_OUT = Path("runs/solve")  #: ``--out`` when none is given
+SNAPSHOT = "snapshot.nc"          #: the snapshot's name in the output directory
+_OLD_SUFFIXES = (".nc", ".nc4")   #: an ``--out`` ending so is the snapshot file itself (the old usage)
 
+
+def solve_target(out: Path | None, overwrite: bool) -> Path:
+    """The snapshot file ``solve`` writes for ``--out`` *out*, decided before anything is written.
+
+    *out* is the output directory (default :data:`DEFAULT_OUT`); the snapshot is ``OUT/snapshot.nc``, and
+    a directory that holds one already is refused unless *overwrite*. A value ending in ``.nc`` names the
+    snapshot file itself (the usage before the output directory): accepted, with a DeprecationWarning
+    naming the new form, and replaced as before."""
+    import warnings
+
+    from ..errors import InputError
+
+    out = DEFAULT_OUT if out is None else Path(out)
+    if out.suffix.lower() in _OLD_SUFFIXES and not out.is_dir():
+        with warnings.catch_warnings():  # shown on the console, not hidden by Python's default filter
+            warnings.simplefilter("always", DeprecationWarning)
+            warnings.warn(f"solve --out {out}: a snapshot file as --out is deprecated; give an output directory "
+                          f"(--out {out.with_suffix('')} writes {out.with_suffix('') / SNAPSHOT})",
+                          DeprecationWarning, stacklevel=2)
+        return out
+    if out.exists() and not out.is_dir():
+        raise InputError(f"--out {out}: exists and is not a directory (solve writes {SNAPSHOT} into a directory)")
+    target = out / SNAPSHOT
+    if target.exists() and not overwrite:
+        raise InputError(f"{out} holds a solve already ({target}); refusing to replace it. "
+                         f"Use --overwrite to replace it, or another --out directory")
+    return target
 
 
 
@@ -67,8 +98,10 @@ def register(app: typer.Typer) -> None:
         breach_length: str = typer.Option("", help="override the breach length B (e.g. '61 m')"),
         levee_as_bed: bool = typer.Option(False, help="intact levee as bed instead of a no-flow boundary"),
         threads: int = typer.Option(1, help="numba threads"),
-        out: Optional[Path] = typer.Option(None, "--out", "-o", help="snapshot NetCDF to write [default: snapshot_swe.nc]"),
+        out: Optional[Path] = typer.Option(None, "--out", "-o", help=f"output directory: writes {SNAPSHOT} there "
+                                           f"[default: {DEFAULT_OUT}]"),
         output: Optional[Path] = typer.Option(None, "--output", hidden=True),
+        overwrite: bool = typer.Option(False, "--overwrite", help="Replace the snapshot already in --out."),
         png: str = typer.Option("", help="plan-view speed map (PNG) to write [default: none]"),
         crs: str = typer.Option("", help="CRS of the scene's coordinates (EPSG code, WKT or PROJ string, as [site] crs) "
                                 "[default: the local transverse Mercator closure runs use]"),
@@ -85,9 +118,9 @@ def register(app: typer.Typer) -> None:
         from ..units import to_si
         from ._common import QUIET, console, level, pick_out
 
-        output = pick_out(out, output) or Path("snapshot_swe.nc")
         if scene not in SCENES:
             raise InputError(f"scene {scene!r} unknown; available: {', '.join(SCENES)}")
+        output = solve_target(pick_out(out, output), overwrite)
         from ..cycle.config import SITE_PRESETS
 
         sc = SITE_PRESETS[scene]()
@@ -123,6 +156,7 @@ def register(app: typer.Typer) -> None:
         ds = sim.snapshot()
         from ..atomic import atomic_write_netcdf
 
+        output.parent.mkdir(parents=True, exist_ok=True)
         atomic_write_netcdf(ds, output)
         near = peak_speed(ds, x_range=(-sc.breach.length, sc.breach.length), y_range=(-50.0, 50.0))
         pk = peak_speed(ds)

@@ -190,13 +190,24 @@ class CheckResult:
                                        "depth-weighted mean speed in the gap section of the open breach"),
             "open_gap_max_speed": var([r.gap_max_speed for r in rs], "m s-1", "largest speed in the gap section of the open breach"),
             "this_run": ("run", np.array([int(r.own) for r in rs], np.int8), {"long_name": "the checked run itself"}),
-        }, coords={"run": np.arange(n)})
+        }, coords={"run": ("run", np.arange(n, dtype="i4"), {"long_name": "run of the check (this_run: the checked run)",
+                                                            "units": "1"})})
         ds.attrs.update(title="breachflow verdict check", statement=self.statement, robust=int(self.robust),
                         p_closure=_f(self.p_closure), p_closure_interval=f"{self.p_interval[0]:.4f} {self.p_interval[1]:.4f}",
                         tonnage_in_place_range_t=f"{self.tonnage_range[0]:.1f} {self.tonnage_range[1]:.1f}",
                         tolerance=self.tolerance, Conventions="CF-1.8", bed_model=self.bed,
                         **{f"grid_difference_{k.replace(' ', '_')}": v for k, v in self.flow_difference.items()})
+        ds.attrs = {k: v for k, v in ds.attrs.items() if v is not None}  # no P(closure) without a closure run
         return ds
+
+
+def write_check(ds, path) -> Path:
+    """Write the check's Dataset (:meth:`CheckResult.dataset`) to *path* atomically, text as CF character
+    arrays, with the provenance attributes every written file carries."""
+    from ..atomic import atomic_write_netcdf
+    from ..io.cf import netcdf_encoding
+
+    return atomic_write_netcdf(ds, path, encoding=netcdf_encoding(ds))
 
 
 def _f(v):
@@ -274,10 +285,7 @@ def run_check(run_dir, scenario_text: str, scenario_path=None, *, section: Check
                                         scenario_path, res, section))
     result = judge(runs, section.tolerance, bed=bed_model(sc))
     result.wall_time, result.cpu_time = _time.perf_counter() - w0, _time.process_time() - c0
-    ds = result.dataset()
-    tmp = run_dir / "check.nc.tmp"
-    ds.to_netcdf(tmp)
-    tmp.replace(run_dir / "check.nc")
+    write_check(result.dataset(), run_dir / "check.nc")
     rd.update_metadata(check=result.summary())
     return result
 

@@ -86,7 +86,8 @@ def pad_particles(ds: xr.Dataset, capacity: int) -> xr.Dataset:
 def trajectories_dataset(trajectory_id, time, pos, vel=None, *, cycle: int, cycle_start: float = 0.0,
                          title: str = "") -> xr.Dataset:
     """CF trajectory DSG from ``time`` (n_traj, n_obs) s since the start of the cycle and ``pos``
-    (n_traj, n_obs, 3) m; *cycle_start* is that start on the closure operation's clock (s).
+    (n_traj, n_obs, 3) m; *cycle_start* is that start on the closure operation's clock (s). With ``vel``
+    (n_traj, n_obs, 3) m/s: the speed and the velocity components along the trajectories.
 
     NaN marks observations past the end of a trajectory (they become ``_FillValue`` on write).
     """
@@ -109,6 +110,10 @@ def trajectories_dataset(trajectory_id, time, pos, vel=None, *, cycle: int, cycl
         speed = np.sqrt(np.sum(vel**2, axis=-1))
         ds["speed"] = (("trajectory", "obs"), speed, {"long_name": "particle speed", "units": "m s-1",
                                                      "coordinates": "time x y z"})
+        for k, name in enumerate("xyz"):
+            ds[f"velocity_{name}"] = (("trajectory", "obs"), vel[..., k],
+                                      {"long_name": f"particle velocity, {name} component", "units": "m s-1",
+                                       "coordinates": "time x y z"})
     else:
         ds["elevation"] = (("trajectory", "obs"), pos[..., 2], {"long_name": "particle centre elevation", "units": "m",
                                                                 "coordinates": "time x y z"})
