@@ -523,28 +523,31 @@ def test_detailed_tier_runs_the_closure_at_the_worst_location(small_district, tm
 
 def test_cli_atlas_follows_the_run_conventions(small_district, tmp_path):
     """`breachflow atlas`: writes its three outputs; a second run into the same --out is refused unless
-    --resume (keeps the records) or --overwrite (computes again); errors name the district file's key."""
+    --resume (keeps the records) or --overwrite (computes again); errors name the district file's key.
+    Piped output wraps at ``$COLUMNS`` when set (the CLI's convention), so the children get none."""
+    import os
     import subprocess
 
+    env = {k: v for k, v in os.environ.items() if k not in ("COLUMNS", "LINES")}
     path = _district(small_district, flow="weir", spacing="400 m")
     out = tmp_path / "atlas"
     cmd = [sys.executable, "-m", "breachflow", "atlas", str(path), "--out", str(out), "--workers", "1"]
-    first = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
+    first = subprocess.run(cmd, capture_output=True, text=True, timeout=600, env=env)
     assert first.returncode == 0, first.stderr
     assert {"atlas.nc", "atlas.gpkg", "atlas.png"} <= {p.name for p in out.iterdir()}
     assert "screening locations" in first.stdout + first.stderr
-    again = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
+    again = subprocess.run(cmd, capture_output=True, text=True, timeout=600, env=env)
     assert again.returncode != 0 and "holds an atlas already" in again.stdout + again.stderr
     stamps = {p.name: p.stat().st_mtime_ns for p in (out / "locations").iterdir()}
-    resumed = subprocess.run(cmd + ["--resume"], capture_output=True, text=True, timeout=600)
+    resumed = subprocess.run(cmd + ["--resume"], capture_output=True, text=True, timeout=600, env=env)
     assert resumed.returncode == 0 and "done earlier (resume)" in resumed.stdout + resumed.stderr
     assert {p.name: p.stat().st_mtime_ns for p in (out / "locations").iterdir()} == stamps
-    redone = subprocess.run(cmd + ["--overwrite"], capture_output=True, text=True, timeout=600)
+    redone = subprocess.run(cmd + ["--overwrite"], capture_output=True, text=True, timeout=600, env=env)
     assert redone.returncode == 0
     assert all(p.stat().st_mtime_ns > stamps[p.name] for p in (out / "locations").iterdir())
     bad = tmp_path / "bad.toml"
     bad.write_text(path.read_text().replace('spacing = "400 m"', 'spacing = "400 kg"'))
-    err = subprocess.run(cmd[:4] + [str(bad), "--out", str(tmp_path / "x")], capture_output=True, text=True, timeout=600)
+    err = subprocess.run(cmd[:4] + [str(bad), "--out", str(tmp_path / "x")], capture_output=True, text=True, timeout=600, env=env)
     assert err.returncode != 0 and "bad.toml" in err.stdout + err.stderr and "spacing" in err.stdout + err.stderr
     assert not (tmp_path / "x").exists()
 
