@@ -16,6 +16,14 @@ def _plt():
     return plt
 
 
+#: CF unit strings of the criteria as a reader writes them (dimensionless: no unit)
+_DISPLAY_UNITS = {"1": "", "m s-1": " m/s", "m3 s-1": " m³/s", "m3": " m³", "m2": " m²", "m day-1": " m/day"}
+
+
+def _unit(units: str) -> str:
+    return _DISPLAY_UNITS.get(units, f" {units}" if units else "")
+
+
 def closure_reason(rundir) -> str:
     """Why the run counts as closed (or not), from the manifest: the criteria met at the last cycle,
     e.g. "closed at cycle 6: max_speed 0.0766 m/s <= 0.5 m/s; breach discharge -0.00 m³/s"."""
@@ -25,8 +33,8 @@ def closure_reason(rundir) -> str:
     last = man["cycles"][-1]
     summ = last["summary"]
     crit = summ.get("criteria", {})
-    met = [f"{k} {v['value']:.3g} {v['units']} (threshold {v['threshold']:.3g})" for k, v in crit.items()
-           if v.get("satisfied")]
+    met = [f"{k} {v['value']:.3g}{_unit(v['units'])} (threshold {v['threshold']:.3g}{_unit(v['units'])})"
+           for k, v in crit.items() if v.get("satisfied")]
     q = f"breach discharge {summ.get('breach_discharge', float('nan')):.2f} m³/s"
     if summ.get("seepage_discharge", 0.0):  # a porous pile: what passes is seepage, left to the sealing
         q += f" (seepage {abs(summ['seepage_discharge']):.2f} m³/s through the pile, to be sealed with finer fill)"
@@ -163,7 +171,8 @@ def plan_view_figure(rundir, cycle: int | None = None):
         else:
             ax.set_xlabel("x along the levee (m)")
             ax.set_ylabel("y across the levee (m), flood side < 0")
-        ax.set_title(f"cycle {g}\n{int(act.sum())} masses, max speed {float(speed.max()):.2f} m/s", fontsize=10)
+        ax.set_title(f"cycle {g}\n{int(act.sum())} masses, max speed in the domain {float(speed.max()):.2f} m/s",
+                     fontsize=10)
     fig.colorbar(m, ax=axes[0].tolist(), label="depth-averaged speed (m/s)")
     handles = [Patch(facecolor="none", edgecolor="black", hatch="////", label="no-flow cells (levee, masses above water)"),
                Line2D([], [], color="0.6", lw=0.8, label="bed elevation contours"),
