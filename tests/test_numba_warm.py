@@ -124,3 +124,27 @@ def test_a_failed_warm_up_is_not_recorded_as_warmed(tasks_env, tmp_path, monkeyp
     tasks.ensure_env()  # tried again next time
     assert numba_cache.is_warmed(folder)
     assert len([c for c in calls if c[0][1:] == ["-m", "breachflow.warmup"]]) == 2
+
+
+def test_read_only_positions_are_sampled_without_a_kernel_of_their_own():
+    """The check samples the finer grid at read-only positions (views of a dataset): that must not compile a
+    second bilinear kernel at run time, and must give what the scipy reference gives."""
+    import numpy as np
+    from scipy.interpolate import RegularGridInterpolator
+
+    from breachflow.field import FieldSampler, grid_snapshot
+    from breachflow.field.sampling.grid_kernels import _grid_bilinear_packed
+
+    rng = np.random.default_rng(3)
+    x, y = 10.0 + 2.0 * np.arange(14), -5.0 + 1.5 * np.arange(9)
+    bed, depth, u, v = (rng.uniform(0.5, 3.0, (9, 14)) for _ in range(4))
+    sampler = FieldSampler(grid_snapshot(x, y, bed, depth, u, v), "bilinear")
+    px, py = rng.uniform(x[0], x[-1], 50), rng.uniform(y[0], y[-1], 50)
+    sampler.sample(px, py)  # the writable signature, as a run calls it
+    before = len(_grid_bilinear_packed.signatures)
+    ro_x, ro_y = px.copy(), py.copy()
+    ro_x.flags.writeable = ro_y.flags.writeable = False
+    s = sampler.sample(ro_x, ro_y)
+    assert len(_grid_bilinear_packed.signatures) == before, _grid_bilinear_packed.signatures
+    ref = RegularGridInterpolator((y, x), depth)(np.column_stack([py, px]))
+    np.testing.assert_allclose(s.depth, ref, rtol=1e-12, atol=1e-12)
