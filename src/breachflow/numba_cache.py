@@ -19,7 +19,7 @@ kernels. ``NUMBA_CACHE_DIR``, when set, wins; an installed package keeps numba's
 beside the sources).
 
 Any edit of a source file gives a new, empty folder, so ``tasks.py`` warms a folder whenever it lacks the
-:data:`WARMED` file that :func:`mark_warmed` writes after a successful warm-up (:mod:`breachflow.warmup`),
+:data:`WARMED` file that :func:`mark_warmed` writes after a successful warm-up (``python -m breachflow.warmup``),
 not only after installing; :func:`warm_up_lock` keeps two ``tasks.py`` started at once from compiling the
 same kernels twice. Without this, a run after a source edit compiled its kernels on first use: about
 85 CPU s in its first DEM cycle (docs/verdict-check.md).
