@@ -7,7 +7,8 @@
     python3 tasks.py bench [NAME]     # same set-up, then the benchmarks in benchmarks/
     python3 tasks.py shell CMD...     # run CMD inside the environment
 
-The environment is re-installed only when pyproject.toml changes (a stamp file records its hash).
+The environment is re-installed only when pyproject.toml changes (a stamp file records its hash); the numba
+kernels are compiled into the cache (.numba_cache) whenever the sources changed since it was last warmed.
 """
 from __future__ import annotations
 
@@ -33,20 +34,53 @@ def _pyproject_hash() -> str:
     return hashlib.sha256((ROOT / "pyproject.toml").read_bytes()).hexdigest()
 
 
-def _numba_cache_dir() -> str:
-    """numba's on-disk cache (``cache=True``), one folder per state of the sources; folders of earlier source
-    states are removed. Defined once, in src/breachflow/numba_cache.py (loaded here by path: this bootstrap
-    runs before the environment exists), which the package also uses to find the cache when started
-    directly (``.venv/bin/breachflow``)."""
+def _numba_cache_module():
+    """src/breachflow/numba_cache.py, loaded by path: this bootstrap runs before the environment exists."""
     import importlib.util
 
     spec = importlib.util.spec_from_file_location("_breachflow_numba_cache", ROOT / "src" / "breachflow" / "numba_cache.py")
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
-    return str(mod.source_cache_dir(ROOT, prune=True))
+    return mod
+
+
+def _numba_cache_dir() -> str:
+    """numba's on-disk cache (``cache=True``), one folder per state of the sources; folders of earlier source
+    states are removed. Defined once, in src/breachflow/numba_cache.py, which the package also uses to find
+    the cache when started directly (``.venv/bin/breachflow``)."""
+    return str(_numba_cache_module().source_cache_dir(ROOT, prune=True))
+
+
+def warm_numba_cache() -> None:
+    """Compile the numba kernels into the cache folder of the sources as they are now (``NUMBA_CACHE_DIR``
+    when set) unless the warm-up already filled it: each edit of a source file starts a new folder, and a run
+    on an empty one compiles its kernels on first use (most of a short run's CPU time)."""
+    mod = _numba_cache_module()
+    folder = os.environ.get("NUMBA_CACHE_DIR") or _numba_cache_dir()
+    if mod.is_warmed(folder):
+        return
+    with mod.warm_up_lock(folder):
+        if mod.is_warmed(folder):  # another tasks.py warmed it while this one waited
+            return
+        print("[tasks] compiling the numba kernels into the cache (once per state of the sources, about 50 CPU s)",
+              flush=True)
+        env = dict(os.environ, NUMBA_CACHE_DIR=folder)
+        t0 = time.perf_counter()
+        if subprocess.run([str(PY), "-m", "breachflow.warmup"], env=env).returncode:
+            print("[tasks] warning: the numba warm-up failed; kernels compile on first use", file=sys.stderr, flush=True)
+            return
+        mod.mark_warmed(folder, f"breachflow.warmup, {time.perf_counter() - t0:.0f} s wall")
+        print(f"[tasks] warm-up done ({time.perf_counter() - t0:.0f} s)", flush=True)
 
 
 def ensure_env() -> None:
+    """The environment installed for this pyproject.toml, and the numba cache warmed for these sources."""
+    install_env()
+    # compile the numba kernels now, so that the first run does not spend most of its time compiling
+    warm_numba_cache()
+
+
+def install_env() -> None:
     if not PY.exists():
         print(f"[tasks] creating virtual environment in {VENV}", flush=True)
         venv.EnvBuilder(with_pip=True).create(VENV)
@@ -60,14 +94,6 @@ def ensure_env() -> None:
         check=True,
     )
     print(f"[tasks] installed ({time.perf_counter() - t0:.0f} s)", flush=True)
-    # compile the numba kernels once now, so that the first run does not spend most of its time compiling
-    print("[tasks] compiling the numba kernels into the cache (once per install, about 50 CPU s)", flush=True)
-    env = dict(os.environ)
-    env.setdefault("NUMBA_CACHE_DIR", _numba_cache_dir())
-    t0 = time.perf_counter()
-    if subprocess.run([str(PY), "-m", "breachflow.warmup"], env=env).returncode:
-        print("[tasks] warning: the numba warm-up failed; kernels compile on first use", file=sys.stderr, flush=True)
-    print(f"[tasks] warm-up done ({time.perf_counter() - t0:.0f} s)", flush=True)
     STAMP.write_text(want)
 
 

@@ -18,10 +18,17 @@ points numba at the same folder, so ``.venv/bin/breachflow`` started from any di
 kernels. ``NUMBA_CACHE_DIR``, when set, wins; an installed package keeps numba's default (``__pycache__``
 beside the sources).
 
+Any edit of a source file gives a new, empty folder, so ``tasks.py`` warms a folder whenever it lacks the
+:data:`WARMED` file that :func:`mark_warmed` writes after a successful warm-up (``python -m breachflow.warmup``),
+not only after installing; :func:`warm_up_lock` keeps two ``tasks.py`` started at once from compiling the
+same kernels twice. Without this, a run after a source edit compiled its kernels on first use: about
+85 CPU s in its first DEM cycle (docs/verdict-check.md).
+
 This module imports only the standard library: ``tasks.py`` loads it by path, before any environment exists.
 """
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import os
 import shutil
@@ -54,6 +61,40 @@ def source_cache_dir(root: Path, *, prune: bool = False) -> Path:
             if old.is_dir():
                 shutil.rmtree(old, ignore_errors=True)
     return here
+
+
+#: the file in a cache folder that says the warm-up filled it (:func:`mark_warmed`)
+WARMED = "warmed.txt"
+
+
+def is_warmed(folder) -> bool:
+    """Whether the warm-up filled the cache folder *folder* (its :data:`WARMED` file exists)."""
+    return (Path(folder) / WARMED).is_file()
+
+
+def mark_warmed(folder, note: str = "") -> None:
+    """Record in *folder* that the warm-up filled it (*note*: a line for people, e.g. its CPU time)."""
+    Path(folder).mkdir(parents=True, exist_ok=True)
+    (Path(folder) / WARMED).write_text(note + "\n", encoding="utf-8")
+
+
+@contextlib.contextmanager
+def warm_up_lock(folder):
+    """Hold an exclusive lock (POSIX ``flock``; none elsewhere) on ``warmup.lock`` beside the cache folder
+    *folder* while it is checked and warmed."""
+    base = Path(folder).parent
+    base.mkdir(parents=True, exist_ok=True)
+    try:
+        import fcntl
+    except ImportError:
+        yield
+        return
+    with open(base / "warmup.lock", "a") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(lock, fcntl.LOCK_UN)
 
 
 def configure_cache_dir() -> str | None:

@@ -55,6 +55,8 @@ class LinearInterpolation:
 
     def sample(self, px, py, radius):
         ob, oh, ou, ov, ins = out = _outputs(px.size)
+        # read-only positions (views of an xarray dataset) would be a signature of their own, compiled at run time
+        px, py = (p if p.flags.writeable else p.copy() for p in (px, py))
         if self.s.kind == "grid":
             g = self.s._grid
             _grid_bilinear_packed(self.pack, g.x0, g.y0, g.dx, g.dy, px, py, ob, oh, ou, ov, ins)
