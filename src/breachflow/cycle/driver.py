@@ -250,6 +250,9 @@ class ClosureRun:
             if s.timeline is not None:  # the breach grows and the polder fills until the start of the closure
                 s.timeline.begin()
             snapshot = s.solver.solve(s.domain)
+            if s.timeline is not None:  # the pre-start weir calibrated on this open breach at the start
+                snapshot = s.timeline.calibrate(snapshot, lambda prev: s.solver.solve(s.domain, initial=prev),
+                                                lambda snap: section_discharge(snap, s.breach_x, s.levee_y))
             self.initial_solve_time = _time.perf_counter() - t0
             initial_solve_cpu = _time.process_time() - c0
             from .criteria import DischargeProxy, MaxSpeed
@@ -260,7 +263,8 @@ class ClosureRun:
             if s.timeline is not None:
                 s.timeline.record(self._q_open, "start")
                 self.rundir.update_metadata(timeline_start={**s.timeline.state(),
-                                                            "prestart": list(s.timeline.history)})
+                                                            "prestart": list(s.timeline.history),
+                                                            "weir_calibration": list(s.timeline.calibration)})
             self.rundir.update_metadata(initial={
                 "max_speed": MaxSpeed("0 m/s", region="domain").value(ctx0),
                 "discharge_proxy": DischargeProxy("0 m^3/s").value(ctx0),
