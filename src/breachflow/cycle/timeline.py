@@ -17,7 +17,9 @@ that interval the balance is exact in the volume (a piecewise-constant inflow). 
 the closure the breach grows by the chosen growth law (``[breach] growth``, report eqs. 2.2–2.8, up
 to the site's breach length) and discharges as a broad-crested weir (Fread's form,
 :func:`~breachflow.scenario.discharge.weir_discharge`, submerged by the polder's tailwater) while the
-polder fills; the first solve then starts from the polder level at the start time.
+polder fills; the first solve then starts from the polder level at the start time, and the weir's
+coefficient is calibrated on that solve (:meth:`Timeline.calibrate`: the report's ideal weir passes more
+than the flow model's breach, which contracts into the gap and loses head behind it).
 
 A polder that reaches the flood level has met the breach balance (report's ``t_Q``): the flow
 through the breach stops, and the level stays with the flood's.
