@@ -140,3 +140,31 @@ def test_closure_setup_takes_the_polder_storage_from_the_flow_models_terrain():
     protected = np.asarray(dom.bed)[np.asarray(dom.y) > setup.levee_y]
     assert zc[0] == pytest.approx(protected.min(), abs=1e-12)  # from the lowest ground of the protected side
     assert pol.plan_area(zc[-1] + 1.0) == pytest.approx(880.0, rel=1e-6)
+
+
+def test_closure_setup_takes_the_polder_storage_from_a_geotiff(tmp_path):
+    # a paraboloid bowl r^2 / (2 a) - 10 m in a GeoTIFF (rows north to south, UTM coordinates), the breach's
+    # landside cell on its rim: V(z) = pi a (z + 10)^2, counted above the polder's initial level 0 m
+    rasterio = pytest.importorskip("rasterio")
+    from pathlib import Path
+
+    from rasterio.transform import from_origin
+
+    from breachflow.cycle.config import closure_setup
+    from breachflow.scenario.toml import scenario_with
+
+    a, pix, e0, n0 = 10.0, 0.5, 500000.0, 4100000.0
+    xc = e0 + (np.arange(160) + 0.5) * pix
+    yc = n0 + 80 - (np.arange(160) + 0.5) * pix
+    X, Y = np.meshgrid(xc, yc)
+    bed = ((X - e0 - 40) ** 2 + (Y - n0 - 40) ** 2) / (2 * a) - 10.0
+    with rasterio.open(tmp_path / "polder.tif", "w", driver="GTiff", width=160, height=160, count=1,
+                       dtype="float64", crs="EPSG:32615", transform=from_origin(e0, n0 + 80, pix, pix)) as dst:
+        dst.write(bed, 1)
+    text = (Path(__file__).resolve().parents[1] / "data" / "ci_closure.toml").read_text()
+    text = scenario_with(text, {"closure.method": "split_barge", "polder.storage": "terrain",
+                                "polder.terrain": str(tmp_path / "polder.tif"), "polder.seed": [e0 + 40, n0 + 75],
+                                "polder.initial_level": "0 m"})
+    pol = closure_setup(parse_scenario(text)).timeline.polder
+    for z in (0.0, 5.0, 30.0):
+        assert pol.volume(z) == pytest.approx(np.pi * a * ((z + 10) ** 2 - 100.0), rel=0.01, abs=1.0)
