@@ -280,6 +280,9 @@ class ClosureRun:
                 s.timeline.begin()
                 self._t_op = float(s.timeline.time)  # an erodible bed's first flow time: the first delivery
             snapshot = s.solver.solve(s.domain)
+            if s.timeline is not None:  # the pre-start weir calibrated on this open breach at the start
+                snapshot = s.timeline.calibrate(snapshot, lambda prev: s.solver.solve(s.domain, initial=prev),
+                                                lambda snap: section_discharge(snap, s.breach_x, s.levee_y))
             self.initial_solve_time = _time.perf_counter() - t0
             initial_solve_cpu = _time.process_time() - c0
             from .criteria import DischargeProxy, MaxSpeed
@@ -290,7 +293,8 @@ class ClosureRun:
             if s.timeline is not None:
                 s.timeline.record(self._q_open, "start")
                 self.rundir.update_metadata(timeline_start={**s.timeline.state(),
-                                                            "prestart": list(s.timeline.history)})
+                                                            "prestart": list(s.timeline.history),
+                                                            "weir_calibration": list(s.timeline.calibration)})
             self.rundir.update_metadata(initial={
                 "max_speed": MaxSpeed("0 m/s", region="domain").value(ctx0),
                 "discharge_proxy": DischargeProxy("0 m^3/s").value(ctx0),

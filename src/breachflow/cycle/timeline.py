@@ -17,7 +17,9 @@ that interval the balance is exact in the volume (a piecewise-constant inflow). 
 the closure the breach grows by the chosen growth law (``[breach] growth``, report eqs. 2.2–2.8, up
 to the site's breach length) and discharges as a broad-crested weir (Fread's form,
 :func:`~breachflow.scenario.discharge.weir_discharge`, submerged by the polder's tailwater) while the
-polder fills; the first solve then starts from the polder level at the start time.
+polder fills; the first solve then starts from the polder level at the start time, and the weir's
+coefficient is calibrated on that solve (:meth:`Timeline.calibrate`: the report's ideal weir passes more
+than the flow model's breach, which contracts into the gap and loses head behind it).
 
 A polder that reaches the flood level has met the breach balance (report's ``t_Q``): the flow
 through the breach stops, and the level stays with the flood's.
@@ -31,6 +33,11 @@ import numpy as np
 from ..errors import InputError
 from ..scenario.polder import Polder
 from .delivery import DeliveryClock, DeliveryMethod, HOUR
+
+#: relative tolerance of the weir's discharge against the flow model's at the start of the closure
+CALIBRATION_TOLERANCE = 0.03
+#: re-solves of the open breach allowed to calibrate the weir (each after re-integrating the pre-start phase)
+CALIBRATION_SOLVES = 4
 
 #: a protected-side boundary becomes a prescribed level (tailwater) once the polder water stands this
 #: much above the protected-side ground; below it the polder edge drains freely (m)
@@ -111,6 +118,14 @@ class Timeline:
     #: of the weir: it flows until the polder meets the flood level
     prestart_discharge: float | None = None
     prestart_step: float = 600.0
+    #: calibrate the weir's coefficient on the flow model's open breach at the start (:meth:`calibrate`)
+    calibrate_weir: bool = True
+    #: the weir's discharge at the start matches the flow model's within this relative tolerance after calibration
+    calibration_tolerance: float = CALIBRATION_TOLERANCE
+    #: at most this many re-solves of the open breach at the start while calibrating
+    calibration_solves: int = CALIBRATION_SOLVES
+    #: the calibration's steps: coefficient, weir and flow-model discharge and polder level at the start
+    calibration: list = field(default_factory=list)
     # state
     time: float = 0.0
     polder_level: float = float("nan")
@@ -183,6 +198,41 @@ class Timeline:
         self.balance_time = None
         z, q, t, bal = self._open_breach(self.start, log=True)
         self.polder_level, self.discharge, self.time, self.balance_time = z, q, self.start, bal
+
+    def calibrate(self, snapshot, solve, discharge_of):
+        """Calibrate the weir's coefficient on the flow model's open breach at the start of the closure.
+
+        The report's weir (an ideal broad-crested weir, 3.1 ft^0.5/s) is not the flow model's breach: the
+        flow contracts into the gap and loses head spreading into the polder, and the tailwater of the
+        polder acts on the whole flow field, not only on a crest. After :meth:`begin`, *snapshot* is the
+        flow model's steady open breach at the start (*discharge_of(snapshot)* its breach discharge, m³/s).
+        The coefficient is scaled by the ratio of the two discharges, the pre-start phase is integrated
+        again with it (the polder at the start changes with it), and the breach re-solved there
+        (*solve(previous_snapshot)*, a warm start) until the weir at the start is within
+        ``calibration_tolerance`` of the flow model (at most ``calibration_solves`` re-solves). Returns the
+        last snapshot; the steps are in ``calibration``. Skipped with a fixed pre-start discharge or
+        ``calibrate_weir`` off."""
+        self.calibration = []
+        if not self.calibrate_weir or self.prestart_discharge is not None:
+            return snapshot
+        q_model = float(discharge_of(snapshot))
+        for k in range(self.calibration_solves + 1):
+            q_weir = self.weir(self.start, self.polder_level)
+            self.calibration.append({"weir_coefficient": float(self.weir_coefficient), "weir_discharge": float(q_weir),
+                                     "model_discharge": q_model, "polder_level": float(self.polder_level),
+                                     "flood_level": float(self.flood_level)})
+            if not (q_weir > 0 and np.isfinite(q_model) and q_model > 0):
+                break  # no flow to calibrate on (the balance reached, or a dry breach)
+            if abs(q_model / q_weir - 1.0) <= self.calibration_tolerance or k == self.calibration_solves:
+                break
+            level = self.polder_level
+            self.weir_coefficient *= q_model / q_weir
+            self.begin()
+            if self.polder_level != level:  # the start moved: the flow model's breach again there
+                snapshot = solve(snapshot)
+                q_model = float(discharge_of(snapshot))
+        self.discharge = q_model
+        return snapshot
 
     def _open_breach(self, t_end: float, *, log: bool = False, inundation: float | None = None):
         """The open breach from the breach to *t_end* (or to the balance / the polder *inundation* depth
@@ -266,7 +316,8 @@ class Timeline:
         return {"operation_time": float(self.time), "flood_level": float(self.flood_level),
                 "polder_level": float(self.polder_level), "timeline_discharge": float(self.discharge),
                 "delivered_t": self.delivered / 1000.0,
-                "balance_time": None if self.balance_time is None else float(self.balance_time)}
+                "balance_time": None if self.balance_time is None else float(self.balance_time),
+                "weir_coefficient": float(self.weir_coefficient)}
 
     def restore(self, summary: dict) -> None:
         self.time = float(summary["operation_time"])
@@ -275,6 +326,8 @@ class Timeline:
         self.delivered = 1000.0 * float(summary.get("delivered_t", 0.0))
         bt = summary.get("balance_time")
         self.balance_time = None if bt is None else float(bt)
+        if "weir_coefficient" in summary:  # as calibrated at the start
+            self.weir_coefficient = float(summary["weir_coefficient"])
 
     def describe(self) -> str:
         return (f"closure by {self.method.describe()}; start {self.start / HOUR:g} h after the breach; flood: "

@@ -27,6 +27,28 @@ import numpy as np
 from ..errors import InputError
 from .config import register_section
 
+#: level step of a stage–storage curve from the terrain (m)
+DEFAULT_LEVEL_STEP = 0.1
+
+
+def _region(ctx, value):
+    """``[polder] region``: None, a box [x0, x1, y0, y1] or a polygon [[x, y], ...] (numbers, m)."""
+    if value is None:
+        return None
+
+    def num(v):
+        return isinstance(v, (int, float)) and not isinstance(v, bool) and np.isfinite(v)
+
+    if isinstance(value, list) and len(value) == 4 and all(num(v) for v in value):
+        if value[0] == value[1] or value[2] == value[3]:
+            raise ctx.error(f"region box [x0, x1, y0, y1] has no area: {value!r}", "region")
+        return [float(v) for v in value]
+    if isinstance(value, list) and len(value) >= 3 and all(
+            isinstance(p, list) and len(p) == 2 and all(num(v) for v in p) for p in value):
+        return [[float(a), float(b)] for a, b in value]
+    raise ctx.error(f"region must be a box [x0, x1, y0, y1] or a polygon [[x, y], ...] of at least three "
+                    f"points (m, the terrain's coordinates), got {value!r}", "region")
+
 
 @register_section("polder")
 @dataclass
@@ -35,22 +57,61 @@ class PolderSection:
     permissible mean depth; needed by the closure window), ``pump_capacity`` (``Q_P``, m³/s, default 0),
     ``initial_level`` (water level of the polder at the breach, m in the datum of the bed; default the
     protected-side ground of the site) and ``storage_curve`` (CSV ``level [m], volume [m^3]``: the
-    polder's stage–storage curve, used instead of ``area`` for the water balance)."""
+    polder's stage–storage curve, used instead of ``area`` for the water balance).
+
+    ``storage = "terrain"``: the stage–storage curve from the terrain (:mod:`~breachflow.scenario.storage`):
+    the flow model's terrain, or the GeoTIFF ``terrain``; only the cells inside ``region`` (a box
+    ``[x0, x1, y0, y1]`` or a polygon ``[[x, y], ...]``, m in the terrain's coordinates; default the
+    protected side of the levee in the flow model) that the water from the breach's landside cell reaches
+    (``seed = [x, y]``: that cell in the GeoTIFF's coordinates, required with a GeoTIFF); levels every
+    ``level_step`` (default 0.1 m). ``area`` is then optional (the region's plan area)."""
 
     area: Any
     inundation_depth: Any = None
     pump_capacity: Any = 0.0
     initial_level: Any = None
     storage_curve: Path | None = None
+    storage: str | None = None  #: "terrain": the curve from the terrain
+    terrain: Path | None = None  #: GeoTIFF of the polder (default: the flow model's terrain)
+    region: Any = None  #: box [x0, x1, y0, y1] or polygon [[x, y], ...] (m, the terrain's coordinates)
+    seed: tuple | None = None  #: the breach's landside cell [x, y] in the GeoTIFF's coordinates
+    level_step: float = DEFAULT_LEVEL_STEP
 
     @classmethod
     def from_table(cls, table, ctx):
-        ctx.check_keys(table, {"area", "inundation_depth", "pump_capacity", "initial_level", "storage_curve"})
-        out = cls(ctx.quantity(table, "area", "area", required=True, positive=True, dim="polder_area"),
+        ctx.check_keys(table, {"area", "inundation_depth", "pump_capacity", "initial_level", "storage_curve",
+                               "storage", "terrain", "region", "seed", "level_step"})
+        # every key is read first (the scenario reference records them), then checked
+        storage = ctx.raw(table, "storage")
+        out = cls(ctx.quantity(table, "area", "area", required=storage is None, positive=True, dim="polder_area"),
                   ctx.quantity(table, "inundation_depth", "length", positive=True),
                   ctx.quantity(table, "pump_capacity", "discharge", default="0 m^3/s", nonnegative=True),
                   ctx.quantity(table, "initial_level", "length"),
-                  ctx.file(table, "storage_curve"))
+                  ctx.file(table, "storage_curve"), storage, ctx.file(table, "terrain"))
+        step = ctx.quantity(table, "level_step", "length", default=f"{DEFAULT_LEVEL_STEP} m", positive=True)
+        region = ctx.raw(table, "region", types=(list,))
+        seed = ctx.raw(table, "seed", types=(list,))
+        if storage is not None and storage != "terrain":
+            raise ctx.error(f"unknown storage {storage!r}: \"terrain\" (the curve from the terrain), or leave it out "
+                            f"(area, or storage_curve)", "storage")
+        if storage is None:
+            for key in ("terrain", "region", "seed", "level_step"):
+                if key in table:
+                    raise ctx.error(f"{key} = {table[key]!r} needs storage = \"terrain\"", key)
+        elif "storage_curve" in table:
+            raise ctx.error("give either storage = \"terrain\" or storage_curve, not both", "storage_curve")
+        if storage is not None:
+            out.region = _region(ctx, region)
+            if seed is not None and not (len(seed) == 2 and all(
+                    isinstance(v, (int, float)) and not isinstance(v, bool) and np.isfinite(v) for v in seed)):
+                raise ctx.error(f"seed must be [x, y] (m, the terrain's coordinates), got {seed!r}", "seed")
+            out.seed = None if seed is None else (float(seed[0]), float(seed[1]))
+            if out.terrain is not None and out.seed is None:
+                raise ctx.error(f"terrain = {table['terrain']!r} needs seed = [x, y]: the breach's landside cell in "
+                                f"the GeoTIFF's coordinates", "terrain")
+            if np.ndim(np.asarray(getattr(step, "values", step))) != 0:
+                raise ctx.error("one level_step, not a list", "level_step")
+            out.level_step = float(getattr(step, "values", step))
         if out.storage_curve is not None:
             try:
                 read_storage_curve(out.storage_curve)
@@ -58,9 +119,10 @@ class PolderSection:
                 raise ctx.error(str(exc), "storage_curve") from None
         return out
 
-    def polder(self, ground_level: float) -> "Polder":
+    def polder(self, ground_level: float, terrain=None) -> "Polder":
         """The :class:`Polder` of this section (scalar values; a swept ``area`` is refused), starting at
-        ``initial_level`` or at *ground_level* (m) when none is given."""
+        ``initial_level`` or at *ground_level* (m) when none is given. *terrain* ``(bed, x, y, seed_xy,
+        protected_mask)`` of the flow model: used by ``storage = "terrain"`` without a GeoTIFF."""
         vals = {}
         for key in ("area", "pump_capacity", "initial_level"):
             v = getattr(self, key)
@@ -69,7 +131,29 @@ class PolderSection:
             vals[key] = None if v is None else float(getattr(v, "values", v))
         z0 = vals["initial_level"] if vals["initial_level"] is not None else float(ground_level)
         curve = read_storage_curve(self.storage_curve) if self.storage_curve is not None else None
-        return Polder(area=vals["area"], pump_capacity=vals["pump_capacity"], initial_level=z0, curve=curve)
+        area = vals["area"]
+        if self.storage == "terrain":
+            curve = self.terrain_curve(terrain)
+            if area is None:  # the plan area of the curve's top: the whole region reached
+                area = float((curve[1][-1] - curve[1][-2]) / (curve[0][-1] - curve[0][-2]))
+        return Polder(area=area, pump_capacity=vals["pump_capacity"], initial_level=z0, curve=curve)
+
+    def terrain_curve(self, terrain=None) -> tuple[np.ndarray, np.ndarray]:
+        """``(levels, volumes)`` of ``storage = "terrain"`` from *terrain* ``(bed, x, y, seed_xy, protected_mask)``:
+        the GeoTIFF ``terrain`` as read by the caller (``seed_xy`` and ``protected_mask`` None), or the flow
+        model's terrain. ``seed`` and ``region`` of the section, when given, replace the seed and the mask."""
+        from .storage import terrain_storage_curve
+
+        if terrain is None:
+            raise InputError("[polder] storage = \"terrain\": no terrain to integrate (give terrain = a GeoTIFF "
+                             "and seed = [x, y], or use the embedded flow model, [hydro] solver = \"swe\")")
+        bed, x, y, seed_xy, protected = terrain
+        seed = seed_xy if self.seed is None else self.seed
+        if seed is None:
+            raise InputError("[polder] storage = \"terrain\": seed = [x, y] (the breach's landside cell) is required "
+                             "with a GeoTIFF terrain")
+        return terrain_storage_curve(bed, x, y, seed, region=self.region, level_step=self.level_step,
+                                     mask=protected if self.region is None else None)
 
 
 def read_storage_curve(path) -> tuple[np.ndarray, np.ndarray]:

@@ -181,9 +181,16 @@ def closure_setup(scenario, *, overrides: dict | None = None):
             ground, wall = bottom, float(getattr(built.breach, "wall_slope", 0.0))
         else:
             ground, wall = scene.ground_elevation, scene.breach.wall_slope
+        from .timeline import polder_terrain
+
+        terrain = None
+        if "polder" in scenario and scenario["polder"].storage == "terrain":
+            sign = -float(built.flood_sign) if built is not None else 1.0
+            terrain = polder_terrain(scenario["polder"], dom, (xc, yc), sign)
         timeline = build_timeline(scenario, closure.timeline, site_level=flood_level, ground=ground, bottom=bottom,
                                   length=2.0 * half, wall_slope=wall, built=built,
-                                  levee=None if built is not None else scene.levee, placement=placement)
+                                  levee=None if built is not None else scene.levee, placement=placement,
+                                  terrain=terrain)
         base = dom.boundaries
         inner = solver.inner if isinstance(solver, _StageSolver) else solver
         solver = TimelineSolver(inner, timeline, lambda level, b=base, z=flood_level: shifted_boundaries(b, level - z))

@@ -116,19 +116,39 @@ def shifted_boundaries(boundaries: dict, delta: float) -> dict:
     return out
 
 
+def polder_terrain(section, domain=None, breach_centre=(0.0, 0.0), protected_sign: float = 1.0):
+    """The terrain of ``[polder] storage = "terrain"``: ``(bed, x, y, seed_xy, protected_mask)`` of the
+    GeoTIFF ``[polder] terrain`` (no seed or mask: the section gives them), else of the flow model's
+    *domain*: its bed, the protected side of the levee centreline (``protected_sign`` +1: at larger y) and
+    the breach's landside cell (one cell landward of the centreline at the breach's centre)."""
+    if section.terrain is not None:
+        from ...site.terrain import load_terrain
+
+        t = load_terrain(section.terrain)
+        return np.asarray(t.z, float), np.asarray(t.x, float), np.asarray(t.y, float), None, None
+    if domain is None:
+        return None
+    x, y = np.asarray(domain.x, float), np.asarray(domain.y, float)
+    xc, yc = float(breach_centre[0]), float(breach_centre[1])
+    dy = abs(float(y[1] - y[0]))
+    protected = np.broadcast_to(((y - yc) * protected_sign > 0)[:, None], (y.size, x.size))
+    return np.asarray(domain.bed, float), x, y, (xc, yc + protected_sign * dy), protected
+
+
 def build_timeline(scenario, keys: TimelineKeys, *, site_level: float, ground: float, bottom: float,
-                   length: float, wall_slope: float, built=None, levee=None, placement=None):
+                   length: float, wall_slope: float, built=None, levee=None, placement=None, terrain=None):
     """The :class:`~breachflow.cycle.timeline.Timeline` of a scenario with ``[closure] method``: the flood
     stage (the site's stage series, else ``[flood]``, else the site's constant level), the polder
     (``[polder]``; required), the delivery method with its overrides, the breach growth before the start
-    (``[breach] growth``) and the wind record (``[wind]``)."""
+    (``[breach] growth``) and the wind record (``[wind]``). *terrain*: :func:`polder_terrain`, for
+    ``[polder] storage = "terrain"``."""
     from ..delivery import delivery_method
     from ..timeline import FloodStage, Timeline, flood_stage_from_section
 
     if "polder" not in scenario:
         raise InputError("[closure] method: the closure in time needs a [polder] section (area, pump_capacity, "
                          "initial_level) for the protected-side level")
-    polder = scenario["polder"].polder(ground)
+    polder = scenario["polder"].polder(ground, terrain)
     if built is not None and built.stage is not None:
         stage = FloodStage(built.level_at, "the site's stage series")
     elif "flood" in scenario:
