@@ -214,6 +214,7 @@ class ClosureRun:
                                         cells=setup.pile_sampling == "cell_average")
         self._pile_height = None  # porous remap: the pile heights of the last solve
         self._q_open = float("nan")  # breach discharge of the open breach (the initial solve), m³/s
+        self.seal = None  # the seal stage (cycle/sealing.py) of a closed run whose criterion has a seal
 
     # ------------------------------------------------------------------ restart record
     def _initial_record(self) -> dict:
@@ -279,11 +280,19 @@ class ClosureRun:
         verdict = last.verdict if last else ""
         if last and not last.closed and not verdict and self.rundir.last_cycle() >= s.criteria.max_cycles:
             verdict = f"not closed after max_cycles = {s.criteria.max_cycles} cycles"
-        self.rundir.finish({"cycles": self.rundir.last_cycle(), "closed": bool(last and last.closed),
+        closed = bool(last and last.closed)
+        if closed:  # the seal in the flow model (cycle/sealing.py) when the criterion has one
+            from .sealing import record_seal, seal_stage
+
+            self.seal = seal_stage(s, rec, snapshot)
+            if self.seal is not None:
+                closed, verdict = record_seal(self.rundir, self.seal, s)
+        self.rundir.finish({"cycles": self.rundir.last_cycle(), "closed": closed,
                             "governing": last.governing if last else "", "verdict": verdict,
                             "lost_masses": last.left_domain if last else 0,
                             "lost_tonnage": last.lost_tonnage if last else 0.0,
-                            "losses_flagged": bool(last and last.losses_flagged)})
+                            "losses_flagged": bool(last and last.losses_flagged),
+                            **({"seal": self.seal.verdict} if self.seal is not None else {})})
         return self.reports
 
     @staticmethod
