@@ -79,24 +79,65 @@ def test_sealed_cells_take_the_layers_in_series_by_length():
         assert tons["f"] == pytest.approx(3 * 0.3 * 1.0 * 2.0 * 0.65 * 2650.0 / 1e3)
 
 
-@pytest.mark.parametrize("thickness", [2.0, 1.9])
-def test_swe_leakage_through_a_sealed_strip_matches_1d_layers_in_series(thickness):
-    """A 20 m rock strip (0.5 m stones) with a seal of 2 m (on cell edges) or 1.9 m (ending inside a cell) of
-    5 cm gravel on its upstream face, 3 m -> 2 m: the SWE's steady discharge equals the 1-D integration of
-    the two layers in series within 1.5 %, and the seal cuts the leakage by more than half."""
+def _sealed_strip_error(dy, thickness=1.9, d=0.05):
     h1, h2, L = 3.0, 2.0, 20.0
-    dom, pile = _strip(h1, h2, L)
-    gravel = Grading("gravel", 0.04, 0.05, 0.06, porosity=0.4)
+    dom, pile = _strip(h1, h2, L, dy=dy)
+    gravel = Grading("gravel", 0.8 * d, d, 1.2 * d, porosity=0.4)
     sealed, _ = seal_pile(pile, dom.y, [(gravel, thickness)], side=-1, x=dom.x)
     sim = SWESimulation(dom.with_porous(sealed), SWEOptions(order=2))
-    assert sim.run_to_steady(tolerance=1e-6, t_max=4000).converged
-    q_swe = float(np.median(sim.discharge[1][4:-4]))
-    As, Bs = _ergun(0.4, 0.05)
+    assert sim.run_to_steady(tolerance=1e-6, t_max=3000).converged
+    q_swe = float(np.median(sim.discharge[1]))
+    As, Bs = _ergun(0.4, d)
     Ar, Br = _ergun(0.4, 0.5)
     q_1d = _q_1d(h1, h2, L, [(thickness, As, Bs), (L - thickness, Ar, Br)])
     q_rock = _q_1d(h1, h2, L, [(L, Ar, Br)])
-    assert q_1d < 0.5 * q_rock
-    assert q_swe == pytest.approx(q_1d, rel=0.015), (q_swe, q_1d, q_rock)
+    return q_swe / q_1d - 1.0, q_swe, q_1d, q_rock
+
+
+def test_swe_leakage_through_a_sealed_strip_matches_1d_layers_in_series():
+    """A 20 m rock strip (0.5 m stones) with 1.9 m of 5 cm gravel on its upstream face (ending inside a cell of
+    0.25 m), 3 m -> 2 m, open water either side: the SWE's steady discharge is within 10 % above the 1-D
+    integration of the two layers in series (measured +7.9 %: the flow model's numerical flux across the
+    steep water-level drop in the seal adds to the seepage; the error halves with the cell size, see the slow
+    test), and the seal's effect (q 27 % below the unsealed strip's) is seen."""
+    err, q_swe, q_1d, q_rock = _sealed_strip_error(0.25)
+    assert 0.0 <= err < 0.10, (q_swe, q_1d)
+    assert q_1d < 0.8 * q_rock and q_swe < 0.85 * q_rock
+
+
+@pytest.mark.slow
+def test_swe_leakage_through_a_sealed_strip_converges_to_1d_at_first_order():
+    """Cells of 0.5, 0.25, 0.125 m: the SWE's excess over the 1-D layers in series halves with each
+    refinement (measured +16.5 %, +7.9 %, +3.7 %)."""
+    errs = [_sealed_strip_error(dy)[0] for dy in (0.5, 0.25, 0.125)]
+    assert errs[0] > errs[1] > errs[2] > 0, errs
+    assert errs[1] / errs[0] < 0.6 and errs[2] / errs[1] < 0.6 and errs[2] < 0.045, errs
+
+
+def test_series_leakage_reads_head_and_height_from_the_field():
+    """Seepage by layers in series from the levels either side of the pile: 2 columns of 1 m, pile 6 m long
+    (cells 2..7 of 1 m), water 5 m upstream and 4 m downstream of it, 0.5 m of sand-gravel seal: per column
+    ``q = h 2H / (A + sqrt(A^2 + 4 B H))`` with ``A = sum L a``, ``B = sum L b`` (written out here)."""
+    import xarray as xr
+
+    from breachflow.cycle.sealing import series_leakage
+
+    ny, nx = 10, 2
+    y = np.arange(ny) + 0.5
+    x = np.arange(nx) + 0.5
+    height = np.zeros((ny, nx))
+    height[2:8] = 6.0
+    pile = PorousPile.build(height, np.full(height.shape, 0.4), np.full(height.shape, 1.0))
+    eta = np.where(y[:, None] < 2, 5.0, 4.0) * np.ones((ny, nx))
+    ds = xr.Dataset({"water_surface": (("y", "x"), eta), "depth": (("y", "x"), eta)}, coords={"x": x, "y": y})
+    seal = Grading("s", 0.004, 0.005, 0.006, porosity=0.35)
+    q = series_leakage(ds, pile, [(seal, 0.5)], -1, (0.0, 2.0))
+    a_s, b_s = _ergun(0.35, 0.005)
+    a_r, b_r = _ergun(0.4, 1.0)
+    A = 0.5 * a_s + 5.5 * a_r
+    B = 0.5 * b_s + 5.5 * b_r
+    H, h = 1.0, 5.0
+    assert q == pytest.approx(2 * h * 2 * H / (A + np.sqrt(A * A + 4 * B * H)), rel=1e-12)
 
 
 def test_seal_delivery_time_is_tonnes_over_capacity_within_working_hours():

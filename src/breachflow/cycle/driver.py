@@ -243,6 +243,8 @@ class ClosureRun:
             if s.timeline is not None:  # the clock and the polder where the last complete cycle left them
                 s.timeline.restore(self.rundir.manifest()["cycles"][-1]["summary"]["timeline"])
             if closed or self.rundir.manifest().get("finished"):
+                if closed and "seal" not in self.rundir.manifest().get("metadata", {}):
+                    self._resume_seal(rec, snapshot)  # a run closed before the seal stage: add it
                 return self.reports
         else:
             g0 = 0
@@ -294,6 +296,19 @@ class ClosureRun:
                             "losses_flagged": bool(last and last.losses_flagged),
                             **({"seal": self.seal.verdict} if self.seal is not None else {})})
         return self.reports
+
+    def _resume_seal(self, rec, snapshot) -> None:
+        """The seal stage of a run whose rock dam closed without it (the run directory's final record is
+        updated: closed only when the seal meets the criterion)."""
+        from .sealing import record_seal, seal_stage
+
+        self.seal = seal_stage(self.setup, rec, snapshot)
+        if self.seal is None:
+            return
+        closed, verdict = record_seal(self.rundir, self.seal, self.setup)
+        final = dict(self.rundir.manifest().get("final", {}))
+        final.update(closed=closed, verdict=verdict, seal=self.seal.verdict)
+        self.rundir.finish(final)
 
     @staticmethod
     def _grid_only(ds: xr.Dataset) -> xr.Dataset:

@@ -17,7 +17,12 @@ filter ``filter_thickness`` thick) that brings the seepage down far enough (1-D 
 layers in series, :mod:`breachflow.materials.seal`) and reports its thickness and tonnage per layer. The
 dam's flow path is its mean width, the bulk volume of the resting masses over the gap width and the wetted
 height; the head is the flood level minus the water level behind the dam. The filter rules between the
-layers and the rock are checked when the scenario is read.
+layers and the rock are checked when the scenario is read. A layer can also be a rock grading of the
+materials registry (``"LMA_40_200"``, its D_n15/D_n50/D_n85).
+
+When the rock dam is closed this way, the seal is placed in the flow model's pile and re-solved until the
+leakage read from the flow meets the criterion (:mod:`breachflow.cycle.sealing`; keys ``seal_method``,
+``seal_capacity``, ``seal_available``, ``seal_steps``, ``seal_leakage``); the run is closed only if it does.
 """
 from __future__ import annotations
 
@@ -100,7 +105,7 @@ class PolderLeakage(Criterion):
     def __init__(self, threshold=f"{DEFAULT_ALLOWED_RISE} m/day", area=None, pump_capacity=None, seal=None,
                  filter_thickness="0.5 m", max_seal_thickness="2 m", face_slope=1.5, law="ergun",
                  seal_method=None, seal_capacity=None, seal_available=None, seal_steps=6,
-                 seal_leakage="series"):
+                 seal_leakage="series", seal_compare=False):
         self.threshold = to_si(threshold, name="criteria.polder_leakage", kind="speed",
                                nonnegative=True) * SECONDS_PER_DAY
         self.area = None if area is None else to_si(area, name="criteria.polder_leakage.area", kind="area",
@@ -133,6 +138,7 @@ class PolderLeakage(Criterion):
             raise InputError(f"criteria.polder_leakage.seal_leakage = {seal_leakage!r}; use 'flow_model' (the "
                              f"re-solved breach discharge) or 'series' (1-D layers with the re-solved levels)")
         self.seal_leakage = seal_leakage
+        self.seal_compare = bool(seal_compare)
         if self.seal_steps < 1:
             raise InputError(f"criteria.polder_leakage.seal_steps must be >= 1, got {seal_steps!r}")
 
