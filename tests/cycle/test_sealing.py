@@ -165,3 +165,29 @@ def test_seal_that_breaks_the_filter_rules_is_refused_naming_layers_and_rule():
     c = PolderLeakage("1 cm/day", area="100 ha", seal=["sand", "gravel", "quarry_run", "LMA_60_300"])
     with pytest.raises(InputError, match=r"rock dam does not drain LMA_60_300.*< 5"):
         c.bind_rock(rock)
+
+
+def test_face_cells_close_the_whole_upstream_envelope_of_a_stepped_pile():
+    """A pile whose upstream face steps back by two cells in the right column: the closed cells are the
+    first pile cell of each column and the side of the step exposed to the flood-side water; a submerged
+    column (crest below the level) is left open."""
+    from breachflow.cycle.sealing import face_cells
+
+    ny, nx = 8, 3
+    height = np.zeros((ny, nx))
+    height[2:6, 0] = 3.0
+    height[4:6, 1] = 3.0
+    height[2:6, 2] = 1.0  # submerged: crest 1 m below the level 2 m
+    pile = PorousPile.build(height, np.full(height.shape, 0.4), np.full(height.shape, 1.0))
+    m = face_cells(pile, -1, (-1.0, 10.0), np.arange(nx) + 0.5, 2.0, np.zeros((ny, nx)))
+    expected = np.zeros((ny, nx), bool)
+    expected[2:4, 0] = True   # column 0: its face (row 2) and the side row 3 next to column 1's open water
+    expected[4, 1] = True     # column 1: its face (row 4)
+    np.testing.assert_array_equal(m, expected)
+
+
+if __name__ == "__main__":  # the measurements quoted in the docs: python tests/cycle/test_sealing.py
+    for d, t, dy in ((0.05, 1.9, 0.5), (0.05, 1.9, 0.25), (0.05, 1.9, 0.125), (0.0003, 1.0, 0.25), (0.0003, 1.0, 1.0)):
+        err, q_swe, q_1d, q_rock = _sealed_strip_error(dy, thickness=t, d=d)
+        print(f"seal d50 {d * 1e3:g} mm, {t:g} m, cells {dy:g} m: SWE {q_swe:.4g} m2/s, 1-D {q_1d:.4g} m2/s "
+              f"(x {q_swe / q_1d:.3g}), unsealed {q_rock:.4g} m2/s")

@@ -115,18 +115,23 @@ def seal_pile(pile, y, layers, side: int = -1, x=None, x_range=None, dx: float |
     return sealed, tons
 
 
-def face_cells(pile, side, x_range, x, level, bed) -> np.ndarray:
-    """Mask of the first pile cell (the upstream face) of every column in *x_range* whose pile stands at or
-    above *level* (emergent: no overflow there)."""
-    out = np.zeros(pile.height.shape, bool)
-    for i in np.flatnonzero((np.asarray(x) >= x_range[0]) & (np.asarray(x) <= x_range[1])):
-        jj = np.flatnonzero(pile.height[:, i] > 0)
-        if jj.size == 0:
-            continue
-        j = jj.min() if side < 0 else jj.max()
-        if float(np.max(bed[jj, i] + pile.height[jj, i])) >= level:
-            out[j, i] = True
-    return out
+def face_cells(pile, side, x_range, x, level, bed, obstacle=None) -> np.ndarray:
+    """Mask of the pile cells that touch the open water on the flood side (4-neighbours of the open cells
+    connected to the flood-side edge without passing through the pile), in columns within *x_range*
+    whose pile stands at or above *level* (emergent: no overflow there). Closing them seals the dam's
+    whole upstream envelope, the steps between columns included."""
+    from scipy import ndimage
+
+    pile_m = pile.height > 0
+    open_m = ~pile_m if obstacle is None else ~pile_m & ~np.asarray(obstacle, bool)
+    lab, _ = ndimage.label(open_m)
+    edge = lab[0] if side < 0 else lab[-1]
+    ids = np.unique(edge[edge > 0])
+    flood = np.isin(lab, ids)
+    touch = pile_m & ndimage.binary_dilation(flood)
+    cols = (np.asarray(x) >= x_range[0]) & (np.asarray(x) <= x_range[1])
+    crest = np.max(np.where(pile_m, bed + pile.height, -np.inf), axis=0)
+    return touch & (cols & (crest >= level))[None, :]
 
 
 def series_leakage(snapshot, pile, layers, side, x_range, law="ergun", columns=None) -> float:
@@ -227,7 +232,7 @@ def seal_delivery(tonnes: float, method, start: float, wind=None) -> tuple[float
 
 def seal_dam(solve, pile, snapshot, criterion, *, breach_x, levee_y, y, x, thickness0: float | None = None,
              max_steps: int = 6, available_t: float | None = None, height_cap=None, flood_level=None, bed=None,
-             compare_flow_model: bool = False):
+             compare_flow_model: bool = False, obstacle=None):
     """Place the seal of *criterion* (:class:`~breachflow.cycle.leakage.PolderLeakage` with ``seal_layers``)
     in *pile*, re-solve with ``solve(porous_pile, initial_snapshot, extra_obstacles) -> snapshot`` and thicken until the
     polder takes the leakage, the thickness reaches ``max_seal_thickness`` or the tonnage *available_t*.
@@ -246,7 +251,8 @@ def seal_dam(solve, pile, snapshot, criterion, *, breach_x, levee_y, y, x, thick
     target = criterion.threshold * criterion.area / SECONDS_PER_DAY + pump
     res = SealResult()
     q0 = section_discharge(snapshot, breach_x, levee_y)
-    block = face_cells(pile, side, breach_x, x, flood_level, bed) if criterion.seal_leakage == "series" else None
+    block = (face_cells(pile, side, breach_x, x, flood_level, bed, obstacle) if criterion.seal_leakage == "series"
+             else None)
     prev = snapshot
     for _ in range(max_steps):
         layers = [(criterion.seal_layers[0], t)] + [(g, criterion.filter_thickness) for g in criterion.seal_layers[1:]]
@@ -339,7 +345,8 @@ def seal_stage(setup, rec, snapshot):
     res = seal_dam(solve, pile, snapshot, crit, breach_x=setup.breach_x, levee_y=setup.levee_y, y=dom.y,
                    x=dom.x, thickness0=plan.get("seal_thickness"), max_steps=crit.seal_steps,
                    available_t=crit.seal_available, height_cap=np.maximum(flood - np.asarray(dom.bed, float), 0.0),
-                   flood_level=flood, bed=np.asarray(dom.bed, float), compare_flow_model=crit.seal_compare)
+                   flood_level=flood, bed=np.asarray(dom.bed, float), compare_flow_model=crit.seal_compare,
+                   obstacle=None if obstacle is None else obstacle | np.asarray(dom.obstacle, bool))
     # delivery: the seal's own method after the rock
     if crit.seal_method is not None:
         method = delivery_method(crit.seal_method)
