@@ -26,7 +26,7 @@ How the leakage is read (``seal_leakage``):
 * ``"flow_model"``: the breach discharge of the re-solve with the seal in the pile cells. The depth-averaged
   solver's numerical flux across a steep drop of the water level adds flow that the seal's resistance
   does not stop: through a strip sealed with 5 cm gravel it over-states the 1-D flow by 16 %, 8 % and 4 %
-  on 0.5, 0.25 and 0.125 m cells, and through 1 m of sand (0.3 mm) by a factor 89 on 0.25 m and 135 on 1 m
+  on 0.5, 0.25 and 0.125 m cells, and through 1 m of sand (0.3 mm) by a factor 72 on 0.25 m and 108 on 1 m
   cells (``tests/cycle/test_sealing.py`` and the documentation page *Materials and the seal*). A seal of
   sand or fine gravel is much thinner than the cells of a breach model, so this reading suits coarse
   filter layers or fine grids only.
