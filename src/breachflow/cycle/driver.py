@@ -226,6 +226,7 @@ class ClosureRun:
         self._pile_height = None  # porous remap: the pile heights of the last solve
         self._q_open = float("nan")  # breach discharge of the open breach (the initial solve), m³/s
         self._t_op = 0.0  # operation time of the last cycle (s): the erodible bed's flow time runs from it
+        self.seal = None  # the seal stage (cycle/sealing.py) of a closed run whose criterion has a seal
 
     def _set_terrain(self, bed) -> None:
         """The erodible bed's new terrain: the domain the SWE re-solves on, the pile's base, the DEM's height
@@ -271,6 +272,8 @@ class ClosureRun:
             if s.timeline is not None:  # the clock and the polder where the last complete cycle left them
                 s.timeline.restore(self.rundir.manifest()["cycles"][-1]["summary"]["timeline"])
             if closed or self.rundir.manifest().get("finished"):
+                if closed and "seal" not in self.rundir.manifest().get("metadata", {}):
+                    self._resume_seal(rec, snapshot)  # a run closed before the seal stage: add it
                 return self.reports
         else:
             g0 = 0
@@ -313,12 +316,33 @@ class ClosureRun:
         verdict = last.verdict if last else ""
         if last and not last.closed and not verdict and self.rundir.last_cycle() >= s.criteria.max_cycles:
             verdict = f"not closed after max_cycles = {s.criteria.max_cycles} cycles"
-        self.rundir.finish({"cycles": self.rundir.last_cycle(), "closed": bool(last and last.closed),
+        closed = bool(last and last.closed)
+        if closed:  # the seal in the flow model (cycle/sealing.py) when the criterion has one
+            from .sealing import record_seal, seal_stage
+
+            self.seal = seal_stage(s, rec, snapshot)
+            if self.seal is not None:
+                closed, verdict = record_seal(self.rundir, self.seal, s)
+        self.rundir.finish({"cycles": self.rundir.last_cycle(), "closed": closed,
                             "governing": last.governing if last else "", "verdict": verdict,
                             "lost_masses": last.left_domain if last else 0,
                             "lost_tonnage": last.lost_tonnage if last else 0.0,
-                            "losses_flagged": bool(last and last.losses_flagged)})
+                            "losses_flagged": bool(last and last.losses_flagged),
+                            **({"seal": self.seal.verdict} if self.seal is not None else {})})
         return self.reports
+
+    def _resume_seal(self, rec, snapshot) -> None:
+        """The seal stage of a run whose rock dam closed without it (the run directory's final record is
+        updated: closed only when the seal meets the criterion)."""
+        from .sealing import record_seal, seal_stage
+
+        self.seal = seal_stage(self.setup, rec, snapshot)
+        if self.seal is None:
+            return
+        closed, verdict = record_seal(self.rundir, self.seal, self.setup)
+        final = dict(self.rundir.manifest().get("final", {}))
+        final.update(closed=closed, verdict=verdict, seal=self.seal.verdict)
+        self.rundir.finish(final)
 
     @staticmethod
     def _grid_only(ds: xr.Dataset) -> xr.Dataset:

@@ -17,7 +17,12 @@ filter ``filter_thickness`` thick) that brings the seepage down far enough (1-D 
 layers in series, :mod:`breachflow.materials.seal`) and reports its thickness and tonnage per layer. The
 dam's flow path is its mean width, the bulk volume of the resting masses over the gap width and the wetted
 height; the head is the flood level minus the water level behind the dam. The filter rules between the
-layers and the rock are checked when the scenario is read.
+layers and the rock are checked when the scenario is read. A layer can also be a rock grading of the
+materials registry (``"LMA_40_200"``, its D_n15/D_n50/D_n85).
+
+When the rock dam is closed this way, the seal is placed in the flow model's pile and re-solved until the
+leakage read from the flow meets the criterion (:mod:`breachflow.cycle.sealing`; keys ``seal_method``,
+``seal_capacity``, ``seal_available``, ``seal_steps``, ``seal_leakage``); the run is closed only if it does.
 """
 from __future__ import annotations
 
@@ -98,7 +103,9 @@ class PolderLeakage(Criterion):
     description = "net polder rise per day from the leakage through the dam (pumping deducted)"
 
     def __init__(self, threshold=f"{DEFAULT_ALLOWED_RISE} m/day", area=None, pump_capacity=None, seal=None,
-                 filter_thickness="0.5 m", max_seal_thickness="2 m", face_slope=1.5, law="ergun"):
+                 filter_thickness="0.5 m", max_seal_thickness="2 m", face_slope=1.5, law="ergun",
+                 seal_method=None, seal_capacity=None, seal_available=None, seal_steps=6,
+                 seal_leakage="series", seal_compare=False):
         self.threshold = to_si(threshold, name="criteria.polder_leakage", kind="speed",
                                nonnegative=True) * SECONDS_PER_DAY
         self.area = None if area is None else to_si(area, name="criteria.polder_leakage.area", kind="area",
@@ -115,6 +122,25 @@ class PolderLeakage(Criterion):
         self.law = law
         self.rock = None
         self.seal_plan = None
+        # the seal in the flow model (cycle.sealing): its delivery method and capacity, the tonnes available
+        # and the number of re-solves allowed to thicken it
+        if seal_method is not None:
+            from .delivery import delivery_method
+
+            delivery_method(str(seal_method))  # an unknown name is refused when the scenario is read
+        self.seal_method = None if seal_method is None else str(seal_method)
+        self.seal_capacity = None if seal_capacity is None else to_si(
+            seal_capacity, name="criteria.polder_leakage.seal_capacity", kind="kg/s", positive=True)
+        self.seal_available = None if seal_available is None else to_si(
+            seal_available, name="criteria.polder_leakage.seal_available", kind="mass", positive=True) / 1000.0
+        self.seal_steps = int(seal_steps)
+        if seal_leakage not in ("flow_model", "series"):
+            raise InputError(f"criteria.polder_leakage.seal_leakage = {seal_leakage!r}; use 'flow_model' (the "
+                             f"re-solved breach discharge) or 'series' (1-D layers with the re-solved levels)")
+        self.seal_leakage = seal_leakage
+        self.seal_compare = bool(seal_compare)
+        if self.seal_steps < 1:
+            raise InputError(f"criteria.polder_leakage.seal_steps must be >= 1, got {seal_steps!r}")
 
     def bind_rock(self, rock) -> None:
         """The dam's rock grading (:class:`~breachflow.materials.seal.Grading`); checks the filter rules from the
@@ -228,10 +254,22 @@ def _grading(spec):
     from ..materials.seal import DEFAULT_SEAL_GRADINGS, Grading
 
     if isinstance(spec, str):
-        if spec not in DEFAULT_SEAL_GRADINGS:
-            raise InputError(f"criteria.polder_leakage.seal: unknown layer {spec!r}; use one of "
-                             f"{sorted(DEFAULT_SEAL_GRADINGS)} or a table {{name, d15, d50, d85, porosity}}")
-        return DEFAULT_SEAL_GRADINGS[spec]
+        if spec in DEFAULT_SEAL_GRADINGS:
+            return DEFAULT_SEAL_GRADINGS[spec]
+        from ..materials import MATERIALS, _load_builtins, get_material
+        from ..materials.rock import GradedRock
+
+        _load_builtins()
+        try:
+            mat = get_material(spec)
+        except (InputError, KeyError, LookupError):
+            mat = None
+        if isinstance(mat, GradedRock):  # a rock grading of the materials registry (EN 13383)
+            return Grading.from_rock(mat)
+        raise InputError(f"criteria.polder_leakage.seal: unknown layer {spec!r}; use one of "
+                         f"{sorted(DEFAULT_SEAL_GRADINGS)}, a rock grading of the materials registry "
+                         f"({', '.join(n for n in MATERIALS.available() if n[:3].lower() in ('hma', 'lma'))}) "
+                         f"or a table {{name, d15, d50, d85, porosity}}")
     if isinstance(spec, dict):
         spec = dict(spec)
         kw = {k: to_si(spec.pop(k), name=f"criteria.polder_leakage.seal.{k}", kind="length", positive=True)

@@ -158,6 +158,7 @@ def _run_closure_locked(scenario, out, *, resume, overwrite, progress, plots, on
     man = run.rundir.manifest()
     cycles = man["cycles"]
     last = cycles[-1]["summary"] if cycles else {}
+    closed = bool(man.get("final", {}).get("closed", last.get("closed")))  # with a seal: the sealed verdict
     window = None
     feasible = None
     if all(k in sc for k in ("flood", "polder", "breach")) and sc["polder"].inundation_depth is not None:
@@ -165,8 +166,8 @@ def _run_closure_locked(scenario, out, *, resume, overwrite, progress, plots, on
 
         w = closure_window(**sc.window_kwargs())
         window = float(w["closure_window"])
-        feasible = bool(last.get("closed")) and last.get("operation_time", np.inf) <= window
-    res = ClosureResult(run_dir=Path(out), reports=run.reports, closed=bool(last.get("closed")),
+        feasible = closed and last.get("operation_time", np.inf) <= window
+    res = ClosureResult(run_dir=Path(out), reports=run.reports, closed=closed,
                         governing=last.get("governing", ""), cycles=len(cycles), masses=int(last.get("masses", 0)),
                         tonnage=float(last.get("tonnage", 0.0)), operation_time=float(last.get("operation_time", 0.0)),
                         closure_window=window, feasible=feasible, wall_time=_time.perf_counter() - t0,

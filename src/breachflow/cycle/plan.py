@@ -104,8 +104,19 @@ def closure_plan(rundir, setup, scenario=None) -> dict | None:
         except Exception:  # noqa: BLE001 - the report's window is a comparison, not the plan
             report_window = None
     closed = bool(last.get("closed"))
-    fits = closed and (window_sim is None or finish <= window_sim)
+    seal = None
     placed_t = float(last.get("timeline", {}).get("delivered_t", 0.0))
+    seal = man.get("metadata", {}).get("seal")
+    if seal and seal.get("steps"):  # the seal after the rock (cycle/sealing.py): its delivery, leakage and tonnage
+        finish = float(seal["finish_s"])
+        q_end = float(seal["leakage_m3_s"])
+        st = seal.get("timeline", {})
+        rows.append({"phase": "seal", "time_s": finish, "flood_level_m": st.get("flood_level", float("nan")),
+                     "polder_level_m": st.get("polder_level", float("nan")),
+                     "head_m": st.get("flood_level", float("nan")) - max(st.get("polder_level", float("nan")), tl.bottom),
+                     "breach_discharge_m3_s": q_end, "delivered_t": placed_t + float(seal["seal_tonnage_t"])})
+        closed = closed and bool(seal.get("sealed"))
+    fits = closed and (window_sim is None or finish <= window_sim)
     plan = {
         "method": tl.method.name, "method_description": tl.method.describe(),
         "capacity_t_h": tl.method.capacity * HOUR / 1000.0, "working_hours_per_day": tl.method.working_hours / HOUR,
@@ -132,6 +143,12 @@ def closure_plan(rundir, setup, scenario=None) -> dict | None:
                    "fits": bool(fits)},
         "timeline": rows,
     }
+    if seal and seal.get("steps"):
+        plan["seal"] = {k: seal.get(k) for k in ("sealed", "verdict", "method", "capacity_t_h", "start_s", "finish_s",
+                                                  "work_s", "seal_thickness_m", "tonnage_t", "seal_tonnage_t",
+                                                  "leakage_m3_s", "net_rise_m_per_day", "steps")}
+        plan["seal"]["finish_date"] = _date(tl, finish)
+        plan["leakage_end"]["seepage_m3_s"] = None  # the split is not computed for the sealed pile
     return plan
 
 
@@ -155,12 +172,19 @@ def plan_lines(plan: dict) -> list[str]:
     for m in plan["materials"]:
         lines.append(f"    {m['material']}: {m['placed_t']:,.0f} t in {m['masses']} units of "
                      f"{m['unit_mass_t'][0]:.3g}–{m['unit_mass_t'][1]:.3g} t ({m['lost_t']:,.0f} t lost)")
+    sl = plan.get("seal")
+    if sl:
+        layers = ", ".join(f"{k} {v:,.0f} t" for k, v in sl["tonnage_t"].items())
+        lines.append(f"  seal    {sl['seal_tonnage_t']:,.0f} t ({layers}; seal layer {sl['seal_thickness_m']:.2f} m) by "
+                     f"{sl['method']} at {sl['capacity_t_h']:,.0f} t/h: {sl['work_s'] / HOUR:,.1f} h of work, done "
+                     f"{sl['finish_s'] / HOUR:,.1f} h after the breach; {sl['verdict']}")
     rows = plan["timeline"]
     if rows:
         lines.append(f"  head    {rows[0]['head_m']:.2f} m at the breach, "
                      + ", ".join(f"{r['head_m']:.2f} m at {r['time_s'] / HOUR:,.1f} h" for r in rows[-3:]))
     rise = leak["polder_rise_m_per_day"]
-    lines.append(f"  leakage at the end {leak['breach_discharge_m3_s']:.2f} m³/s (seepage {leak['seepage_m3_s']:.2f}): "
+    seep = "" if leak["seepage_m3_s"] is None else f" (seepage {leak['seepage_m3_s']:.2f})"
+    lines.append(f"  leakage at the end {leak['breach_discharge_m3_s']:.2f} m³/s{seep}: "
                  + (f"polder rise {rise * 100:.1f} cm/day, " if rise is not None else "")
                  + f"pumps {leak['pump_capacity_m3_s']:g} m³/s ({'within' if leak['within_pumps'] else 'beyond'} them)")
     parts = []
