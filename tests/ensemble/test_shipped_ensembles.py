@@ -74,3 +74,30 @@ def test_typical_replicates_are_4_seeds_of_two_cells_with_a_window(tmp_path):
     ds = closure_window(**tasks[0].scenario.scenario().window_kwargs())
     assert float(ds["closure_window"]) == pytest.approx(4900e4 * 2.0 / 1800.0, rel=1e-3)
     assert not any("no closure window" in w for w in check_members(tasks[:2]))
+
+
+@pytest.mark.slow
+def test_the_small_example_runs_end_to_end_without_warnings(tmp_path):
+    """`breachflow ensemble examples/ensembles/small.toml` (the README's first ensemble): 2 rock sizes x 2
+    placement seeds, every member computed, P(closure) per rock size from its 2 replicates, and no warning
+    printed by the run (a new user's first ensemble must not greet them with warnings)."""
+    import os
+    import subprocess
+    import sys
+
+    import xarray as xr
+
+    small = ROOT / "examples" / "ensembles" / "small.toml"
+    out = tmp_path / "small"
+    env = {k: v for k, v in os.environ.items() if k not in ("COLUMNS", "LINES")}
+    res = subprocess.run([sys.executable, "-W", "default", "-m", "breachflow", "ensemble", str(small), "--workers", "1",
+                          "--out", str(out)], capture_output=True, text=True, timeout=1800, env=env)
+    assert res.returncode == 0, res.stderr[-3000:]
+    text = res.stdout + res.stderr
+    assert "warning" not in text.lower(), text[-3000:]
+    with xr.open_dataset(out / "ensemble.nc") as ds:
+        assert ds.sizes.get("replicate") == 2 and ds.sizes.get("mass_size") == 2, dict(ds.sizes)
+        status = np.asarray(ds["status"].values).astype(str)
+        assert (status == "ok").all(), status
+        p = np.asarray(ds["p_closure"].values, float)
+        assert p.shape == (2,) and np.all((p >= 0) & (p <= 1)), p

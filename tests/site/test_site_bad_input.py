@@ -21,7 +21,7 @@ def _fails(tmp_path, match, **kw):
 
 def test_terrain_not_covering_the_breach(tmp_path):
     # the levee line starts 5 m west of the DEM: a breach at chainage 3 m lies outside it
-    _fails(tmp_path, r"dem\.tif: the terrain \(x 676000\.0…676240\.0.*does not cover the breach \(no elevation at \(6759",
+    _fails(tmp_path, r"terrain\.tif: the terrain \(x 676000\.0…676240\.0.*does not cover the breach \(no elevation at \(6759",
            replace={"breach_at": '"3 m"', "breach_length": '"4 m"'})
 
 
@@ -36,7 +36,7 @@ def test_breach_running_off_the_end_of_the_levee(tmp_path):
 
 def test_levee_that_does_not_cross_the_terrain(tmp_path):
     _fails(tmp_path, r"site\.toml: \[site\] levee_coords: the levee line \(x 600000\.0…600300\.0, y 3372100\.0…3372100\.0\) does not "
-                     r"cross the terrain .*dem\.tif",
+                     r"cross the terrain .*terrain\.tif",
            drop=("levee",), extra_site="levee_coords = [[600000.0, 3372100.0], [600300.0, 3372100.0]]")
 
 
@@ -44,13 +44,13 @@ def test_crs_mismatch_between_terrain_and_levee(tmp_path):
     doc = json.loads((SITE / "levee.geojson").read_text())
     doc["crs"]["properties"]["name"] = "urn:ogc:def:crs:EPSG::32615"  # WGS 84 / UTM 15N, not NAD83
     (tmp_path / "levee32615.geojson").write_text(json.dumps(doc))
-    _fails(tmp_path, r"CRS mismatch: the terrain .*dem\.tif is in NAD83 / UTM zone 15N \(EPSG:26915\) but the levee "
+    _fails(tmp_path, r"CRS mismatch: the terrain .*terrain\.tif is in NAD83 / UTM zone 15N \(EPSG:26915\) but the levee "
                      r".*levee32615\.geojson is in WGS 84 / UTM zone 15N \(EPSG:32615\)",
            replace={"levee": f'"{tmp_path / "levee32615.geojson"}"'})
 
 
 def test_crs_given_in_the_scenario_contradicting_the_terrain(tmp_path):
-    _fails(tmp_path, r"dem\.tif: the terrain's CRS \(NAD83 / UTM zone 15N\) differs from \[site\] crs = 'EPSG:32616'",
+    _fails(tmp_path, r"terrain\.tif: the terrain's CRS \(NAD83 / UTM zone 15N\) differs from \[site\] crs = 'EPSG:32616'",
            extra_site='crs = "EPSG:32616"')
 
 
