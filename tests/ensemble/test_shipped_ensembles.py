@@ -97,7 +97,9 @@ def test_the_small_example_runs_end_to_end_without_warnings(tmp_path):
     assert "warning" not in text.lower(), text[-3000:]
     with xr.open_dataset(out / "ensemble.nc") as ds:
         assert ds.sizes.get("replicate") == 2 and ds.sizes.get("mass_size") == 2, dict(ds.sizes)
-        status = np.asarray(ds["status"].values).astype(str)
-        assert (status == "ok").all(), status
-        p = np.asarray(ds["p_closure"].values, float)
+        from breachflow.ensemble.dataset import STATUS_OK
+
+        status = np.asarray(ds["member_status"].values)
+        assert (status == STATUS_OK).all(), status
+        p = np.asarray(ds["closure_probability"].values, float)
         assert p.shape == (2,) and np.all((p >= 0) & (p <= 1)), p
