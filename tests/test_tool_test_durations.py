@@ -87,6 +87,12 @@ def test_command_line_prints_the_table(suite):
     lines = res.stdout.splitlines()
     assert lines[0].split()[:4] == ["where", "tests", "wall", "s"] and "CPU s" in lines[0]
     assert lines[2].split()[0] == "a" and lines[-1].split()[:2] == ["total", "4"]
+    for top in (1, 50):  # the total once, of every group, whether --top cuts the rows or not
+        res = subprocess.run([sys.executable, str(ROOT / "tools" / "test_durations.py"), str(suite / "junit.xml"),
+                              "--top", str(top)], capture_output=True, text=True)
+        rows = res.stdout.splitlines()
+        assert [r.split()[0] for r in rows].count("total") == 1 and rows[-1].split()[:2] == ["total", "4"], res.stdout
+        assert len(rows) == (5 if top == 1 else len(lines))
     bad = suite / "not_a_report.xml"
     bad.write_text("<testsuites><oops")
     res = subprocess.run([sys.executable, str(ROOT / "tools" / "test_durations.py"), str(bad)],
