@@ -129,13 +129,9 @@ def run_atlas(district, out, *, scheduler: str | None = None, workers: int | Non
             ds = run_detailed(district, ds, locations, out, client=client, workers=workers, progress=progress,
                               console=console)
     finally:
-        from ..ensemble.execute import _quiet_distributed
+        from ..ensemble.execute import close_own
 
-        with _quiet_distributed():
-            if own_client is not None:
-                own_client.close()
-            if own_cluster is not None:
-                own_cluster.close()
+        close_own(own_client, own_cluster)
     if write:
         for p in write_outputs(ds, district, locations, out):
             console.print(f"wrote {p}", highlight=False)

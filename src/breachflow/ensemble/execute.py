@@ -325,11 +325,17 @@ def _execute(spec, tasks, pending, records, *, scheduler, workers, client, progr
                 records[i] = rec
                 advance(rec.get("status") == "ok")
     finally:
-        with _quiet_distributed():
-            if own_client is not None:
-                own_client.close()
-            if own_cluster is not None:
-                own_cluster.close()
+        close_own(own_client, own_cluster)
+
+
+def close_own(client, cluster) -> None:
+    """Close the dask client and local cluster a run started itself (None: not its own), without the
+    shutdown chatter of ``distributed``."""
+    with _quiet_distributed():
+        if client is not None:
+            client.close()
+        if cluster is not None:
+            cluster.close()
 
 
 class _quiet_distributed:
