@@ -20,41 +20,12 @@ from breachflow.cycle.config import closure_setup
 from breachflow.cycle.driver import ClosureRun
 from breachflow.scenario.config import parse_scenario
 
+from ._scenes import tiny_closure
+
 ROOT = Path(__file__).resolve().parents[2]
 EPSG = "EPSG:32615"  # WGS 84 / UTM zone 15N (the report's Louisiana sites)
 
-SCENARIO = f"""
-[scenario]
-name = "cf check"
-[site]
-preset = "demo_breach"
-crs = "{EPSG}"
-levee_length_each_side = "12 m"
-flood_side_extent = "14 m"
-protected_side_extent = "14 m"
-[hydro]
-resolution = "2 m"
-order = 1
-t_max_initial = "30 s"
-t_max = "10 s"
-monitor_radius = "8 m"
-[dem]
-max_time = "1.5 s"
-record_interval = "0.25 s"
-[placement]
-diameter = ["1.6 m", "2.0 m"]
-batch = 2
-positions = "line"
-start = ["-3 m", "0 m"]
-stop = ["3 m", "0 m"]
-release_height = "0.5 m"
-[criteria]
-max_cycles = 1
-max_speed = "0.01 m/s"
-[closure]
-remap = "raised_bed"
-seed = 2
-"""
+SCENARIO = tiny_closure("cf check", max_cycles=1, crs=EPSG)
 
 
 def _cf_check_module():

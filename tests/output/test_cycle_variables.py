@@ -17,39 +17,10 @@ from breachflow.cycle.config import closure_setup
 from breachflow.cycle.driver import ClosureRun
 from breachflow.scenario.config import parse_scenario
 
-SCENARIO = """
-[scenario]
-name = "per-cycle figures"
-[site]
-preset = "demo_breach"
-crs = "EPSG:32615"
-levee_length_each_side = "12 m"
-flood_side_extent = "14 m"
-protected_side_extent = "14 m"
-[hydro]
-resolution = "2 m"
-order = 1
-t_max_initial = "30 s"
-t_max = "10 s"
-monitor_radius = "8 m"
-[dem]
-max_time = "1.5 s"
-record_interval = "0.25 s"
-[placement]
-diameter = ["1.6 m", "2.0 m"]
-density = "2650 kg/m^3"
-batch = 2
-positions = "line"
-start = ["-3 m", "0 m"]
-stop = ["3 m", "0 m"]
-release_height = "0.5 m"
-[criteria]
-max_cycles = 3
-max_speed = { threshold = "0.01 m/s", region = "domain" }
-[closure]
-remap = "raised_bed"
-seed = 2
-"""
+from ._scenes import tiny_closure
+
+SCENARIO = tiny_closure("per-cycle figures", max_cycles=3, crs="EPSG:32615", density="2650 kg/m^3",
+                        max_speed='{ threshold = "0.01 m/s", region = "domain" }')
 
 #: the per-cycle global attributes of the files written before the figures became variables
 OLD_ATTRS = ("gap_max_speed_m_s", "breach_discharge_m3_s", "masses_placed", "closure_achieved", "operation_time_s",

@@ -26,39 +26,11 @@ from breachflow.scenario import closure_window
 from breachflow.scenario.config import parse_scenario
 from breachflow.scenario.io import write_netcdf
 
+from ._scenes import tiny_closure
+
 DATA = Path(__file__).resolve().parents[1] / "hydro_io" / "data"
 
-SCENARIO = """
-[scenario]
-name = "open everywhere"
-[site]
-preset = "demo_breach"
-levee_length_each_side = "12 m"
-flood_side_extent = "14 m"
-protected_side_extent = "14 m"
-[hydro]
-resolution = "2 m"
-order = 1
-t_max_initial = "30 s"
-t_max = "10 s"
-monitor_radius = "8 m"
-[dem]
-max_time = "1.5 s"
-record_interval = "0.25 s"
-[placement]
-diameter = ["1.6 m", "2.0 m"]
-batch = 2
-positions = "line"
-start = ["-3 m", "0 m"]
-stop = ["3 m", "0 m"]
-release_height = "0.5 m"
-[criteria]
-max_cycles = 3
-max_speed = "0.01 m/s"
-[closure]
-remap = "raised_bed"
-seed = 2
-"""
+SCENARIO = tiny_closure("open everywhere", max_cycles=3)
 
 
 @pytest.fixture(scope="module")

@@ -10,6 +10,8 @@ from typer.testing import CliRunner
 from breachflow.cli import app
 from breachflow.progress import Progress
 
+from ._scenes import tiny_closure
+
 
 def _piped():
     buf = io.StringIO()
@@ -64,37 +66,7 @@ def test_piped_settle_and_solve_print_progress_lines(tmp_path):
     assert "solving: started" in res.output and "solving: done" in res.output and "s simulated" in res.output
 
 
-SCENARIO = """
-[scenario]
-name = "progress"
-[site]
-preset = "demo_breach"
-levee_length_each_side = "12 m"
-flood_side_extent = "14 m"
-protected_side_extent = "14 m"
-[hydro]
-resolution = "2 m"
-order = 1
-t_max_initial = "30 s"
-t_max = "10 s"
-monitor_radius = "8 m"
-[dem]
-max_time = "1.5 s"
-record_interval = "0.25 s"
-[placement]
-diameter = ["1.6 m", "2.0 m"]
-batch = 2
-positions = "line"
-start = ["-3 m", "0 m"]
-stop = ["3 m", "0 m"]
-release_height = "0.5 m"
-[criteria]
-max_cycles = 1
-max_speed = "0.01 m/s"
-[closure]
-remap = "raised_bed"
-seed = 2
-"""
+SCENARIO = tiny_closure("progress", max_cycles=1)
 
 
 def test_piped_run_says_what_it_does_before_cycle_1(tmp_path):
