@@ -80,3 +80,27 @@ def test_atomic_write_failure_removes_temp(tmp_path):
     with pytest.raises(ValueError):
         atomic_mod.atomic_write(tmp_path / "f.txt", lambda tmp: (_ for _ in ()).throw(ValueError("x")))
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_resumed_run_of_an_earlier_version_reads_its_nested_box_under_the_current_key(tmp_path):
+    """Runs written before the nested grid's box got its name stored it as ``nested_window``: resuming
+    one reads (and rewrites) the key as ``nested_box``; a manifest holding both keeps the current one."""
+    import json
+
+    run = RunDirectory(tmp_path / "run")
+    run.start("a = 1\n", seed=7, metadata={"hydro_mode": "nested"})
+    run.close()
+    man = json.loads(run.manifest_path.read_text())
+    man["metadata"]["nested_window"] = [-42.0, 42.0, -36.0, 36.0]  # as an earlier version wrote it
+    run.manifest_path.write_text(json.dumps(man))
+    resumed = RunDirectory(run.path)
+    meta = resumed.start("a = 1\n", seed=7, resume=True)["metadata"]
+    assert meta["nested_box"] == [-42.0, 42.0, -36.0, 36.0] and "nested_window" not in meta
+    on_disk = json.loads(run.manifest_path.read_text())["metadata"]
+    assert on_disk["nested_box"] == [-42.0, 42.0, -36.0, 36.0] and "nested_window" not in on_disk
+    resumed.close()
+    # both keys (never written by one version): the current one wins
+    on_disk.update(nested_window=[0.0, 1.0, 0.0, 1.0])
+    man["metadata"] = on_disk
+    run.manifest_path.write_text(json.dumps(man))
+    assert RunDirectory(run.path).manifest()["metadata"]["nested_box"] == [-42.0, 42.0, -36.0, 36.0]

@@ -15,7 +15,7 @@ import xarray as xr
 from breachflow.cycle.config import closure_setup, demo_breach
 from breachflow.cycle.main import run_closure
 from breachflow.io import write_adh, write_hecras_hdf
-from breachflow.hydro.nested import NestedSolver, breach_window, consistency
+from breachflow.hydro.nested import NestedSolver, breach_box, consistency
 from breachflow.field.snapshot import read_snapshot, write_snapshot
 from breachflow.hydro.solvers import solvers
 from breachflow.swe.domain import breach_domain, breach_vicinity
@@ -50,8 +50,8 @@ def test_nested_reproduces_the_ingested_field_near_the_breach(typical_grid, tmp_
     write_snapshot(unaligned_mesh(grid, 4.0, angle_deg=angle, seed=seed), path)
     mesh = read_snapshot(path)
     B = scene.breach.length
-    window, dx = breach_window(0.0, 0.0, B, 4.0)
-    ns = NestedSolver([mesh], window, dx, manning=scene.manning_n, tolerance=1e-4, t_max_initial=900.0)
+    box, dx = breach_box(0.0, 0.0, B, 4.0)
+    ns = NestedSolver([mesh], box, dx, manning=scene.manning_n, tolerance=1e-4, t_max_initial=900.0)
     X, Y = np.meshgrid(ns.domain.x, ns.domain.y)
     ns.region = np.hypot(X, Y) <= 2 * B
     local = ns.solve()
@@ -266,9 +266,9 @@ def _check_energy_bound(run, res):
 
 @pytest.mark.parametrize("compiled", [True, False])
 @pytest.mark.parametrize("method", ["bilinear", "neighbourhood"])
-def test_a_mass_just_outside_the_nested_window_feels_the_regional_flow(compiled, method):
+def test_a_mass_just_outside_the_nested_box_feels_the_regional_flow(compiled, method):
     """The DEM's field in a nested run (as the closure driver builds it): the local re-solved field inside
-    the window, the ingested regional field outside it — a mass released just outside the window feels
+    the box, the ingested regional field outside it — a mass released just outside the box feels
     the regional velocity and buoyancy (before: air only)."""
     from breachflow.cycle.driver import dem_view
     from breachflow.dem.state import ParticleState
@@ -282,7 +282,7 @@ def test_a_mass_just_outside_the_nested_window_feels_the_regional_flow(compiled,
     local["u"] = local["u"] * 0.25
     field = FieldSampler(dem_view(local), method, fallback=ns.fallback_sampler(method))
     model = FluidForces(field, sampling=method, outside="air", compiled=compiled, velocity_profile="uniform")
-    x1 = ns.window[1]
+    x1 = ns.box[1]
     pos = np.array([[x1 + 0.4, 3.0, 1.5], [x1 - 5.0, 3.0, 1.5], [x1 + 80.0, 3.0, 1.5]])  # outside, inside, beyond both
     st = ParticleState.spheres(pos, 0.5)
     f, t = np.zeros((3, 3)), np.zeros((3, 3))
@@ -305,7 +305,7 @@ def test_a_mass_just_outside_the_nested_window_feels_the_regional_flow(compiled,
 
 @pytest.fixture(scope="module")
 def demo_grid_wide():
-    """The scaled breach with the regional model covering the whole default local window (B/2 + 3 B along
+    """The scaled breach with the regional model covering the whole default nested box (B/2 + 3 B along
     the levee, 3 B across), as a user's regional model does: 36 m of levee each side, 36 m each side of it."""
     scene = replace(demo_breach(), levee_length_each_side=36.0, flood_side_extent=36.0, protected_side_extent=36.0)
     return _steady(scene, 1.0)
@@ -337,8 +337,8 @@ def test_nested_closure_from_the_users_adh_and_hecras_files(demo_grid_wide, tmp_
     _closure_print(fmt, res, time.process_time() - t0)
     man = json.loads((tmp_path / "run" / "manifest.json").read_text())
     assert man["metadata"]["hydro_mode"] == "nested"
-    default, _ = breach_window(0.0, 0.0, 12.0, 1.0)  # the default window fits in the regional model (to its edge cells)
-    assert np.allclose(man["metadata"]["nested_window"], default, atol=2.0)
+    default, _ = breach_box(0.0, 0.0, 12.0, 1.0)  # the default box fits in the regional model (to its edge cells)
+    assert np.allclose(man["metadata"]["nested_box"], default, atol=2.0)
     assert res.closed, [(r.cycle, r.breach_discharge, r.max_speed) for r in res.reports]
     q0 = man["metadata"]["initial"]["breach_discharge"]
     assert q0 > 20.0 and abs(res.reports[-1].breach_discharge) < 0.05 * q0

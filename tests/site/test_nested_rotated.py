@@ -171,7 +171,7 @@ def test_turned_nested_model_reproduces_the_field_and_the_unturned_solution(typi
           f"(unturned: {100 * c0['mean_speed_diff'] / c0['regional_mean_speed']:.2f} %,",
           f"{100 * c0['mean_depth_diff'] / c0['regional_mean_depth']:.2f} %)",
           f"vs unturned within 2 B: max |d depth| {d_depth[near].max():.2e} m, max |d velocity| "
-          f"{d_vel[near].max():.2e} m/s, mean {d_vel[near].mean():.2e} m/s; whole window max {d_vel.max():.2e} m/s;",
+          f"{d_vel[near].max():.2e} m/s, mean {d_vel[near].mean():.2e} m/s; whole box max {d_vel.max():.2e} m/s;",
           "steady", local.attrs["steady_state"], local.attrs["simulated_time_s"], "CPU s", round(cpu, 1))
     assert local.attrs["hydro_mode"] == "nested" and local.attrs["steady_state"] == 1
     assert c["cells"] > 500
@@ -205,8 +205,8 @@ def _match(sx, sy, rx, ry):
 
 
 @pytest.mark.parametrize("method", ["bilinear", "neighbourhood"])
-def test_a_mass_just_outside_a_turned_nested_window_feels_the_regional_flow_turned(method):
-    """The DEM's field in a nested run on a turned grid (as the closure driver builds it): inside the window
+def test_a_mass_just_outside_a_turned_nested_box_feels_the_regional_flow_turned(method):
+    """The DEM's field in a nested run on a turned grid (as the closure driver builds it): inside the box
     the local field, outside it the regional one at the point's map position with its velocity in grid
     components — checked against a regional field linear in the map coordinates (bilinear sampling is
     exact there) and turned here with cos/sin."""
@@ -234,9 +234,9 @@ def test_a_mass_just_outside_a_turned_nested_window_feels_the_regional_flow_turn
     np.testing.assert_allclose(ns.initial_state[0], depth(sx, sy), rtol=1e-9)
     local["u"] = local["u"] * 0.25  # a pile-stilled local field
     field = FieldSampler(dem_view(local), method, fallback=ns.fallback_sampler(method))
-    # grid points just outside the window: east, west, north
-    gx = np.array([ns.window[1] + 0.4, ns.window[0] - 3.0, ORIGIN[0] + 3.0])
-    gy = np.array([ORIGIN[1] + 3.0, ORIGIN[1] - 5.0, ns.window[3] + 2.5])
+    # grid points just outside the box: east, west, north
+    gx = np.array([ns.box[1] + 0.4, ns.box[0] - 3.0, ORIGIN[0] + 3.0])
+    gy = np.array([ORIGIN[1] + 3.0, ORIGIN[1] - 5.0, ns.box[3] + 2.5])
     s = field.sample(gx, gy, 0.5 if method == "neighbourhood" else None)
     mx, my = turn(gx - ORIGIN[0], gy - ORIGIN[1], angle)
     c, sn = math.cos(math.radians(angle)), math.sin(math.radians(angle))
@@ -251,7 +251,7 @@ def test_a_mass_just_outside_a_turned_nested_window_feels_the_regional_flow_turn
         np.testing.assert_allclose(s.depth, depth(mx, my), atol=0.02)
         np.testing.assert_allclose(s.u, want_u, atol=0.01)
         np.testing.assert_allclose(s.v, want_v, atol=0.01)
-    # the drag on a mass just outside the window points along the regional velocity in grid components
+    # the drag on a mass just outside the box points along the regional velocity in grid components
     st = ParticleState.spheres(np.array([[gx[0], gy[0], 1.5]]), 0.5)
     f, t = np.zeros((1, 3)), np.zeros((1, 3))
     FluidForces(field, sampling=method, outside="air", velocity_profile="uniform").accumulate(st, st.pos, st.vel, st.omega, 0.0, f, t)
@@ -318,7 +318,7 @@ def test_turned_nested_closure_from_the_users_adh_files_lands_on_the_map(tmp_pat
         assert ds.attrs["hydro_mode"] == "nested" and ds.attrs["grid_rotation_deg"] == pytest.approx(angle - 180.0)
         # ADH files without their .prj: the site's CRS, with GDAL's turned geotransform
         assert CRS.from_wkt(ds["crs"].attrs["crs_wkt"]).to_epsg() == 32615 and "GeoTransform" in ds["crs"].attrs
-        # the cells land on the map where the turned scene is: within the local window, turned
+        # the cells land on the map where the turned scene is: within the nested box, turned
         sx, sy = _to_scene(ds.map_x.values, ds.map_y.values, angle)
         assert np.abs(sx).max() == pytest.approx(6.0 + 36.0 - 0.5, abs=1e-6)
         assert np.abs(sy).max() == pytest.approx(36.0 - 0.5, abs=1e-6)

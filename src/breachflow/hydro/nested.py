@@ -15,9 +15,9 @@ grid snapshot of our own solver). Around the breach a local structured-grid mode
   open-breach state and drive water back in once the pile shuts the breach) or, with ``leaving =
   "level"``, the regional level where it leaves subcritically; dry edge cells free outflow; outside the
   regional field, wall. The
-  levels are absorbing (relaxation ``4 L / sqrt(g h_max)``, L the window size, as the typical breach's
+  levels are absorbing (relaxation ``4 L / sqrt(g h_max)``, L the box size, as the typical breach's
   flood source): an exact level reflects every wave and the local basin would ring;
-* the window (:func:`breach_window`): the breach ± (B/2 + 3 B) along the levee and ± 3 B across, its
+* the nested box (:func:`breach_box`): the breach ± (B/2 + 3 B) along the levee and ± 3 B across, its
   cells sized ``B / round(B / resolution)`` so that the breach ends fall on cell faces (the breach width
   is then exact on the local grid whatever the regional mesh);
 * a levee in any direction: with a *frame* (:class:`~breachflow.site.frame.GridFrame` of a terrain site, the
@@ -28,9 +28,9 @@ grid snapshot of our own solver). Around the breach a local structured-grid mode
   fallback); the snapshots carry their map coordinates (:meth:`~breachflow.site.frame.GridFrame.georeference`).
 
 Each ``solve`` re-solves the local model to steady state with the pile (obstacles / raised bed) from
-the previous state; outside the local window the regional field stays as ingested. The snapshots it
+the previous state; outside the nested box the regional field stays as ingested. The snapshots it
 returns are the local grid with ``hydro_mode = "nested"``; the DEM samples the local field where it
-exists and the regional one outside the window (:meth:`NestedSolver.fallback_sampler`, the
+exists and the regional one outside the box (:meth:`NestedSolver.fallback_sampler`, the
 ``fallback`` of :class:`~breachflow.field.sampling.FieldSampler`).
 """
 from __future__ import annotations
@@ -149,23 +149,23 @@ def _regional_obstacle(regional: xr.Dataset, X, Y) -> np.ndarray:
     return regional["obstacle"].values.astype(bool)[j, i]
 
 
-def nested_domain(regional: xr.Dataset, window, resolution: float, manning=0.025, *, name: str = "nested",
+def nested_domain(regional: xr.Dataset, box, resolution: float, manning=0.025, *, name: str = "nested",
                   leaving: str = "free", frame=None):
-    """The local :class:`~breachflow.swe.domain.Domain` in *window* ``(x0, x1, y0, y1)`` at *resolution* and its initial state
+    """The local :class:`~breachflow.swe.domain.Domain` in *box* ``(x0, x1, y0, y1)`` at *resolution* and its initial state
     ``(h, hu, hv)`` from *regional*; boundary conditions from the regional field (module docstring). With
-    *frame* (:class:`~breachflow.site.frame.GridFrame`) the window and the domain are in its grid coordinates
+    *frame* (:class:`~breachflow.site.frame.GridFrame`) the box and the domain are in its grid coordinates
     and the velocities grid components; *regional* stays on the CRS axes."""
-    x0, x1, y0, y1 = map(float, window)
+    x0, x1, y0, y1 = map(float, box)
     regional = with_no_flow(regional)  # a raster without a no-flow mask (ESRI grids): dry cells it held dry
     dom = uniform_grid(x0, x1, y0, y1, resolution)
     if min(dom.shape) < 4:
-        raise InputError(f"nested window {window} at {resolution} m has only {dom.shape[1]} x {dom.shape[0]} cells")
+        raise InputError(f"nested box {box} at {resolution} m has only {dom.shape[1]} x {dom.shape[0]} cells")
     X, Y = np.meshgrid(dom.x, dom.y)
     smp = FramedSampler(fill_obstacles(regional), "bilinear", frame).sample(X.ravel(), Y.ravel())
     MX, MY = (X, Y) if frame is None else frame.to_map(X, Y)
     inside = smp.inside.reshape(dom.shape) & ~_regional_obstacle(regional, MX, MY)
     if inside.mean() < 0.5:
-        raise InputError(f"nested window {window}: only {100 * inside.mean():.0f} % of it lies inside the regional field")
+        raise InputError(f"nested box {box}: only {100 * inside.mean():.0f} % of it lies inside the regional field")
     bed = smp.bed.reshape(dom.shape)
     h = np.where(inside, np.nan_to_num(smp.depth.reshape(dom.shape)), 0.0)
     # cells outside the regional field (a mesh hole: the intact levee) are no-flow for the flow model and
@@ -201,8 +201,8 @@ def frame_snapshot(snapshot: xr.Dataset, domain: Domain, frame) -> xr.Dataset:
 
     x, y = np.asarray(domain.x, float), np.asarray(domain.y, float)
     dx, dy = domain.dx, domain.dy
-    window = (x[0] - 0.5 * dx, x[-1] + 0.5 * dx, y[0] - 0.5 * dy, y[-1] + 0.5 * dy)
-    local, (h, hu, hv) = nested_domain(snapshot, window, dx, frame=frame)
+    box = (x[0] - 0.5 * dx, x[-1] + 0.5 * dx, y[0] - 0.5 * dy, y[-1] + 0.5 * dy)
+    local, (h, hu, hv) = nested_domain(snapshot, box, dx, frame=frame)
     if local.shape != domain.shape or not (np.allclose(local.x, x) and np.allclose(local.y, y)):
         raise InputError(f"snapshot on a turned grid: cells {local.shape} do not match the domain {domain.shape}")
     wet = h > DRY_DEPTH
@@ -218,7 +218,7 @@ def edge_conditions(bed, h, u, v, inside, dom: Domain, relaxation=None, leaving_
     """Boundary conditions per side of *dom* from a surrounding field on its edge cells (bed, depth, velocity
     ``(ny, nx)`` arrays; *inside* False = wall): where water enters the absorbing level (supercritical: level
     and unit discharge), where it leaves free outflow (or, *leaving_level*, the level when subcritical), dry
-    cells free outflow (module docstring). Also the edges of the window re-solve (:mod:`~breachflow.hydro.resolve_region`)."""
+    cells free outflow (module docstring). Also the edges of the region re-solve (:mod:`~breachflow.hydro.resolve_region`)."""
     return _edge_conditions(bed, h, u, v, inside, dom, relaxation, leaving_level)
 
 
@@ -256,8 +256,8 @@ def _edge_conditions(bed, h, u, v, inside, dom: Domain, relaxation=None, leaving
     return out
 
 
-def breach_window(xc: float, yc: float, length: float, resolution: float, along: float = 3.0, across: float = 3.0):
-    """``(window, spacing)``: the default local window around a breach of *length* B centred at (xc, yc)
+def breach_box(xc: float, yc: float, length: float, resolution: float, along: float = 3.0, across: float = 3.0):
+    """``(box, spacing)``: the default nested box around a breach of *length* B centred at (xc, yc)
     on a levee along x, with cells of ``B / round(B / resolution)`` and the breach ends on cell faces."""
     n = max(1, int(round(length / resolution)))
     dx = length / n
@@ -269,22 +269,22 @@ def breach_window(xc: float, yc: float, length: float, resolution: float, along:
 class NestedSolver:
     """``solver = "nested"``: the local model of :func:`nested_domain`, re-solved with the pile.
 
-    ``NestedSolver(snapshots, window, resolution, manning=...)``; ``domain`` is the local domain
+    ``NestedSolver(snapshots, box, resolution, manning=...)``; ``domain`` is the local domain
     the closure runs on. ``solve(domain, obstacles=None, initial=None)``: a cold solve starts from the
     regional state; every later one from the previous local state (warm start).
 
     *frame*: the :class:`~breachflow.site.frame.GridFrame` of a site whose levee runs in any direction:
-    *window*, the domain, the solutions and the DEM's positions are in its grid coordinates, the regional
+    *box*, the domain, the solutions and the DEM's positions are in its grid coordinates, the regional
     field stays on the CRS axes (:class:`FramedSampler`); the solutions carry their map coordinates."""
 
     responds_to_pile = True
     mode = "nested"
 
-    def __init__(self, snapshots=None, window=None, resolution: float = 4.0, manning=0.025, *, order: int = 2,
+    def __init__(self, snapshots=None, box=None, resolution: float = 4.0, manning=0.025, *, order: int = 2,
                  courant: float = 0.45, tolerance: float = 2e-3, t_max_initial: float = 300.0, t_max: float = 60.0,
                  region=None, threads: int | None = 1, leaving: str = "free", frame=None):
-        if snapshots is None or window is None:
-            raise InputError("nested solver: give snapshots= (the ingested regional field) and window=(x0, x1, y0, y1)")
+        if snapshots is None or box is None:
+            raise InputError("nested solver: give snapshots= (the ingested regional field) and box=(x0, x1, y0, y1)")
         self.regional = load_regional(snapshots)
         self.frame = frame if frame is not None and frame.rotated else None
         if "mesh2d_node_x" in self.regional:
@@ -293,17 +293,17 @@ class NestedSolver:
             bx, by = np.meshgrid(self.regional.x.values[[0, -1]], self.regional.y.values[[0, -1]])
         if self.frame is not None:
             bx, by = self.frame.to_grid(bx, by)
-        w = tuple(map(float, window))
-        # the window is clipped to the regional field's bounding box (grid coordinates; outside it there is
+        w = tuple(map(float, box))
+        # the box is clipped to the regional field's bounding box (grid coordinates; outside it there is
         # nothing to nest in) by whole cells, so that its lattice (e.g. breach ends on cell faces) is kept
         r = float(resolution)
         cut = lambda lo, hi, sign: (np.ceil(max(sign * (hi - lo), 0.0) / r - 1e-9) * r)
-        self.window = (w[0] + cut(w[0], float(np.min(bx)), 1), w[1] - cut(float(np.max(bx)), w[1], 1),
+        self.box = (w[0] + cut(w[0], float(np.min(bx)), 1), w[1] - cut(float(np.max(bx)), w[1], 1),
                        w[2] + cut(w[2], float(np.min(by)), 1), w[3] - cut(float(np.max(by)), w[3], 1))
-        if not (self.window[1] > self.window[0] and self.window[3] > self.window[2]):
-            raise InputError(f"nested window {w} does not overlap the regional field "
+        if not (self.box[1] > self.box[0] and self.box[3] > self.box[2]):
+            raise InputError(f"nested box {w} does not overlap the regional field "
                              f"(x {np.min(bx):g}..{np.max(bx):g}, y {np.min(by):g}..{np.max(by):g})")
-        self.domain, self.initial_state = nested_domain(self.regional, self.window, resolution, manning,
+        self.domain, self.initial_state = nested_domain(self.regional, self.box, resolution, manning,
                                                         leaving=leaving, frame=self.frame)
         from ..swe.solver import SWEOptions
 
@@ -315,7 +315,7 @@ class NestedSolver:
         self.section = None
 
     def fallback_sampler(self, method: str = "bilinear") -> FieldSampler:
-        """The regional field as ingested, sampled where a point lies outside the local window (the DEM's
+        """The regional field as ingested, sampled where a point lies outside the nested box (the DEM's
         :class:`~breachflow.field.sampling.FieldSampler` ``fallback``): at grid positions, velocity in grid
         components when the grid is rotated (:class:`FramedSampler`); built once per method."""
         cache = self.__dict__.setdefault("_fallback", {})
@@ -335,8 +335,8 @@ class NestedSolver:
         ds = sim.snapshot(source=f"breachflow nested local model in {self.source}")
         where = "" if self.frame is None else " (breach-aligned grid coordinates)"
         ds.attrs.update(hydro_mode=self.mode, flow_responds_to_pile=1,
-                        hydro_note=(f"local shallow-water model on x {self.window[0]:g}..{self.window[1]:g}, "
-                                    f"y {self.window[2]:g}..{self.window[3]:g} m{where} re-solved with the pile; outside "
+                        hydro_note=(f"local shallow-water model on x {self.box[0]:g}..{self.box[1]:g}, "
+                                    f"y {self.box[2]:g}..{self.box[3]:g} m{where} re-solved with the pile; outside "
                                     f"it the ingested field ({self.source}) unchanged"))
         return ds if self.frame is None else self.frame.georeference(ds)
 

@@ -53,6 +53,9 @@ MANIFEST = "manifest.json"
 HISTORY_DIM, HISTORY_GROUP = "convergence_check", "convergence_history"
 FORMAT_VERSION = 2
 SCENARIO = "scenario.toml"
+#: manifest ``metadata`` keys of runs written by earlier versions, and their current names: a resumed
+#: old run is read under the current names (``nested_window`` was the nested grid's box)
+RENAMED_METADATA = {"nested_window": "nested_box"}
 LOG = "run.log"
 #: temp files of :func:`~.atomic.atomic_path`: ``.NAME.XXXXXXXX.SUFFIX`` (mkstemp's 8 random characters)
 _TEMP = re.compile(r"^\.(?P<target>.+)\.[A-Za-z0-9_]{8}\.[A-Za-z0-9]+$")
@@ -123,12 +126,19 @@ class RunDirectory:
         return self.path / MANIFEST
 
     def manifest(self) -> dict:
+        """The manifest; metadata keys of earlier versions under their current names (:data:`RENAMED_METADATA`)."""
         try:
-            return json.loads(self.manifest_path.read_text())
+            man = json.loads(self.manifest_path.read_text())
         except FileNotFoundError:
             raise InputError(f"{self.path}: not a breachflow run directory (no {MANIFEST})") from None
         except json.JSONDecodeError as exc:
             raise InputError(f"{self.manifest_path}: corrupt manifest ({exc})") from None
+        meta = man.get("metadata") if isinstance(man, dict) else None
+        if isinstance(meta, dict):
+            for old, new in RENAMED_METADATA.items():
+                if old in meta and new not in meta:
+                    meta[new] = meta.pop(old)
+        return man
 
     def exists(self) -> bool:
         return self.manifest_path.exists()

@@ -58,7 +58,7 @@ def closure_setup(scenario, *, overrides: dict | None = None):
         bottom = scene.ground_elevation + scene.levee.height - scene.breach.depth - scene.breach.scour_depth
     nested = None
     if hydro.solver == "nested" or hydro.refine is not None:
-        from ...hydro.nested import NestedSolver, breach_window
+        from ...hydro.nested import NestedSolver, breach_box
 
         fine = hydro.resolution if hydro.refine is None else hydro.refine
         regional = hydro.snapshots
@@ -72,14 +72,14 @@ def closure_setup(scenario, *, overrides: dict | None = None):
         # an ingested field is on the CRS axes: the local grid of a rotated site samples it in its frame
         # (a refine's coarse steady state is already on the site's grid)
         frame = built.frame if built is not None and hydro.refine is None and built.frame.rotated else None
-        window, spacing = breach_window(xc, yc, 2.0 * half, fine)
+        box, spacing = breach_box(xc, yc, 2.0 * half, fine)
         if hydro.nested_box is not None:
             if frame is not None:
                 raise InputError(f"[hydro] nested_box = {list(hydro.nested_box)} is a box on the CRS axes, but the grid of this "
                                  f"site runs along the levee ({frame.angle_deg:.1f}° from the CRS x axis); leave it out "
                                  f"(the default box is the breach ± (B/2 + 3 B) along the levee and ± 3 B across)")
-            window, spacing = hydro.nested_box, fine
-        nested = NestedSolver(regional, window, spacing, manning=float(np.mean(dom.manning)),
+            box, spacing = hydro.nested_box, fine
+        nested = NestedSolver(regional, box, spacing, manning=float(np.mean(dom.manning)),
                               order=hydro.order, courant=hydro.courant, tolerance=hydro.tolerance,
                               t_max_initial=hydro.t_max_initial, t_max=hydro.t_max, frame=frame)
         if nested.domain.crs_wkt is None:  # regional files without a CRS (e.g. ADH without its .prj): the site's
@@ -90,7 +90,7 @@ def closure_setup(scenario, *, overrides: dict | None = None):
             nested.source = f"breachflow swe steady state at {hydro.resolution:g} m cells (coarse domain)"
             nested.section = (xc - half, xc + half, yc)
         dom = nested.domain
-        metadata.update(hydro_mode="nested", nested_window=list(nested.window), nested_regional=nested.source,
+        metadata.update(hydro_mode="nested", nested_box=list(nested.box), nested_regional=nested.source,
                         nested_cells=list(dom.shape))
     X, Y = np.meshgrid(dom.x, dom.y)
     region = (np.abs(X - xc) <= half + hydro.monitor_radius) & (np.abs(Y - yc) <= hydro.monitor_radius + half)
