@@ -80,3 +80,100 @@ def test_breach_geometry_defaults_are_the_geometry_class_fields():
 @pytest.mark.parametrize("key", ["breach_wall_slope", "manning_n", "absorbing"])
 def test_terrain_site_defaults_are_the_site_spec_fields(key):
     assert schema_default("site", key) == field_default(SiteSpec, key)
+
+
+# --------------------------------------------------------------------------- the breach wall slope
+SRC = Path(__file__).resolve().parents[1] / "src" / "breachflow"
+
+
+def _wall_slope_defaults():
+    """Every default the package's source gives a ``*wall_slope*`` name: parameter defaults, class
+    fields, ``getattr(x, "...wall_slope", d)`` / ``x.get("...wall_slope", d)`` fall-backs and
+    ``typer.Option(d)`` of such a parameter, as ``(file:line, name, source text of the default)``."""
+    import ast
+
+    found = []
+    for path in sorted(SRC.rglob("*.py")):
+        text = path.read_text()
+        tree = ast.parse(text)
+        where = lambda node: f"{path.relative_to(SRC)}:{node.lineno}"  # noqa: E731
+        for node in ast.walk(tree):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.Lambda)):
+                a = node.args
+                pos = a.posonlyargs + a.args
+                pairs = list(zip(pos[len(pos) - len(a.defaults):], a.defaults)) + \
+                    [(k, d) for k, d in zip(a.kwonlyargs, a.kw_defaults) if d is not None]
+                for arg, d in pairs:
+                    if "wall_slope" in arg.arg:
+                        if isinstance(d, ast.Call) and getattr(d.func, "attr", "") == "Option" and d.args:
+                            d = d.args[0]  # typer.Option(default, help=...)
+                        found.append((where(d), arg.arg, ast.unparse(d)))
+            elif isinstance(node, ast.AnnAssign) and isinstance(node.target, ast.Name):
+                if "wall_slope" in node.target.id and node.value is not None:
+                    found.append((where(node), node.target.id, ast.unparse(node.value)))
+            elif isinstance(node, ast.Call) and len(node.args) >= 2:
+                fn = node.func
+                name = fn.id if isinstance(fn, ast.Name) else getattr(fn, "attr", "")
+                key = node.args[1] if name == "getattr" else node.args[0] if name == "get" else None
+                fallback = node.args[2] if name == "getattr" and len(node.args) > 2 else \
+                    node.args[1] if name == "get" else None
+                if isinstance(key, ast.Constant) and "wall_slope" in str(key.value) and fallback is not None:
+                    found.append((where(node), str(key.value), ast.unparse(fallback)))
+    return found
+
+
+def test_the_breach_wall_slope_has_one_default_defined_once():
+    """1V:0.5H (the report's "mostly 2V:1H") is named once, DEFAULT_WALL_SLOPE; every default of a
+    breach wall slope in the source is that name (or None: "not given, take the default"), never a
+    number of its own. A second default (say ``wall_slope=0.0`` in a new function) fails here."""
+    from breachflow.scenario.geometry import DEFAULT_WALL_SLOPE
+
+    assert DEFAULT_WALL_SLOPE == 0.5
+    found = _wall_slope_defaults()
+    names = {n for _, n, _ in found}
+    # the scan sees the defaults it must see (a scan that finds nothing would pass vacuously)
+    assert {"wall_slope", "breach_wall_slope"} <= names, found
+    assert len(found) >= 6, found
+    own = [f for f in found if f[2] not in ("DEFAULT_WALL_SLOPE", "None")]
+    assert own == [], f"breach wall slope defaults other than DEFAULT_WALL_SLOPE: {own}"
+    defined = [ln for p in SRC.rglob("*.py") for ln in p.read_text().splitlines()
+               if ln.startswith("DEFAULT_WALL_SLOPE =")]
+    assert defined == ["DEFAULT_WALL_SLOPE = 0.5"]
+
+
+def test_every_breach_wall_slope_default_is_the_one_value_at_run_time():
+    from breachflow.cycle.timeline import Timeline
+    from breachflow.scenario.discharge import weir_discharge
+    from breachflow.scenario.geometry import DEFAULT_WALL_SLOPE
+    from breachflow.scenario.stone import fill_volume, stone_size
+
+    uses = [field_default(BreachGeometry, "wall_slope"), field_default(SiteSpec, "breach_wall_slope"),
+            field_default(Timeline, "wall_slope"), param_default(weir_discharge, "wall_slope"),
+            param_default(fill_volume, "wall_slope"), param_default(stone_size, "wall_slope"),
+            schema_default("site", "breach_wall_slope")]
+    assert uses == [DEFAULT_WALL_SLOPE] * len(uses)
+
+
+def test_a_breach_left_without_its_wall_slope_gets_1v_0_5h_by_independent_arithmetic(tmp_path):
+    """Fread's trapezoidal weir Q = C (b h^1.5 + 2.45/3.1 m h^2.5), C = 3.1 ft^0.5/s, and the fill volume
+    ∫0^H (b + 2 m (H − z)) (B + 2 m_W z) dz, computed here by hand with m_W = 0.5; heads and lengths swept."""
+    from breachflow.scenario.discharge import weir_discharge
+    from breachflow.scenario.stone import fill_volume
+
+    C = 3.1 * 0.3048 ** 0.5
+    for h, b in ((0.3, 4.0), (2.0, 20.0), (7.6, 61.0)):
+        q = C * (b * h ** 1.5 + 2.45 / 3.1 * 0.5 * h ** 2.5)
+        assert weir_discharge(f"{h} m", bottom_width=f"{b} m") == pytest.approx(q, rel=1e-12)
+        assert weir_discharge(f"{h} m", bottom_width=f"{b} m", wall_slope=0.0) == pytest.approx(C * b * h ** 1.5,
+                                                                                               rel=1e-12)
+    for B, H, crest, m in ((12.0, 3.0, 2.0, 1.5), (61.0, 7.6, 5.0, 2.0)):
+        n = 20000  # midpoint rule of the integrand above
+        dz = H / n
+        vol = sum((crest + 2 * m * (H - (k + 0.5) * dz)) * (B + 2 * 0.5 * (k + 0.5) * dz) * dz for k in range(n))
+        assert fill_volume(B, H, crest, m) == pytest.approx(vol, rel=1e-6)
+    # the scenario keys: [breach] without wall_slope, a terrain [site] without breach_wall_slope
+    assert BreachSection(length=20.0, depth=3.0).geometry().bottom_width == pytest.approx(20.0 - 2 * 0.5 * 3.0)
+    (tmp_path / "t.tif").write_bytes(b"")
+    sc = parse_scenario(f'[site]\nterrain = "{tmp_path / "t.tif"}"\nlevee_coords = [[0, 0], [10, 0]]\n'
+                        'breach_at = "5 m"\nbreach_length = "4 m"\nbreach_bottom = "0 m"\nflood_level = "1 m"\n')
+    assert sc["site"].spec.breach_wall_slope == 0.5

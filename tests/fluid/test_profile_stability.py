@@ -84,7 +84,7 @@ def test_stone_size_izbash_shields_and_volume():
     D = shields_diameter(4.0, 3.0)
     assert shields_velocity(D, 3.0) == pytest.approx(4.0, rel=1e-9)
     # trapezoid volume: vertical walls -> cross-section (b + m H) H times B
-    assert fill_volume(12.0, 3.0, 2.0, 1.5) == pytest.approx((2.0 + 1.5 * 3.0) * 3.0 * 12.0)
+    assert fill_volume(12.0, 3.0, 2.0, 1.5, 0.0) == pytest.approx((2.0 + 1.5 * 3.0) * 3.0 * 12.0)
     # sloping walls: compare with numerical integration
     num = quad(lambda z: (2.0 + 2 * 1.5 * (3.0 - z)) * (12.0 + 2 * 0.5 * z), 0, 3.0)[0]
     assert fill_volume(12.0, 3.0, 2.0, 1.5, 0.5) == pytest.approx(num, rel=1e-12)

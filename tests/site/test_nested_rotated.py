@@ -83,6 +83,7 @@ levee_coords = [[{ax:.6f}, {ay:.6f}], [{bx:.6f}, {by:.6f}]]
 breach_at = "{half} m"
 breach_length = "{scene.breach.length} m"
 breach_bottom = "{scene.ground_elevation} m"
+breach_wall_slope = {scene.breach.wall_slope}
 flood_level = "{scene.flood_water_elevation} m"
 flood_side = "right"
 manning_n = {scene.manning_n}

@@ -67,7 +67,7 @@ def _expected_rotation(angle):
 @pytest.mark.parametrize("angle", [0.0, 23.0, 90.0, 137.0, -61.0, 180.0, 3.0])
 def test_turned_site_finds_the_breach_and_cuts_it_where_the_geometry_says(make_site, tmp_path, angle):
     _, tif, geo = _site(make_site, tmp_path, angle)
-    site = build_site(SiteSpec(terrain=tif, levee=geo, breach_at=125.0, breach_length=12.0, breach_bottom=2.0,
+    site = build_site(SiteSpec(terrain=tif, levee=geo, breach_at=125.0, breach_length=12.0, breach_bottom=2.0, breach_wall_slope=0.0,
                                flood_level=4.7), 1.5)
     assert site.centre == pytest.approx(make_site.PIVOT, abs=1e-6)
     assert site.frame.angle_deg == pytest.approx(_expected_rotation(angle), abs=1e-6)
@@ -270,7 +270,7 @@ def test_turned_site_bad_input(make_site, tmp_path):
     with rasterio.open(cut, "w", **prof) as dst:
         dst.write(z, 1)
     with pytest.raises(InputError, match=r"cut\.tif: no elevation at \((\d+\.\d), (\d+\.\d)\) inside the domain") as err:
-        build_site(SiteSpec(terrain=cut, levee=geo, breach_at=125.0, breach_length=12.0, breach_bottom=2.0,
+        build_site(SiteSpec(terrain=cut, levee=geo, breach_at=125.0, breach_length=12.0, breach_bottom=2.0, breach_wall_slope=0.0,
                             flood_level=4.7), 1.5)
     import re
 
@@ -283,7 +283,7 @@ def test_terrain_smaller_than_the_wanted_box_clips_a_turned_grid_inside_it(make_
     still holds the breach and its levee, and the report says it was clipped; a terrain that cannot hold
     the breach's footprint is an error naming both boxes."""
     _, tif, geo = _site(make_site, tmp_path, 23.0)
-    spec = SiteSpec(terrain=tif, levee=geo, breach_at=125.0, breach_length=12.0, breach_bottom=2.0, flood_level=4.7,
+    spec = SiteSpec(terrain=tif, levee=geo, breach_at=125.0, breach_length=12.0, breach_bottom=2.0, breach_wall_slope=0.0, flood_level=4.7,
                     extent_along=400.0, extent_flood=400.0, extent_protected=400.0)
     site = build_site(spec, 2.0)
     assert site.report["extent_clipped_to_terrain"] is True
@@ -307,14 +307,14 @@ def test_terrain_smaller_than_the_wanted_box_clips_a_turned_grid_inside_it(make_
         dst.write(z, 1)
     with pytest.raises(InputError, match=r"small\.tif: the terrain \(x .*\) does not cover the breach and its levee "
                                          r"footprint \(x .*\)"):
-        build_site(SiteSpec(terrain=small, levee=geo, breach_at=125.0, breach_length=12.0, breach_bottom=2.0,
+        build_site(SiteSpec(terrain=small, levee=geo, breach_at=125.0, breach_length=12.0, breach_bottom=2.0, breach_wall_slope=0.0,
                             flood_level=4.7, flood_side="right"), 1.0)
 
 
 def test_solvers_on_the_crs_axes_still_need_an_east_west_levee(make_site, tmp_path):
     """align=False (the nested / snapshot solvers serve fields on the CRS axes): the old limit, clearly."""
     _, tif, geo = _site(make_site, tmp_path, 23.0)
-    spec = SiteSpec(terrain=tif, levee=geo, breach_at=125.0, breach_length=12.0, breach_bottom=2.0, flood_level=4.7)
+    spec = SiteSpec(terrain=tif, levee=geo, breach_at=125.0, breach_length=12.0, breach_bottom=2.0, breach_wall_slope=0.0, flood_level=4.7)
     with pytest.raises(InputError, match=r"levee\.geojson: the levee runs at 23\.0° to the x axis of the CRS at the "
                                          r"breach .*'swe' solver takes any direction"):
         build_site(spec, 1.5, align=False)

@@ -121,7 +121,7 @@ def test_breach_cut_reproduces_the_scene_builders_trapezoid(tmp_path):
 
 def test_example_site_domain_has_real_coordinates_and_flood_side(make_site, tmp_path):
     spec = SiteSpec(terrain=SITE / "terrain.tif", levee=SITE / "levee.geojson", breach_at=125.0, breach_length=12.0,
-                    breach_bottom=2.0, flood_level=4.7)
+                    breach_bottom=2.0, breach_wall_slope=0.0, flood_level=4.7)
     site = build_site(spec, 1.0)
     d = site.domain
     assert site.centre == pytest.approx((676120.0, 3372100.0))
@@ -138,7 +138,7 @@ def test_example_site_domain_has_real_coordinates_and_flood_side(make_site, tmp_
     (tmp_path / "rev.geojson").write_text(json.dumps(rev))
     lev = load_levee(tmp_path / "rev.geojson")
     spec2 = SiteSpec(terrain=SITE / "terrain.tif", levee=tmp_path / "rev.geojson", breach_at=lev.length - 125.0,
-                     breach_length=12.0, breach_bottom=2.0, flood_level=4.7)
+                     breach_length=12.0, breach_bottom=2.0, breach_wall_slope=0.0, flood_level=4.7)
     site2 = build_site(spec2, 1.0)
     assert site2.report["flood_side"] == "left of the levee line (south)"
     np.testing.assert_array_equal(site2.domain.bed, d.bed)

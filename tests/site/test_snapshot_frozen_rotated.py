@@ -30,6 +30,7 @@ levee_coords = [[{ax:.6f}, {ay:.6f}], [{bx:.6f}, {by:.6f}]]
 breach_at = "42 m"
 breach_length = "12 m"
 breach_bottom = "{bottom} m"
+breach_wall_slope = {wall}
 flood_level = "{level} m"
 flood_side = "right"
 manning_n = {n}
@@ -99,7 +100,7 @@ def _run(scene, grid, angle, folder):
         raster(grid, angle, np.arange(-60.0, 60.01, 0.5), np.arange(-60.0, 60.01, 0.5)).to_netcdf(snap)
     sc = folder / "frozen.toml"
     sc.write_text(SCENARIO.format(dem=dem.name, ax=ax, ay=ay, bx=bx, by=by, bottom=scene.ground_elevation,
-                                  level=scene.flood_water_elevation, n=scene.manning_n, snap=snap.name))
+                                  wall=scene.breach.wall_slope, level=scene.flood_water_elevation, n=scene.manning_n, snap=snap.name))
     return sc
 
 

@@ -27,6 +27,7 @@ import xarray as xr
 from ..errors import InputError
 from .config import District
 from .locations import Location
+from .screening import WALL_SLOPE
 
 #: the template's sections the atlas fills in itself
 OWN_SECTIONS = ("site", "flood", "polder", "breach", "ensemble")
@@ -64,7 +65,7 @@ def ensemble_table(district: District, ds: xr.Dataset, locations: list[Location]
     # absolute paths: the members' scenarios live in their own directories, where a path relative to the
     # directory the atlas was started in would not resolve
     site = {"terrain": str(Path(district.terrain).resolve()), "levee": str(Path(district.levee).resolve()),
-            "flood_level": f"{district.flood_level} m",
+            "flood_level": f"{district.flood_level} m", "breach_wall_slope": WALL_SLOPE,  # the screening's breach
             "flood_side": district.flood_side, "manning_n": district.manning_n}
     if district.crs:
         site["crs"] = district.crs

@@ -32,6 +32,12 @@ from ..scenario.window import closure_window
 from .config import District
 from .locations import Location
 
+#: the screening's breach is a rectangle: the length B of the growth equation is its width at the bottom
+#: (weir discharge, fill volume, stone sizing) and at the crest (the breach cut into the terrain); vertical
+#: walls, stated rather than left to the breach default (1V:0.5H), which would narrow the bottom by the
+#: levee height. The detailed tier's sites state the same (:mod:`breachflow.atlas.detailed`).
+WALL_SLOPE = 0.0
+
 #: a closure that ends less than this many hours before its window closes is "tight" on the map
 TIGHT_MARGIN_H = 12.0
 #: the smallest head (m) at which a location counts as at risk
@@ -113,7 +119,7 @@ def _stone(u: float, h: float, B: float, loc: Location, district: District):
     stable size at this depth (its critical speed peaks at a finite diameter), Izbash alone, and the
     criterion says so."""
     kw = dict(breach_depth=max(loc.levee_height, 0.1), density=district.rock_density, porosity=district.porosity,
-              side_slope=district.side_slope)
+              side_slope=district.side_slope, wall_slope=WALL_SLOPE)
     try:
         return stone_size(u, max(h, 0.05), B, **kw), "izbash_exposed+shields"
     except InputError:
@@ -121,7 +127,7 @@ def _stone(u: float, h: float, B: float, loc: Location, district: District):
     D = float(izbash_diameter(u, district.rock_density, placement="exposed"))
     H = kw["breach_depth"]
     crest_width = max(3.0 * D, 1.0)  # as stone_size: a dam crest three stones wide
-    V = fill_volume(B, H, crest_width, district.side_slope)
+    V = fill_volume(B, H, crest_width, district.side_slope, WALL_SLOPE)
     rock = (1.0 - district.porosity) * V
     rho = district.rock_density
     est = StoneEstimate(velocity=u, depth=h, density=rho, d_izbash_exposed=D,
@@ -152,7 +158,7 @@ def _breach_length(loc: Location, district: District, head: float) -> tuple[floa
 def _weir_flow(head: float, B: float) -> tuple[float, float, float]:
     from ..scenario.discharge import weir_discharge
 
-    q = weir_discharge(f"{head} m", bottom_width=f"{B} m")
+    q = weir_discharge(f"{head} m", bottom_width=f"{B} m", wall_slope=WALL_SLOPE)
     hc = 2.0 / 3.0 * head
     return q, q / (B * hc), hc
 
@@ -185,7 +191,7 @@ def _swe_flow(loc: Location, district: District, B: float, *, terrain=None, leve
 
     spec = SiteSpec(terrain=district.terrain, levee=district.levee, crs=district.crs,
                     terrain_units=district.terrain_units, breach_at=loc.chainage, breach_length=B,
-                    breach_bottom=loc.protected_ground, flood_level=district.flood_level,
+                    breach_bottom=loc.protected_ground, breach_wall_slope=WALL_SLOPE, flood_level=district.flood_level,
                     flood_side=district.flood_side, manning_n=district.manning_n, scenario=district.path)
     site = build_site(spec, district.resolution, terrain=terrain, levee=levee)
     dom = site.domain

@@ -15,7 +15,7 @@ def register(app: typer.Typer) -> None:
         porosity: float = typer.Option(0.4, help="porosity of the dumped pile"),
         side_slope: float = typer.Option(1.5, help="pile side slopes, H per V (1V:1.5H)"),
         crest_width: str = typer.Option(None, help="crest width (default max(3 D, 1 m))"),
-        wall_slope: float = typer.Option(0.0, help="breach wall slope, H per V (0 = vertical)"),
+        wall_slope: float = typer.Option(None, help="breach wall slope, H per V (0 = vertical; default the breach's default, 1V:0.5H as [breach] wall_slope)"),
         theta_c: float = typer.Option(0.047, help="critical Shields parameter"),
     ) -> None:
         """Stone diameter by Izbash (exposed 0.86 / embedded 1.2) and Shields, rock volume and tonnage."""
@@ -24,9 +24,9 @@ def register(app: typer.Typer) -> None:
         from ..scenario.stone import stone_size
         from ._common import console
 
+        walls = {} if wall_slope is None else {"wall_slope": wall_slope}  # stone_size's default otherwise
         e = stone_size(velocity, depth, breach_length, breach_depth=breach_depth, density=density,
-                       porosity=porosity, side_slope=side_slope, crest_width=crest_width, wall_slope=wall_slope,
-                       theta_c=theta_c)
+                       porosity=porosity, side_slope=side_slope, crest_width=crest_width, theta_c=theta_c, **walls)
         t = Table(title=f"stone size for U = {e.velocity:.2f} m/s, h = {e.depth:.2f} m")
         t.add_column("quantity")
         t.add_column("value", justify="right")

@@ -31,6 +31,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import InputError
+from ..scenario.geometry import DEFAULT_WALL_SLOPE
 from ..scenario.polder import Polder
 from .delivery import DeliveryClock, DeliveryMethod, HOUR
 
@@ -107,7 +108,7 @@ class Timeline:
     start: float = 0.0
     bottom: float = 0.0
     length: float = 0.0
-    wall_slope: float = 0.0
+    wall_slope: float = DEFAULT_WALL_SLOPE
     growth: object = None
     wind: tuple | None = None
     breach_date: object = None

@@ -221,8 +221,8 @@ class FloodSection:
 @register_section("breach")
 @dataclass
 class BreachSection:
-    """``[breach]``: ``discharge`` | ``length`` (+ ``mean_velocity``); geometry ``depth``, ``wall_slope``,
-    ``scour_depth``; growth: ``growth`` (equation names/numbers or ``"all"``), ``max_length`` (a length or
+    """``[breach]``: ``discharge`` | ``length`` (+ ``mean_velocity``); geometry ``depth``, ``wall_slope``
+    (H per V; left out: 1V:0.5H, the report's mostly 2V:1H, or the preset site's own breach), ``scour_depth``; growth: ``growth`` (equation names/numbers or ``"all"``), ``max_length`` (a length or
     an equation 2.9–2.11), ``development_time`` (list of times)."""
 
     discharge: Any = None

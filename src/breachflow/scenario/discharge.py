@@ -19,7 +19,7 @@ import numpy as np
 import xarray as xr
 
 from ..errors import BreachflowWarning, InputError
-from .geometry import BreachGeometry
+from .geometry import DEFAULT_WALL_SLOPE, BreachGeometry
 from .quantities import ATTRS, as_dataarray, si_input
 
 #: Report's broad-crested weir coefficient range (Fread 1996), ft^0.5/s.
@@ -42,11 +42,12 @@ def breach_discharge(surge_height, breach_length, mean_velocity="3 m/s"):
     return float(q)
 
 
-def weir_discharge(head, *, bottom_width=None, wall_slope=0.0, breach: BreachGeometry | None = None,
+def weir_discharge(head, *, bottom_width=None, wall_slope=DEFAULT_WALL_SLOPE, breach: BreachGeometry | None = None,
                    coefficient="3.1 ft**0.5/s", tailwater=None):
     """Broad-crested weir discharge through a trapezoidal breach (m^3/s); see the module docstring.
 
-    Give the breach as ``breach=BreachGeometry`` or as ``bottom_width`` and ``wall_slope``. ``head`` is
+    Give the breach as ``breach=BreachGeometry`` or as ``bottom_width`` and ``wall_slope`` (H per V, default
+    :data:`~breachflow.scenario.geometry.DEFAULT_WALL_SLOPE`; 0 for vertical walls). ``head`` is
     the flood-side water height above the breach bottom; ``tailwater`` the protected-side water height
     above the breach bottom (optional). A coefficient outside the report's 3.0–3.2 ft^0.5/s warns.
     """

@@ -11,6 +11,12 @@ from dataclasses import dataclass, field, fields, asdict
 from ..errors import InputError
 from ..units import to_si
 
+#: the breach wall slope m_W (horizontal run per unit rise, H per V) wherever a breach is not given
+#: explicitly: the report's "mostly 2V:1H", i.e. 1V:0.5H (docs/theory.md, *Breach growth*). The one
+#: default of ``[breach] wall_slope``, ``[site] breach_wall_slope``, the weir discharge, the fill volume
+#: and stone sizing, and the closure timeline.
+DEFAULT_WALL_SLOPE = 0.5
+
 
 def _from_input(cls, kinds: dict, values: dict):
     unknown = set(values) - {f.name for f in fields(cls)}
@@ -68,12 +74,12 @@ class BreachGeometry:
 
     ``length`` B along the levee centreline at the crest (m), ``depth`` D below the crest (m; equal to
     the levee height when the breach reaches the ground), ``wall_slope`` m_W (horizontal run per unit
-    rise; 0 is vertical, report: mostly 0.5 i.e. 2V:1H), ``scour_depth`` d_S below ground (m).
+    rise; 0 is vertical; default :data:`DEFAULT_WALL_SLOPE`, the report's mostly 2V:1H), ``scour_depth`` d_S below ground (m).
     """
 
     length: float
     depth: float
-    wall_slope: float = 0.5
+    wall_slope: float = DEFAULT_WALL_SLOPE
     scour_depth: float = 0.0
 
     def __post_init__(self):

@@ -14,7 +14,8 @@ Stone stability, with ``Delta = (rho_S - rho_W) / rho_W`` the relative submerged
 
 Rock quantity: a trapezoidal dam in the breach, from the breach bottom to ``height`` (default the breach
 depth), crest width ``crest_width`` (default ``max(3 D, 1 m)``), side slopes ``1V:side_slope H`` up- and
-downstream; the breach widens upwards with its wall slope (``wall_slope`` H per V, 0 = vertical). Bulk
+downstream; the breach widens upwards with its wall slope (``wall_slope`` H per V, 0 = vertical; default
+:data:`~breachflow.scenario.geometry.DEFAULT_WALL_SLOPE`). Bulk
 volume ``V = int_0^H (b_c + 2 m (H - z)) (B + 2 m_W z) dz``; solid rock ``(1 - n) V``; mass
 ``rho_S (1 - n) V``.
 """
@@ -27,6 +28,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..units import to_si
+from .geometry import DEFAULT_WALL_SLOPE
 
 G = 9.80665
 KAPPA = 0.41
@@ -114,7 +116,7 @@ class StoneEstimate:
         return dict(self.__dict__)
 
 
-def fill_volume(breach_length, height, crest_width, side_slope, wall_slope=0.0) -> float:
+def fill_volume(breach_length, height, crest_width, side_slope, wall_slope=DEFAULT_WALL_SLOPE) -> float:
     """Bulk volume (m³) of a trapezoidal dam filling the breach up to *height* (see module docstring)."""
     B, H, b, m, mw = (float(v) for v in (breach_length, height, crest_width, side_slope, wall_slope))
     # int_0^H (b + 2 m (H - z)) (B + 2 mw z) dz, in closed form
@@ -122,7 +124,7 @@ def fill_volume(breach_length, height, crest_width, side_slope, wall_slope=0.0) 
 
 
 def stone_size(velocity, depth, breach_length, *, breach_depth=None, density="2650 kg/m^3", porosity=0.4,
-               side_slope=1.5, crest_width=None, wall_slope=0.0, theta_c=0.047, water_density="1000 kg/m^3",
+               side_slope=1.5, crest_width=None, wall_slope=DEFAULT_WALL_SLOPE, theta_c=0.047, water_density="1000 kg/m^3",
                safety="exposed") -> StoneEstimate:
     """Izbash/Shields stone size and the rock to fill the breach cross-section.
 

@@ -13,7 +13,7 @@ The ``[site]`` section (registered in :mod:`breachflow.cycle.config`) hands a ta
     breach_length = "12 m"           # at the crest
     breach_polygon = "breach.geojson"   # instead of breach_at + breach_length
     breach_bottom = "2.0 m"          # elevation
-    breach_wall_slope = 0            # 1V:mH, 0 vertical
+    breach_wall_slope = 0.5          # 1V:mH (default 0.5: 2V:1H), 0 vertical
     flood_level = "4.7 m"            # or flood_stage = "stage.csv" (time [h], stage [ft])
     flood_side = "right"             # of the levee line's direction; default from the terrain
     manning_n = 0.03

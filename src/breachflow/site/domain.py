@@ -33,6 +33,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
+from ..scenario.geometry import DEFAULT_WALL_SLOPE
 from ..swe.domain import BoundaryCondition, Domain, uniform_grid
 from .frame import GridFrame, levee_angle
 from .geometry import Breach, LeveeLine, footprint_half_width, load_levee, load_polygon, side_ground
@@ -58,7 +59,7 @@ class SiteSpec:
     breach_length: float | None = None
     breach_polygon: Path | None = None
     breach_bottom: float | None = None
-    breach_wall_slope: float = 0.0
+    breach_wall_slope: float = DEFAULT_WALL_SLOPE
     flood_level: float | None = None
     flood_stage: Path | None = None
     flood_side: str | None = None

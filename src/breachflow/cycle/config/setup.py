@@ -178,7 +178,7 @@ def closure_setup(scenario, *, overrides: dict | None = None):
         from ..timeline import TimelineSolver
 
         if built is not None:
-            ground, wall = bottom, float(getattr(built.breach, "wall_slope", 0.0))
+            ground, wall = bottom, float(built.breach.wall_slope)
         else:
             ground, wall = scene.ground_elevation, scene.breach.wall_slope
         from .timeline import polder_terrain
