@@ -110,7 +110,7 @@ def resolve_each(scenarios: dict, inp: dict) -> dict:
         out[tag] = {"cpu": cpu, "q": q, "gap": gmean, "gapmax": gmax,
                     "t": float(snap.attrs.get("simulated_time_s", float("nan"))),
                     "converged": int(snap.attrs.get("steady_state", 0)),
-                    "window": str(snap.attrs.get("hydro_window", ""))}
+                    "window": str(snap.attrs.get("hydro_region", ""))}
     return out
 
 

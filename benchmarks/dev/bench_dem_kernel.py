@@ -7,7 +7,7 @@ of a compiled step (issue 16).
     python3 tasks.py bench dem_kernel --steps-ab --old <src> [--scene bed|pour] [--n 1000] [--steps 2000] [--reps 3]
 
 On the settled bed (or the poured pile) of benchmarks/bench_dem.py (n spheres), times
-``contacts.pair_forces_window`` with the step-averaged law as ``predicted_verlet`` (dashpots at predicted
+``contacts.pair_forces_interval`` with the step-averaged law as ``predicted_verlet`` (dashpots at predicted
 velocities) and ``velocity_verlet`` call it, and with ``contact_law = "hooke_history"`` (LAMMPS'
 point-evaluated law), in CPU ns per listed pair; ``contacts.plane_forces`` (the floor) in ns per particle;
 and a loop over the same pair list that only adds ``k_N overlap`` along the normal (what any contact code
@@ -148,7 +148,7 @@ def phases(a) -> int:
         idx = sim.idx
         n = idx.size
         h = 0.5 * dt
-        lo, hi = it.force_window[0] * dt, it.force_window[1] * dt
+        lo, hi = it.force_interval[0] * dt, it.force_interval[1] * dt
         pl = sim.boundaries[0]
         pred = bool(it.predict_velocity)
         wake = (sim.sleepers.wake_flag, sim.sleepers.wake_ids, np.zeros(1, np.int64))
@@ -170,7 +170,7 @@ def phases(a) -> int:
                              (idx, s.vel, s.omega, sim.force, sim.torque, w["fp"], w["tp"], sim._inv_m, sim._inv_i,
                               h, it.extrapolate, sim.lmask, sim.rmask, w["v"], w["w"]))
         ph["zero_rows"] = (forces.zero_rows, (idx, sim.force, sim.torque))
-        ph["pair forces"] = (contacts.pair_forces_window,
+        ph["pair forces"] = (contacts.pair_forces_interval,
                              (sim.pairs.pa, sim.pairs.pb, sim.pairs.hist, sim.pairs.rhist, sim.pairs.touch, s.pos, ve, we, s.vel, s.omega, pred,
                               s.radius, s.mass, s.inertia, s._props, s.awake, s.active, sim.geom, sim.periodic, dt,
                               sim.wake_velocity, sim.force, sim.torque) + wake + (lo, hi, sim._law))
@@ -276,9 +276,9 @@ def main(argv) -> int:
 
     kernels = {}
     for tag, mod in mods.items():  # (kernel, arguments, the position of its history array in them)
-        kernels[tag + "window, predicted"] = (mod.pair_forces_window, pair_args(vp, wp, True, 0), 2)
-        kernels[tag + "window, velocity"] = (mod.pair_forces_window, pair_args(s.vel, s.omega, False, 0), 2)
-        kernels[tag + "hooke_history"] = (mod.pair_forces_window, pair_args(s.vel, s.omega, False, 1), 2)
+        kernels[tag + "window, predicted"] = (mod.pair_forces_interval, pair_args(vp, wp, True, 0), 2)
+        kernels[tag + "window, velocity"] = (mod.pair_forces_interval, pair_args(s.vel, s.omega, False, 0), 2)
+        kernels[tag + "hooke_history"] = (mod.pair_forces_interval, pair_args(s.vel, s.omega, False, 1), 2)
         kernels[tag + "plane, window"] = (mod.plane_forces, plane_args(0), 5)
         kernels[tag + "plane, hooke"] = (mod.plane_forces, plane_args(1), 5)
     if hasattr(contacts, "uniform_awake"):  # the pair kernel's per-call test for its one-material fast path
@@ -361,7 +361,7 @@ from breachflow.dem import pair_contacts as contacts
 c1 = time.process_time()
 n = 3
 pos = np.array([[0.0, 0, 0], [0, 0, 0.99], [0, 0, 1.98]]); z = np.zeros((n, 3)); props = np.tile([0.0, 0.5, 1e7, 1e7, 1e3, 1e3, 1e3, 0.0], (n, 1))
-contacts.pair_forces_window(np.array([0, 1]), np.array([1, 2]), np.zeros((2, 3)), np.zeros((2, 3)), np.zeros(2, bool), pos, z, z,
+contacts.pair_forces_interval(np.array([0, 1]), np.array([1, 2]), np.zeros((2, 3)), np.zeros((2, 3)), np.zeros(2, bool), pos, z, z,
     z, z, False, np.full(n, 0.5), np.ones(n), np.ones(n), props, np.ones(n, bool), np.ones(n, bool), np.zeros(8),
     np.zeros(2, np.int64), 1e-3, 0.1, np.zeros((n, 3)), np.zeros((n, 3)), np.zeros(n, bool), np.zeros(n, np.int64),
     np.zeros(1, np.int64), -5e-4, 5e-4, 0)
@@ -370,7 +370,7 @@ print(contacts.__file__, f"{time.process_time() - c1:.1f}")
 
 
 def compile_cost(a) -> int:
-    """First call of ``contacts.pair_forces_window`` in a fresh process with an empty numba cache (CPU s),
+    """First call of ``contacts.pair_forces_interval`` in a fresh process with an empty numba cache (CPU s),
     for this tree and --old's (its whole ``breachflow`` package put first on PYTHONPATH)."""
     import os
     import subprocess
@@ -384,7 +384,7 @@ def compile_cost(a) -> int:
                 env["PYTHONPATH"] = str(Path(src).resolve())
             out = subprocess.run([sys.executable, "-c", _COMPILE], env=env, capture_output=True, text=True, check=True)
             path, sec = out.stdout.split()
-            print(f"{tag}: pair_forces_window compiled in {sec} CPU s on an empty cache ({path})")
+            print(f"{tag}: pair_forces_interval compiled in {sec} CPU s on an empty cache ({path})")
     return 0
 
 

@@ -58,7 +58,7 @@ def main(argv) -> int:
         sim.pairs.rebuild()
         s, w, it, dt = sim.state, sim.work, sim.integrator, sim.dt
         idx = sim.idx
-        lo, hi = it.force_window[0] * dt, it.force_window[1] * dt
+        lo, hi = it.force_interval[0] * dt, it.force_interval[1] * dt
         pred = bool(it.predict_velocity)
         ve, we = (w["v"].copy(), w["w"].copy()) if pred else (s.vel, s.omega)
         if pred:

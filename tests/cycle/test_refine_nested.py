@@ -3,7 +3,7 @@ uniformly fine solution.
 
 The default scene's breach (12 m in a 3 m levee) in a larger domain (60 m of levee each side, 60 m flood
 side, 48 m polder): the coarse domain at 2 m cells, the nested grid at 1 m around the breach (the default
-window, breach ± (B/2 + 3 B) along the levee, ± 3 B across: 84 x 72 m, 47 % of the domain), against
+box, breach ± (B/2 + 3 B) along the levee, ± 3 B across: 84 x 72 m, 47 % of the domain), against
 the whole domain at 1 m. Stated differences of the open breach's steady state within 2 B of the breach
 centre (cells wet in both): breach discharge within 0.5 % (the coarse 2 m field alone is 1.2 % off),
 mean |Δ speed| below 0.05 m/s and mean |Δ depth| below 0.01 m, largest speed within 1 %; measured

@@ -7,7 +7,7 @@ import pytest
 import xarray as xr
 
 from breachflow.cycle.driver import DemSettings
-from breachflow.cycle.rest import RestSample, RestWindow, pile_members
+from breachflow.cycle.rest import RestSample, RestHistory, pile_members
 from breachflow.errors import InputError
 
 D = DemSettings()  # the defaults a closure run gets: rest_speed 0.05 m/s, rest_time 0.5 s, record_interval 0.1 s
@@ -17,14 +17,14 @@ CAP = 10.0  # the nested scenes' max_time (s)
 def _sample(path, cap=CAP, awake=True, record=D.record_interval):
     """The settle loop's view of one mass whose centre follows *path(t)* (m) from t = 0 to the cap: positions at
     every check (``record`` s), its speed at the cap by central difference."""
-    window = RestWindow(D.rest_time, 0.0, path(0.0)[None])
+    history = RestHistory(D.rest_time, 0.0, path(0.0)[None])
     t = 0.0
     while t < cap - 1e-9:
         t = min(cap, t + record)
-        window.add(t, path(t)[None])
+        history.add(t, path(t)[None])
     h = 1e-6
     speed = np.linalg.norm((path(cap + h) - path(cap - h)) / (2 * h))
-    w, ref = window.reference()
+    w, ref = history.reference()
     return RestSample(np.array([True]), np.array([awake]), np.array([speed]), path(cap)[None], ref, w, False)
 
 
@@ -32,15 +32,15 @@ def _in(sample, rule=D.rest_rule):
     return bool(pile_members(rule, sample, D.rest_speed)[0])
 
 
-def test_the_window_is_rest_time_long_and_ends_at_the_cap():
+def test_the_span_is_rest_time_long_and_ends_at_the_cap():
     s = _sample(lambda t: np.array([0.01 * t, 0.0, 0.0]))
-    assert s.window == pytest.approx(D.rest_time)
+    assert s.span == pytest.approx(D.rest_time)
     assert s.pos_ref[0, 0] == pytest.approx(0.01 * (CAP - D.rest_time))
     # checks every 0.25 s (the CI scene's record_interval): the latest check at or before cap - rest_time
     s = _sample(lambda t: np.array([0.01 * t, 0.0, 0.0]), cap=3.0, record=0.25)
-    assert s.window == pytest.approx(0.5)
+    assert s.span == pytest.approx(0.5)
     s = _sample(lambda t: np.array([0.01 * t, 0.0, 0.0]), cap=3.1, record=0.3)  # checks at ..., 2.4, 2.7, 3.0, 3.1
-    assert s.window == pytest.approx(0.7)
+    assert s.span == pytest.approx(0.7)
 
 
 @pytest.mark.parametrize("speed_at_cap", [0.06, 0.111, 0.2, 0.4])
@@ -145,12 +145,12 @@ def test_the_pile_of_a_closure_run_is_the_masses_that_stayed_put_over_the_last_r
         t = (t - t[:, :1]).astype("timedelta64[ns]").astype(float) / 1e9 if t.dtype.kind == "M" else t - t[:, :1]
         end = t.shape[1] - 1
         ref = int(np.flatnonzero(t[0] <= t[0, end] - d.rest_time + 1e-9)[-1]) if t[0, end] >= d.rest_time else 0
-        window = t[0, end] - t[0, ref]
+        span = t[0, end] - t[0, ref]
         drift = np.linalg.norm(pos[:, end] - pos[:, ref], axis=1)
         if rep.dem_converged:
             expected = active[ids]
         else:
-            expected = active[ids] & ((speed[:, end] == 0.0) | (drift < d.rest_speed * window))
+            expected = active[ids] & ((speed[:, end] == 0.0) | (drift < d.rest_speed * span))
         np.testing.assert_array_equal(resting[ids], expected, err_msg=f"cycle {rep.cycle}")
         checked += ids.size
         if not rep.dem_converged:  # recorded masses awake at the cap that the former rule judged otherwise

@@ -101,7 +101,7 @@ def chung_ooi_4(theta_deg: float, phase: float, integrator="predicted_verlet", d
         sim.step()
         if sim.state.pos[0, 2] > R and sim.state.vel[0, 2] > 0:
             break
-    sim.step(2)  # the release may lie inside the last force window
+    sim.step(2)  # the release may lie inside the last force interval
     v, w = sim.state.vel[0], sim.state.omega[0]
     slip = v[0] - w[1] * R  # contact-point velocity (contact point at -R z)
     return v[0] / vt, w[1], slip / v[2]

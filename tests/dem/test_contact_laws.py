@@ -78,7 +78,7 @@ def test_hooke_history_pair_kernel_is_lammps_compute(seed):
         t = np.zeros((2, 3))
         radius = np.array([ri, rj])
         one = np.ones(2)
-        contacts.pair_forces_window(np.array([0]), np.array([1]), hist, np.zeros((1, 3)), np.zeros(1, bool), pos, vel,
+        contacts.pair_forces_interval(np.array([0]), np.array([1]), hist, np.zeros((1, 3)), np.zeros(1, bool), pos, vel,
                                     om, vel, om, False, radius, one, one, props, np.ones(2, bool), np.ones(2, bool),
                                     np.zeros(8), np.zeros(2, np.int64), dt, 1e9, f, t, np.zeros(2, bool),
                                     np.zeros(2, np.int64), np.zeros(1, np.int64), -0.5 * dt, 0.5 * dt, 1)
@@ -119,8 +119,8 @@ def test_hooke_history_restitution_depends_on_the_onset_phase(kind):
     the point-evaluated law's restitution error spreads over the onset phases (LAMMPS' known step
     dependence), the step-averaged law's does not; bounds from the measured figures (README)."""
     hooke = _restitution_errors("hooke_history", kind, 0.3)
-    window = _restitution_errors("step_averaged", kind, 0.3)
+    interval = _restitution_errors("step_averaged", kind, 0.3)
     spread_h = np.ptp(hooke[:, 0])
-    spread_w = np.ptp(window[:, 0])
-    assert spread_h > 5 * spread_w, (hooke[:, 0], window[:, 0])
+    spread_w = np.ptp(interval[:, 0])
+    assert spread_h > 5 * spread_w, (hooke[:, 0], interval[:, 0])
     assert np.max(np.abs(hooke[:, 0])) < 0.15, hooke[:, 0]

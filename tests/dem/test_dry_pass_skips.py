@@ -97,8 +97,8 @@ def call_plane(a, law, lo, hi):
 @pytest.mark.parametrize("vz", [-0.4, 0.0, 0.4])
 def test_sphere_exactly_at_contact_distance(vz):
     """overlap = r - z = 0 exactly. hooke_history (point values): no contact, no force, histories cleared.
-    Window-averaged law over [-dt/2, dt/2]: approaching or receding at 0.4 m/s it overlaps for half the
-    window, so the force is the law's (registry :class:`~breachflow.dem.contact_law.StepAveraged`) with
+    Step-averaged law over [-dt/2, dt/2]: approaching or receding at 0.4 m/s it overlaps for half the
+    interval, so the force is the law's (registry :class:`~breachflow.dem.contact_law.StepAveraged`) with
     phi = 1/2; at rest: none."""
     a = one_sphere_on_floor(R, vz, (1e-4, -2e-4, 0.0))
     assert call_plane(a, HOOKE_HISTORY, 0.0, 0.0) == 0
@@ -112,7 +112,7 @@ def test_sphere_exactly_at_contact_distance(vz):
     phi, f, _, _ = contact_laws.get("step_averaged")().force(
         (0.0, 0.0, -1.0), 0.0, (-0.2, 0.0, -vz), (-0.2, 0.0, -vz), h, ROCK.kn, ROCK.ks_value, ROCK.c_cn, ROCK.c_cs,
         ROCK.c_cf, ROCK.adhesion, ROCK.friction, dt, -0.5 * dt, 0.5 * dt)
-    if vz != 0.0:  # in contact over half the window: after now (approaching) or before now (receding)
+    if vz != 0.0:  # in contact over half the interval: after now (approaching) or before now (receding)
         assert phi == 0.5 and f[2] != 0.0
         np.testing.assert_array_equal(a["force"][0], f)
         np.testing.assert_array_equal(a["reaction"], -f)
@@ -156,7 +156,7 @@ def test_a_pair_that_separates_has_its_histories_cleared_bit_for_bit(row, law, u
         dt = 1e-3
         lo, hi = (-0.5 * dt, 0.5 * dt) if law == STEP_AVERAGED else (0.0, 0.0)
         force, torque = np.zeros((2, 3)), np.zeros((2, 3))
-        n = contacts.pair_forces_window(
+        n = contacts.pair_forces_interval(
             np.array([0]), np.array([1]), hist, rhist, touch, pos, vel, np.zeros((2, 3)), vel, np.zeros((2, 3)),
             False, np.full(2, R), np.ones(2), np.ones(2), props, np.ones(2, bool), np.ones(2, bool), np.zeros(8),
             np.zeros(2, np.int64), dt, 0.1, force, torque, np.zeros(2, bool), np.zeros(2, np.int64),

@@ -1,6 +1,6 @@
 """The pair loop's one-material fast path (``contacts.uniform_awake``): bit for bit the general path.
 
-``contacts.pair_forces_window`` runs a copy of its loop compiled for the case where every particle is awake
+``contacts.pair_forces_interval`` runs a copy of its loop compiled for the case where every particle is awake
 and active and all share one property row. These tests run the same random piles through both copies (the
 general one reached by one extra particle, in no pair, that breaks the condition) and require identical
 forces, torques, histories and contact flags; and check that mixed properties take the general path
@@ -50,7 +50,7 @@ def random_pile(seed, n=150, side=4.0):
 
 
 def run(c, law, split, periodic, extra=None):
-    """pair_forces_window on copies of pile *c*; *extra*: one more particle (in no pair) with these
+    """pair_forces_interval on copies of pile *c*; *extra*: one more particle (in no pair) with these
     (awake, active, property row). Returns every array the kernel writes, and #contacts."""
     n = c["pos"].shape[0]
     m = n + (extra is not None)
@@ -73,7 +73,7 @@ def run(c, law, split, periodic, extra=None):
     wake_ids = np.zeros(m, np.int64)
     n_wake = np.zeros(1, np.int64)
     lo, hi = (-0.5 * DT, 0.5 * DT) if law == STEP_AVERAGED else (0.0, 0.0)
-    nc = contacts.pair_forces_window(c["pa"], c["pb"], hist, rhist, touching, arrs["pos"], arrs["vel"], arrs["omega"],
+    nc = contacts.pair_forces_interval(c["pa"], c["pb"], hist, rhist, touching, arrs["pos"], arrs["vel"], arrs["omega"],
                                      arrs["vel_h"], arrs["omega_h"], split, arrs["radius"], arrs["mass"],
                                      arrs["inertia"], props, awake, active, c["geom"],
                                      np.array([periodic, periodic], np.int64), DT, 0.05, force, torque, wake, wake_ids,
@@ -139,7 +139,7 @@ def test_mixed_materials_take_the_softer_partners_stiffness(law):
         t = np.zeros((2, 3))
         one = np.ones(2)
         lo, hi = (-0.5 * DT, 0.5 * DT) if law == STEP_AVERAGED else (0.0, 0.0)
-        nc = contacts.pair_forces_window(np.array([0]), np.array([1]), np.zeros((1, 3)), np.zeros((1, 3)),
+        nc = contacts.pair_forces_interval(np.array([0]), np.array([1]), np.zeros((1, 3)), np.zeros((1, 3)),
                                          np.zeros(1, bool), pos, zero, zero, zero, zero, False, np.full(2, 0.5), one,
                                          one, props, np.ones(2, bool), np.ones(2, bool), np.zeros(8),
                                          np.zeros(2, np.int64), DT, 1e9, f, t, np.zeros(2, bool),

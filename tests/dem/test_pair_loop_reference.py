@@ -1,4 +1,4 @@
-"""The compiled pair loop (``contacts.pair_forces_window``) against a plain-Python reference of the same loop.
+"""The compiled pair loop (``contacts.pair_forces_interval``) against a plain-Python reference of the same loop.
 
 The reference below is the pair loop written out in Python with 2-D indexing (``pos[j, 0]``), calling the
 Python versions (``py_func``) of the contact laws; the compiled loop indexes flat views of the (N, 3)
@@ -128,7 +128,7 @@ def _run(fn, c, law, split, periodic, mixed):
 @pytest.mark.parametrize("mixed", [False, True])
 def test_compiled_pair_loop_matches_the_python_reference(seed, law, split, periodic, mixed):
     c = random_pile(seed)
-    got = _run(contacts.pair_forces_window, c, law, split, periodic, mixed)
+    got = _run(contacts.pair_forces_interval, c, law, split, periodic, mixed)
     ref = _run(reference_loop, c, law, split, periodic, mixed)
     assert got["nc"] == ref["nc"] > 50
     assert 0 < ref["touching"].sum() < c["pa"].size and np.any(ref["rhist"] != 0.0)

@@ -74,7 +74,7 @@ def assert_boundaries_same(a, b):
 
 
 def assert_far_rows_are_plus_zero(sim):
-    """Every awake particle farther from a plane than any window reach has both history rows +0.0 in every bit."""
+    """Every awake particle farther from a plane than any interval reach has both history rows +0.0 in every bit."""
     s = sim.state
     for b in sim.boundaries:
         gap = (s.pos - b.point) @ b.normal - s.radius
@@ -107,7 +107,7 @@ def test_plane_lists_give_the_python_steps_bit_for_bit(integrator, law, monkeypa
 @pytest.mark.parametrize("speed", [2.0, 40.0, 120.0, 200.0, 400.0])
 def test_a_sphere_just_outside_the_margin_hitting_the_floor_right_after_a_build(integrator, speed):
     """One sphere whose gap is the margin (and one a rounding above it) at a build, then thrown at the floor
-    at up to 400 m/s (a drift of 20 cm, more than the margin, per step; the window reaches 10 cm): its
+    at up to 400 m/s (a drift of 20 cm, more than the margin, per step; the interval reaches 10 cm): its
     contact is not missed, bit for bit as the Python step."""
     sims = []
     for compiled in (False, True):
@@ -222,7 +222,7 @@ def test_candidates_at_the_margin_and_by_history_bits():
 
 
 def test_the_guard_keeps_its_reserve():
-    """The lists hold while displacement plus window reach stay within (1 - reserve) of the margin."""
+    """The lists hold while displacement plus interval reach stay within (1 - reserve) of the margin."""
     m = SKIN
     assert candidates_hold(0.5 * m, 0.0, m) and candidates_hold(0.5 * m, (0.5 - CANDIDATE_RESERVE) * m, m)
     assert not candidates_hold(0.5 * m, math.nextafter((0.5 - CANDIDATE_RESERVE) * m, 1.0) + 1e-15, m)

@@ -168,17 +168,17 @@ def test_a_resting_bed_is_not_rebuilt(integrator, monkeypatch):
     assert calls == []  # the Python path's rebuilds (the compiled loop's call numba directly)
 
 
-# The step-averaged law looks max(-lo, hi) |v_rel . n| = s ahead (velocity Verlet window [-dt/2, dt/2], two
-# spheres closing at 2 s per step): a pair apart by less than s gets the force of the part of the window in
+# The step-averaged law looks max(-lo, hi) |v_rel . n| = s ahead (velocity Verlet interval [-dt/2, dt/2], two
+# spheres closing at 2 s per step): a pair apart by less than s gets the force of the part of the interval in
 # contact. An unlisted pair can be there while each sphere moved no more than skin/2 since the build: the
 # rebuild decision is ``moved + reach > skin/2`` with reach = max(-lo, hi) max|v| (dem/pairlist.py
 # ``relist_after_drift``), each sphere's own reach within its half of the skin.
 
-def window_onset(integrator, k, f, c, direction, shift, compiled, skin=None):
+def interval_onset(integrator, k, f, c, direction, shift, compiled, skin=None):
     """Two spheres approaching head-on at ``s`` per step each, ``s = (skin/2) / (k + f)`` (``f < 1/2``):
     after step k each moved ``k s = skin/2 - f s`` (under skin/2: no rebuild for the displacement alone)
     and, with the gap at the build ``skin + c (1 - 2 f) s``, their gap is ``(2 f + c (1 - 2 f)) s``, in
-    (0, s): not touching, but within the window's reach. *skin* None: the default (0.1 m, the pair unlisted
+    (0, s): not touching, but within the interval's reach. *skin* None: the default (0.1 m, the pair unlisted
     at the build); else that skin (the same start and dt): the always-listed reference. Returns (sim, e, s)."""
     probe = DemSimulation(gravity=(0.0, 0.0, 0.0), integrator=integrator)
     probe.add_particles([[0.0, 0.0, 0.0]], R, ROCK)
@@ -194,13 +194,13 @@ def window_onset(integrator, k, f, c, direction, shift, compiled, skin=None):
     return sim, e, s
 
 
-WINDOW_CASES = [(k, f, c, d, sh) for k in (3, 7, 19) for f in (0.02, 0.2, 0.35, 0.48) for c, d, sh in
+INTERVAL_CASES = [(k, f, c, d, sh) for k in (3, 7, 19) for f in (0.02, 0.2, 0.35, 0.48) for c, d, sh in
                 ((0.5, (1, 0, 0), (0.0, 0.0, 0.0)), (0.9, (1, 1, 1), (0.37, -1.21, 2.53)),
                  (0.1, (0, 0.6, -0.8), (5.1, 0.0, 0.0)))]
 
 
 def unlisted_within_reach(sim, vel):
-    """Whether the (only) pair is unlisted while the window law would give it a force: its gap positive and
+    """Whether the (only) pair is unlisted while the step-averaged law would give it a force: its gap positive and
     below ``max(-lo, hi) |v_rel . n|`` (*vel*: the velocities the law uses)."""
     s = sim.state
     d = s.pos[1] - s.pos[0]
@@ -211,14 +211,14 @@ def unlisted_within_reach(sim, vel):
 
 
 @pytest.mark.parametrize("integrator", ["velocity_verlet", "predicted_verlet"])
-@pytest.mark.parametrize("k,f,c,direction,shift", WINDOW_CASES)
-def test_a_pair_within_the_window_reach_gets_its_partial_force_python_path(integrator, k, f, c, direction, shift):
+@pytest.mark.parametrize("k,f,c,direction,shift", INTERVAL_CASES)
+def test_a_pair_within_the_interval_reach_gets_its_partial_force_python_path(integrator, k, f, c, direction, shift):
     """Python path, one step at a time, against the same start with skin 1 m (the pair listed from the first
     step, so the lists are the only difference): the pair's forces, positions and velocities are the same
     bit for bit at every step, including step k, the first with a contact force (gap in (0, s): a
-    partial-window force); the pair is never unlisted within the window's reach."""
-    sim, e, s = window_onset(integrator, k, f, c, direction, shift, compiled=False)
-    ref, _, _ = window_onset(integrator, k, f, c, direction, shift, compiled=False, skin=1.0)
+    partial-interval force); the pair is never unlisted within the interval's reach."""
+    sim, e, s = interval_onset(integrator, k, f, c, direction, shift, compiled=False)
+    ref, _, _ = interval_onset(integrator, k, f, c, direction, shift, compiled=False, skin=1.0)
     first = None
     for n in range(1, k + 6):
         sim.step(1)
@@ -231,27 +231,27 @@ def test_a_pair_within_the_window_reach_gets_its_partial_force_python_path(integ
         gap = np.linalg.norm(ref.state.pos[1] - ref.state.pos[0]) - 2 * R
         if first is None and ref.force[0] @ e != 0.0:
             first = n
-            assert 0.0 < gap < s  # the onset is a window-only one: not touching at the evaluation
+            assert 0.0 < gap < s  # the onset is a interval-only one: not touching at the evaluation
             assert ref.force[0] @ e < 0.0 < ref.force[1] @ e
     assert first == k
 
 
 @pytest.mark.parametrize("integrator", ["velocity_verlet", "predicted_verlet"])
-@pytest.mark.parametrize("k,f,c,direction,shift", WINDOW_CASES[::2])
-def test_a_pair_within_the_window_reach_gets_its_partial_force_compiled_loop(integrator, k, f, c, direction,
+@pytest.mark.parametrize("k,f,c,direction,shift", INTERVAL_CASES[::2])
+def test_a_pair_within_the_interval_reach_gets_its_partial_force_compiled_loop(integrator, k, f, c, direction,
                                                                             shift):
     """The compiled loop (one call after the first Python step), fresh for each n, against the always-listed
-    reference run the same way: the same forces, positions and velocities bit for bit at the window-only
+    reference run the same way: the same forces, positions and velocities bit for bit at the interval-only
     onset (step k) and after it."""
     for n in (k, k + 1, k + 4):
-        sim, e, s = window_onset(integrator, k, f, c, direction, shift, compiled=True)
-        ref, _, _ = window_onset(integrator, k, f, c, direction, shift, compiled=True, skin=1.0)
+        sim, e, s = interval_onset(integrator, k, f, c, direction, shift, compiled=True)
+        ref, _, _ = interval_onset(integrator, k, f, c, direction, shift, compiled=True, skin=1.0)
         sim.step(n)
         ref.step(n)
         assert sim.steps == ref.steps == n
         if n == k:
             gap = np.linalg.norm(ref.state.pos[1] - ref.state.pos[0]) - 2 * R
-            assert 0.0 < gap < s and ref.force[0] @ e < 0.0  # the window-only onset
+            assert 0.0 < gap < s and ref.force[0] @ e < 0.0  # the interval-only onset
         np.testing.assert_array_equal(sim.force, ref.force, err_msg=f"step {n}")
         np.testing.assert_array_equal(sim.state.pos, ref.state.pos, err_msg=f"step {n}")
         np.testing.assert_array_equal(sim.state.vel, ref.state.vel, err_msg=f"step {n}")
@@ -259,9 +259,9 @@ def test_a_pair_within_the_window_reach_gets_its_partial_force_compiled_loop(int
 
 @pytest.mark.parametrize("integrator", ["velocity_verlet", "predicted_verlet"])
 @pytest.mark.parametrize("law", ["step_averaged", "hooke_history"])
-def test_the_reach_rebuild_is_the_window_laws_only(integrator, law):
+def test_the_reach_rebuild_is_the_step_averaged_laws_only(integrator, law):
     """One sphere approaching another at rest until it has moved just under skin/2 while its reach
-    (``dt/2 |v|``) takes it over: the window law rebuilds at that step, ``hooke_history`` (point values,
+    (``dt/2 |v|``) takes it over: the step-averaged law rebuilds at that step, ``hooke_history`` (point values,
     reach 0) does not; both paths alike."""
     for compiled in (False, True):
         probe = DemSimulation(gravity=(0.0, 0.0, 0.0), integrator=integrator)

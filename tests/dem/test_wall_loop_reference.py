@@ -8,7 +8,7 @@ contact laws and of the rolling law; properties are ``min(particle's value, boun
 torques, histories, the plane's reaction and #contacts must agree in every bit. Cases: both laws, split and
 plain velocities, a fixed and a moving tilted plane, mixed property rows with signed zeros and rolling
 friction > 0 on some rows (and 0 on others), histories with signed zeros, contacts that begin or end inside
-the force window (overlap of either sign with the normal speed's reach), particles far from the plane, an
+the force interval (overlap of either sign with the normal speed's reach), particles far from the plane, an
 index list in random order (a subset), a non-zero starting reaction; the height field with slopes,
 particles outside the grid, near-grazing and overlapping ones.
 """
@@ -117,7 +117,7 @@ def particles(seed, gap_of, n=160):
     mass = 2650.0 * 4.0 / 3.0 * np.pi * radius**3
     inertia = 0.4 * mass * radius**2
     kind = np.arange(n) % 4
-    # overlapping (0 - 5 mm); within the window reach of a fast normal speed (|gap| < 2 mm, +-4 m/s); far
+    # overlapping (0 - 5 mm); within the interval reach of a fast normal speed (|gap| < 2 mm, +-4 m/s); far
     gap = np.where(kind == 0, -rng.uniform(0, 5e-3, n), np.where(kind == 3, rng.uniform(0.05, 0.2, n),
                                                                  rng.uniform(-2e-3, 2e-3, n)))
     vn = np.where(kind == 1, -4.0, np.where(kind == 2, 4.0, 0.5)) * rng.uniform(0.2, 1.0, n)  # + away
@@ -188,11 +188,11 @@ def test_plane_loop_matches_the_python_reference_bit_for_bit(seed, law, split, m
     nc = walls.plane_forces(*got.values())
     assert nc == reference_plane(*ref.values()) > 20
     _same(got, ref, OUT + ("reaction",))
-    # the case covers what it is meant to: forces on some, rolling moments kept and cleared, windows cut
+    # the case covers what it is meant to: forces on some, rolling moments kept and cleared, intervals cut
     touched = np.any(ref["force"] != 0.25, axis=1)
     assert 0 < touched.sum() < c["idx"].size
     assert np.any(ref["rhist"][c["idx"]] != 0.0) and np.any(c["rhist"][c["idx"]] != ref["rhist"][c["idx"]])
-    if law == STEP_AVERAGED:  # contacts inside the window only: a force without an overlap now
+    if law == STEP_AVERAGED:  # contacts inside the interval only: a force without an overlap now
         ov = c["radius"] - (pos - point) @ normal
         assert np.any(touched & (ov <= 0.0))
 

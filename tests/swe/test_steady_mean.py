@@ -59,7 +59,7 @@ def test_resolves_from_different_starts_agree_on_the_mean_within_their_error(tol
         assert hist.converged and hist.averaged
         mean, err = hist.section_mean[-1], hist.section_se[-1]
         assert err <= tol * (hist.time[1] - hist.time[0]) * abs(mean) * (1 + 1e-12)
-        t0, t1 = hist.average_window
+        t0, t1 = hist.average_interval
         assert t1 - t0 >= 4 * PERIOD
         # the state left is the time mean: its discharge is the mean of the samples (Q is linear in h v)
         assert sim.section_discharge(SECTION) == pytest.approx(mean, rel=1e-9)
@@ -98,6 +98,6 @@ def test_batch_means_error_includes_a_slow_drift():
         acc.add(tk, 10.0 + 1e-3 * tk)  # no scatter: all of the error is the drift
     mean, err = acc.stats()
     assert acc.drifting()
-    t0, t1 = acc.window()
+    t0, t1 = acc.interval()
     # the halves' means differ by slope × W / 2; half of that is in the error
     assert err >= 0.5 * 1e-3 * 0.5 * (t1 - t0) * (1 - 1e-6)

@@ -40,7 +40,7 @@ import numpy as np
 
 from ..fluid.compiled import apparent_mass, grid_added_masses, grid_fluid_forces_phi
 from ..dem.contact_law import STEP_AVERAGED
-from ..dem.pair_contacts import heightfield_forces, pair_forces_window, plane_forces
+from ..dem.pair_contacts import heightfield_forces, pair_forces_interval, plane_forces
 from ..dem.forces import _add_gravity, zero_rows
 from ..dem.neighbours import displacement_since, rebuild
 from ..dem.steploop import BAD, DONE, any_damping, close_and_first_pass, first_pass, next_ok, second_pass, step_event
@@ -73,8 +73,8 @@ def fluid_verlet_steps(nmax, t, idx, pos, vel, omega, vel_prev, omega_prev, forc
                        e_tol, crit, consecutive, ok, stats, law, ncell, single, sgrid, bufs):
     """Up to *nmax* Verlet steps (kick, drift, wrap, contacts, boundaries, gravity, fluid forces, damping, kick)
     of the awake particles *idx*, rebuilding the pair list *pa*, *pb*, *hist*, *rhist*, *touch* after the drift,
-    before the forces, when some awake particle moved more than *half_skin* since the build less the window
-    law's reach ``max(-lo, hi) max|v|`` (so no unlisted pair is in contact within the window at the force
+    before the forces, when some awake particle moved more than *half_skin* since the build less the interval
+    law's reach ``max(-lo, hi) max|v|`` (so no unlisted pair is in contact within the interval at the force
     evaluation, ``PairList.relist_after_drift``; :func:`.neighbours.rebuild` with cells per period *ncell*,
     one cell per particle or not *single*, the current sleeping grid *sgrid* and the pair buffers *bufs*);
     returns (steps done, reason, time, the list pa, pb, hist, rhist, touch, the pair buffers).
@@ -131,7 +131,7 @@ def fluid_verlet_steps(nmax, t, idx, pos, vel, omega, vel_prev, omega_prev, forc
         if bad >= 0:
             stats[3] = bad
             return done, BAD, t, pa, pb, hist, rhist, touch, bufs
-        # how far beyond the gap the window law looks (max(-lo, hi) |v|: each particle in its half of the skin)
+        # how far beyond the gap the interval law looks (max(-lo, hi) |v|: each particle in its half of the skin)
         reach = 0.0 if reach_t == 0.0 else reach_t * (vpmax if predict else mx / dt)
         if moved + reach > half_skin:  # after the drift, before the forces (LAMMPS' Verlet: neighbor->decide())
             pa, pb, hist, rhist, touch, bufs = rebuild(idx, pos, radius, half_skin, geom, periodic, ncell, single,
@@ -145,7 +145,7 @@ def fluid_verlet_steps(nmax, t, idx, pos, vel, omega, vel_prev, omega_prev, forc
             list_planes(idx, pos_build, radius, pl_point, pl_normal, margin, pl_hist, pl_rhist, listable, cand, ncand)
         if listed:  # else the loops run over all and the lists are stale (histories set) until the next build
             listed = candidates_hold(moved, reach, margin)
-        nc = pair_forces_window(pa, pb, hist, rhist, touch, pos, ve, we, vel, omega, predict, radius, mass, inertia,
+        nc = pair_forces_interval(pa, pb, hist, rhist, touch, pos, ve, we, vel, omega, predict, radius, mass, inertia,
                                 props, awake, active, geom, periodic, dt, wake_speed, force, torque, wake, wake_ids,
                                 n_wake, lo, hi, law)
         p = 0
@@ -280,7 +280,7 @@ def run(sim, nmax: int, e_tol: float = -1.0, crit: int = 0, consecutive: int = 1
     done, why, t, *pairs = fluid_verlet_steps(
         int(nmax), sim.t, sim.idx, s.pos, s.vel, s.omega, s.vel_prev, s.omega_prev, sim.force, sim.torque, w["fp"],
         w["tp"], w["v"], w["w"], inv_m, sim._inv_i, sim.lmask, sim.rmask, dt, bool(integ.predict_velocity),
-        float(integ.extrapolate), integ.force_window[0] * dt, integ.force_window[1] * dt, nl.pa, nl.pb,
+        float(integ.extrapolate), integ.force_interval[0] * dt, integ.force_interval[1] * dt, nl.pa, nl.pb,
         nl.hist, nl.rhist, nl.touch, s.radius, s.mass, s.inertia, s._props, s.awake, s.active, sim.geom,
         sim.periodic, sim.wake_velocity, sl.wake_flag, sl.wake_ids, sl.n_wake,
         (pl[0], pl[1], pl[2], pl[3], pl_hist, pl_rhist, reaction), hf_at, hf, model is not None, field, fluid,

@@ -17,7 +17,7 @@ from ..fluid.forces import FluidForces
 from ..fluid.profile import roughness_from_manning
 from ..field.sampling import FieldSampler
 from ..field.snapshot import DRY_DEPTH
-from .rest import RestWindow
+from .rest import RestHistory
 
 
 def dem_view(snapshot: xr.Dataset) -> xr.Dataset:
@@ -71,7 +71,7 @@ class CycleDem:
         """The frozen fluid field of *snapshot* as the DEM's force model."""
         d = self.setup.dem
         field = dem_view(snapshot)
-        fallback = getattr(self.setup.solver, "fallback_sampler", None)  # nested: the ingested field outside the window
+        fallback = getattr(self.setup.solver, "fallback_sampler", None)  # nested: the ingested field outside the nested box
         if fallback is not None:
             field = FieldSampler(field, d.sampling, fallback=fallback(d.sampling))
         bed = d.bed
@@ -136,7 +136,7 @@ class CycleDem:
 
     def settle(self, sim, max_time, record_ids=None):
         """Step to equilibrium; returns (converged, times, positions and velocities of *record_ids* at those
-        times, the :class:`~breachflow.cycle.rest.RestWindow` of every mass's positions over the last
+        times, the :class:`~breachflow.cycle.rest.RestHistory` of every mass's positions over the last
         ``rest_time``)."""
         d = self.setup.dem
         chunk = max(1, int(round(d.record_interval / sim.dt)))
@@ -145,12 +145,12 @@ class CycleDem:
         frames = [sim.state.pos[record_ids].copy()] if record_ids is not None else []
         vframes = [sim.state.vel[record_ids].copy()] if record_ids is not None else []
         t_start = sim.t
-        window = RestWindow(d.rest_time, sim.t, sim.state.pos)
+        history = RestHistory(d.rest_time, sim.t, sim.state.pos)
         converged = False
         slow_since = None  # simulated time since when every awake mass is slower than rest_speed
         while sim.t - t_start < max_time:
             res = sim.run_to_equilibrium(d.e_tol, max_steps=chunk, consecutive=consecutive)
-            window.add(sim.t, sim.state.pos)
+            history.add(sim.t, sim.state.pos)
             if record_ids is not None:
                 times.append(sim.t - t_start)
                 frames.append(sim.state.pos[record_ids].copy())
@@ -170,8 +170,8 @@ class CycleDem:
                 converged = True  # every mass at rest (or removed) for rest_time
                 break
         if record_ids is None:
-            return converged, np.asarray(times), None, None, window
-        return converged, np.asarray(times), np.stack(frames, axis=1), np.stack(vframes, axis=1), window
+            return converged, np.asarray(times), None, None, history
+        return converged, np.asarray(times), np.stack(frames, axis=1), np.stack(vframes, axis=1), history
 
     def fluid_roughness(self) -> float:
         """The log law's roughness height of the DEM's fluid forces (as :meth:`fluid` sets it)."""

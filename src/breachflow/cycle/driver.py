@@ -375,12 +375,12 @@ class ClosureRun:
         moving = np.flatnonzero(sim.state.awake & sim.state.active)
         active0 = sim.state.active.copy()
         t_dem, c_dem = _time.perf_counter(), _time.process_time()
-        converged, t_rec, frames, vframes, window = self.dem.settle(sim, d.max_time, record_ids=moving)
+        converged, t_rec, frames, vframes, history = self.dem.settle(sim, d.max_time, record_ids=moving)
         t_dem, c_dem = _time.perf_counter() - t_dem, _time.process_time() - c_dem
         st = sim.state
         lost_now = np.flatnonzero(active0 & ~st.active)
         # the pile: the masses at rest by the rest rule ([dem] rest_rule, cycle/rest.py); they sleep
-        w, pos_ref = window.reference()
+        w, pos_ref = history.reference()
         sample = RestSample(st.active, st.awake, np.linalg.norm(st.vel, axis=1), st.pos, pos_ref, w, converged)
         resting = pile_members(d.rest_rule, sample, d.rest_speed)
         sim.sleep(np.flatnonzero(resting & st.awake))
@@ -420,8 +420,8 @@ class ClosureRun:
         else:
             new_snapshot = s.solver.solve(solve_domain, obstacles=obstacle, initial=snapshot)
             hydro = f"solved (warm start, {changed} cells changed)"
-            if new_snapshot.attrs.get("hydro_window"):  # [hydro] resolve = "region": where it was re-solved
-                hydro = hydro[:-1] + f"; region {new_snapshot.attrs['hydro_window']})"
+            if new_snapshot.attrs.get("hydro_region"):  # [hydro] resolve = "region": where it was re-solved
+                hydro = hydro[:-1] + f"; region {new_snapshot.attrs['hydro_region']})"
         t_solve, c_solve = _time.perf_counter() - t_solve, _time.process_time() - c_solve
         new_rec = {"dem." + k: v for k, v in sim.save_state().items()}
         new_rec.update(placed_cycle=placed_cycle, resting=resting.copy())

@@ -56,8 +56,8 @@ PILE_SAMPLINGS = ("centre", "cell_average")
 
 
 @numba.njit(cache=True)
-def pile_top_window(x, y, pos, radius, use, i_lo, i_hi, j_lo, j_hi, top):
-    """Raise *top* (ny, nx) to the sphere tops above the cell centres of the index window
+def pile_top_box(x, y, pos, radius, use, i_lo, i_hi, j_lo, j_hi, top):
+    """Raise *top* (ny, nx) to the sphere tops above the cell centres of the index box
     ``[j_lo..j_hi] x [i_lo..i_hi]`` (cells outside it are left alone)."""
     nx = x.shape[0]
     ny = y.shape[0]
@@ -87,7 +87,7 @@ def pile_top(x, y, bed, pos, radius, use):
     """Per cell: the highest sphere top above the cell centre (−inf where none covers it)."""
     ny, nx = bed.shape
     top = np.full((ny, nx), -np.inf)
-    pile_top_window(x, y, pos, radius, use, 0, nx - 1, 0, ny - 1, top)
+    pile_top_box(x, y, pos, radius, use, 0, nx - 1, 0, ny - 1, top)
     return top
 
 
@@ -111,8 +111,8 @@ def _sub_point(c, k, sub, h):
 
 
 @numba.njit(cache=True)
-def pile_cells_window(x, y, bed, pos, radius, use, sub, i_lo, i_hi, j_lo, j_hi, lift, level):
-    """The cell quantities of the pile (module docstring) on the index window ``[j_lo..j_hi] x [i_lo..i_hi]``:
+def pile_cells_box(x, y, bed, pos, radius, use, sub, i_lo, i_hi, j_lo, j_hi, lift, level):
+    """The cell quantities of the pile (module docstring) on the index box ``[j_lo..j_hi] x [i_lo..i_hi]``:
     *lift* the cell average of ``max(T − bed, 0)`` and *level* the area median of T (−inf where the pile
     covers less than half of the cell), T the highest sphere top over ``sub × sub`` sub-points."""
     nx = x.shape[0]
@@ -125,7 +125,7 @@ def pile_cells_window(x, y, bed, pos, radius, use, sub, i_lo, i_hi, j_lo, j_hi, 
         return
     sx = dx / sub
     sy = dy / sub
-    gx0 = _sub_point(x[i_lo], 0, sub, dx)  # first sub-point of the window
+    gx0 = _sub_point(x[i_lo], 0, sub, dx)  # first sub-point of the box
     gy0 = _sub_point(y[j_lo], 0, sub, dy)
     tops = np.full((nj * sub, ni * sub), -np.inf)
     for p in range(pos.shape[0]):
@@ -183,7 +183,7 @@ def pile_cells(x, y, bed, pos, radius, use, sub: int = SUB):
     box = _footprint_box(x, y, pos[use[:pos.shape[0]]], radius[use[:pos.shape[0]]])
     if box is not None:
         i0, i1, j0, j1 = box
-        pile_cells_window(x, y, bed, pos, radius, use, int(sub), i0, i1, j0, j1, lift, level)
+        pile_cells_box(x, y, bed, pos, radius, use, int(sub), i0, i1, j0, j1, lift, level)
     return lift, level
 
 
@@ -283,7 +283,7 @@ class IncrementalPileTop:
 
     def _recompute(self, box, pos, radius, resting):
         i0, i1, j0, j1 = box
-        # every resting mass that may reach the window (one cell of margin against rounding)
+        # every resting mass that may reach the box (one cell of margin against rounding)
         mx = self.x[1] - self.x[0] if self.x.size > 1 else 1.0
         my = self.y[1] - self.y[0] if self.y.size > 1 else 1.0
         reach = (resting & (pos[:, 0] + radius >= self.x[i0] - mx) & (pos[:, 0] - radius <= self.x[i1] + mx)
@@ -291,9 +291,9 @@ class IncrementalPileTop:
         sel = np.flatnonzero(reach)
         p, r, use = np.ascontiguousarray(pos[sel]), np.ascontiguousarray(radius[sel]), np.ones(sel.size, np.bool_)
         self.top[j0:j1 + 1, i0:i1 + 1] = -np.inf
-        pile_top_window(self.x, self.y, p, r, use, i0, i1, j0, j1, self.top)
+        pile_top_box(self.x, self.y, p, r, use, i0, i1, j0, j1, self.top)
         if self.cells:
-            pile_cells_window(self.x, self.y, self.bed, p, r, use, self.sub, i0, i1, j0, j1, self.lift, self.level)
+            pile_cells_box(self.x, self.y, self.bed, p, r, use, self.sub, i0, i1, j0, j1, self.lift, self.level)
 
 
 def remap_top(top, bed, water_surface, mode: str = "no_flow"):

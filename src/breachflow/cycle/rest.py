@@ -13,8 +13,8 @@ jumped 0.94 → 18.41 m³/s).
 ``mean_speed`` (default; formerly ``window``, still accepted with a deprecation warning): the settle
 loop's own rest test (slower than ``rest_speed`` for ``rest_time``) judged on the mean speed over the
 last ``rest_time`` instead of a sample at one instant: a mass is pile when it is
-asleep, or its net displacement over the last ``rest_time`` (window length ``W``, from the loop's checks
-every ``record_interval``, :class:`RestWindow`) is below what ``rest_speed`` covers in ``W``::
+asleep, or its net displacement over the last ``rest_time`` (span ``W``, from the loop's checks
+every ``record_interval``, :class:`RestHistory`) is below what ``rest_speed`` covers in ``W``::
 
     pile_i = active_i ∧ ( asleep_i ∨ |x_i(t) − x_i(t − W)| < v_rest W ),
 
@@ -22,11 +22,11 @@ so a mass jittering, rocking or creeping on its seat stays in whatever its speed
 while a mass carried along (rolling through the gap, sinking through the water column) moves more than
 ``v_rest W`` and stays out even when the cap catches it momentarily slow — and, still awake, is removed
 and counted lost when it leaves the breach area. Physics engines judge sleep candidates the same way,
-on the motion over a time window (PhysX ``PxFEMParameters.sleepThreshold``: the linear motion a body may
+on the motion over a time span (PhysX ``PxFEMParameters.sleepThreshold``: the linear motion a body may
 make in one second). When the DEM converged every active mass is pile under both rules. Limits: a mass
 that landed less than ``rest_time`` before the cap joins the pile one cycle later; one rocking with an
 amplitude above ``v_rest W / 2`` (1.25 cm at the defaults) can still be in or out by the cap's phase (the
-masses of the HEC-RAS case above moved 4-21 mm net over the window at 0.11-0.42 m/s).
+masses of the HEC-RAS case above moved 4-21 mm net over the span at 0.11-0.42 m/s).
 
 The masses counted as pile and still awake are put to sleep for the next cycle (as before; the changed
 flow of the next cycle wakes those it really moves).
@@ -48,7 +48,7 @@ RENAMED_RULES = {"window": "mean_speed"}
 @dataclass
 class RestSample:
     """The masses at the end of a cycle's DEM (SI): ``active``, ``awake`` flags, centre ``speed`` (m/s),
-    positions ``pos`` (n, 3) now and ``pos_ref`` at the start of the rest window, ``window`` its length
+    positions ``pos`` (n, 3) now and ``pos_ref`` at the start of the rest span, ``span`` its length
     (s, >= ``rest_time`` unless the DEM ran shorter), and whether the DEM ``converged`` (every mass at rest)."""
 
     active: np.ndarray
@@ -56,26 +56,26 @@ class RestSample:
     speed: np.ndarray
     pos: np.ndarray
     pos_ref: np.ndarray
-    window: float
+    span: float
     converged: bool
 
 
-class RestWindow:
+class RestHistory:
     """Positions of the masses at the settle loop's checks, kept over the last ``rest_time``: the oldest
-    kept check is the latest at or before ``t − rest_time`` (or the cycle's start), the window's start."""
+    kept check is the latest at or before ``t − rest_time`` (or the cycle's start), the span's start."""
 
     def __init__(self, rest_time: float, t: float, pos):
         self.rest_time = float(rest_time)
         self._checks = [(float(t), np.array(pos, copy=True))]
 
     def add(self, t: float, pos) -> None:
-        """Record the positions *pos* at simulated time *t*; drop checks older than the window's start."""
+        """Record the positions *pos* at simulated time *t*; drop checks older than the span's start."""
         self._checks.append((float(t), np.array(pos, copy=True)))
         while len(self._checks) > 1 and self._checks[1][0] <= t - self.rest_time + 1e-9:
             self._checks.pop(0)
 
     def reference(self) -> tuple[float, np.ndarray]:
-        """``(W, x(t − W))``: the window's length (s) and the positions at its start."""
+        """``(W, x(t − W))``: the span's length (s) and the positions at its start."""
         return self._checks[-1][0] - self._checks[0][0], self._checks[0][1]
 
 
@@ -95,7 +95,7 @@ class MeanSpeedRule:
 
     def members(self, s: RestSample, rest_speed: float) -> np.ndarray:
         drift = np.linalg.norm(np.asarray(s.pos) - np.asarray(s.pos_ref), axis=1)
-        return s.active & ((~s.awake) | (drift < rest_speed * s.window) | s.converged)
+        return s.active & ((~s.awake) | (drift < rest_speed * s.span) | s.converged)
 
 
 def pile_members(rule: str, s: RestSample, rest_speed: float) -> np.ndarray:

@@ -74,7 +74,7 @@ class Plane(Boundary):
             self.velocity[:] = 0.0
 
     def forces(self, idx, state, dt, force, torque, lo=0.0, hi=0.0, law=0) -> int:
-        """Add the contact forces on particles *idx*, averaged over the force window ``[lo, hi]`` (s,
+        """Add the contact forces on particles *idx*, averaged over the force interval ``[lo, hi]`` (s,
         :func:`.contact_law.contact_law`; *law*: kernel code of the contact law, :data:`.contact_law.contact_laws`);
         returns the number of pair_contacts."""
         self.reaction[:] = 0.0

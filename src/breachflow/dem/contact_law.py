@@ -12,8 +12,8 @@ Contact law (docs/theory.md, *DEM contact*), ``n`` from particle i to its partne
 
 Properties of a contact are the minimum of the partners' values.
 
-Integrators apply a force over a window around its evaluation time; :func:`contact_law` averages the
-law over that window (issue 12), so contact onset and release inside a step are resolved.
+Integrators apply a force over a interval around its evaluation time; :func:`contact_law` averages the
+law over that interval (issue 12), so contact onset and release inside a step are resolved.
 
 The law is chosen by name from the registry ``breachflow.contact_laws`` (:data:`contact_laws`,
 ``DemSimulation(contact_law=...)``); both built-ins are this spring–dashpot, computed differently:
@@ -52,9 +52,9 @@ TURN_SERIES = 2.0**-14
 
 
 @numba.njit(cache=True, inline="always", error_model="numpy")
-def averaging_window(u, w, lo, hi):
-    """Active part of the force window ``[lo, hi]`` (s, relative to the evaluation time) for the overlap
-    ``u(tau) = u + w tau``: returns (fraction phi of the window in contact, midpoint m of the active part).
+def averaging_interval(u, w, lo, hi):
+    """Active part of the force interval ``[lo, hi]`` (s, relative to the evaluation time) for the overlap
+    ``u(tau) = u + w tau``: returns (fraction phi of the interval in contact, midpoint m of the active part).
 
     ``hi <= lo`` (a point evaluation, e.g.
     :meth:`~breachflow.dem.simulation.DemSimulation.refresh_forces`): (1, 0) if u > 0 else (0, 0).
@@ -117,36 +117,36 @@ def history_in_plane(hist, p, nx, ny, nz):
 @numba.njit(cache=True, inline="always", error_model="numpy")
 def contact_law(nx, ny, nz, overlap, vx, vy, vz, gx, gy, gz, hist, p, kn, ks, c_cn, c_cs, c_cf, alpha, beta, dt, lo,
                 hi):
-    """Force on particle i from one contact (docs/theory.md, *DEM contact*), averaged over the integrator's force window;
-    updates the shear history *hist* in place. Returns the window fraction in contact (0: none).
+    """Force on particle i from one contact (docs/theory.md, *DEM contact*), averaged over the integrator's force interval;
+    updates the shear history *hist* in place. Returns the interval fraction in contact (0: none).
 
     (nx, ny, nz): unit normal from i to the partner; (vx, vy, vz): velocity of the partner's contact
-    point relative to i's at the evaluation time (dashpots, window); (gx, gy, gz): the same over the last
+    point relative to i's at the evaluation time (dashpots, interval); (gx, gy, gz): the same over the last
     step, i.e. with the velocities that moved the positions (the half-step ones of Verlet), which advances
     the shear displacement consistently with the overlap; *overlap* ``u`` at the evaluation time (may be
     <= 0); the pair's history is row *p* of *hist* (``u_S`` at the previous evaluation, ``dt`` earlier). Writes
     (fx, fy, fz, ftx, fty, ftz, compressive normal force) into *out*.
 
-    Window (issue 12): a kick–drift–kick integrator applies the force evaluated at ``t`` over
+    Interval (issue 12): a kick–drift–kick integrator applies the force evaluated at ``t`` over
     ``[t - dt/2, t + dt/2]`` (``lo = -dt/2, hi = dt/2``). The contact law is piecewise — the dashpot
     jumps from 0 to ``c_CN v_N`` at onset and back at release, springs have a kink — so a point value
     makes the impulse depend on where in a step the contact begins (restitution errors up to ~10 % at the
-    default step). Here the overlap is taken linear across the window, ``u(tau) = u + w tau`` with the
+    default step). Here the overlap is taken linear across the interval, ``u(tau) = u + w tau`` with the
     closing speed ``w = -v_rel . n``, and the law is averaged over it: with phi the fraction of the
-    window in contact and m the midpoint of the in-contact part, ``F = phi [(-k_N u(m) + c_CN v_N) n +
+    interval in contact and m the midpoint of the in-contact part, ``F = phi [(-k_N u(m) + c_CN v_N) n +
     k_S u_S(m) + c_t v_S]``, ``u_S(m) = u_S(t) + v_S m`` (capped at the Coulomb limit of ``u(m)``; a
     contact sliding now and in contact only before now keeps ``u_S`` at that limit instead).
-    When the whole window is in contact (phi = 1, m = 0) this is the usual point value, bit for bit.
+    When the whole interval is in contact (phi = 1, m = 0) this is the usual point value, bit for bit.
     The shear history counts from the touching time: a fresh contact (zero history, approaching) gets
     ``u_S = g_S min(dt, u/g_N)`` instead of ``g_S dt``.
     """
     vn = vx * nx + vy * ny + vz * nz
     w = -vn
-    full = overlap > max(-lo, hi) * abs(vn)  # in contact over the whole window (the common case)
+    full = overlap > max(-lo, hi) * abs(vn)  # in contact over the whole interval (the common case)
     if full:
         phi, m = 1.0, 0.0
     else:
-        phi, m = averaging_window(overlap, w, lo, hi)
+        phi, m = averaging_interval(overlap, w, lo, hi)
     if phi <= 0.0:
         hist[p, 0] = 0.0
         hist[p, 1] = 0.0
@@ -194,7 +194,7 @@ def contact_law(nx, ny, nz, overlap, vx, vy, vz, gx, gy, gz, hist, p, kn, ks, c_
             sx = hx + tx * m
             sy = hy + ty * m
             sz = hz + tz * m
-    else:  # in contact only during part of the window: not at the evaluation time
+    else:  # in contact only during part of the interval: not at the evaluation time
         hist[p, 0] = 0.0
         hist[p, 1] = 0.0
         hist[p, 2] = 0.0
@@ -209,7 +209,7 @@ def contact_law(nx, ny, nz, overlap, vx, vy, vz, gx, gy, gz, hist, p, kn, ks, c_
             sy = hy + (gy - gn * ny) * d
             sz = hz + (gz - gn * nz) * d
     um = overlap + w * m  # overlap at the midpoint of the in-contact part
-    if m != 0.0:  # part of the window only: the Coulomb limit of the mid-window overlap
+    if m != 0.0:  # part of the interval only: the Coulomb limit of the mid-interval overlap
         us = math.sqrt(sx * sx + sy * sy + sz * sz)
         us_hat = (alpha + beta * kn * um) / ks
         if us >= us_hat:
@@ -230,7 +230,7 @@ def contact_law(nx, ny, nz, overlap, vx, vy, vz, gx, gy, gz, hist, p, kn, ks, c_
 @numba.njit(cache=True, inline="always", error_model="numpy")
 def hooke_history(nx, ny, nz, overlap, vx, vy, vz, gx, gy, gz, hist, p, kn, ks, c_cn, c_cs, alpha, beta, dt):
     """LAMMPS ``pair_style gran/hooke/history`` (and ``fix wall/gran hooke/history``), evaluated at the
-    point ``t`` (no force window): the law of :func:`contact_law` as LAMMPS computes it, for like-for-like
+    point ``t`` (no force interval): the law of :func:`contact_law` as LAMMPS computes it, for like-for-like
     comparisons (``contact_law = "hooke_history"``, :data:`contact_laws`). Arguments as :func:`contact_law`;
     *overlap* must be > 0 (the caller skips pairs not in contact now). Returns 1.
 
@@ -359,7 +359,7 @@ class StepAveraged:
 
     def force(self, n, overlap, v, g, hist, kn, ks, c_cn, c_cs, c_cf, alpha, beta, dt, lo=0.0, hi=0.0):
         """Force (on the particle n points away from) of one contact with history *hist* (3,), updated in
-        place; returns (window fraction in contact, force (3,), tangential force (3,), compressive ``|f_N|``)."""
+        place; returns (interval fraction in contact, force (3,), tangential force (3,), compressive ``|f_N|``)."""
         h = np.asarray(hist, float).reshape(1, 3)
         kn, ks, c_cn, c_cs, c_cf, alpha, beta = _props(kn, ks, c_cn, c_cs, c_cf, alpha, beta)
         r = contact_law(*map(float, n), float(overlap), *map(float, v), *map(float, g), h, 0, kn, ks, c_cn, c_cs,

@@ -18,7 +18,7 @@ An integrator with a memory between steps saves it through ``state_arrays`` / ``
   over 8 onset and 4 release phases, tests/dem/test_impact_phases.py: 0.42 / 0.067 / 0.019 % at ~10 /
   20 / 40 steps per contact, zeta 0.3; velocity_verlet 4.1 / 2.4 / 1.3 %, first order).
 
-Both Verlet integrators average contact forces over their force window ``[t - dt/2, t + dt/2]``
+Both Verlet integrators average contact forces over their force interval ``[t - dt/2, t + dt/2]``
 (:func:`.contact_law.contact_law`), so an impact does not depend on where in a step the contact begins
 or ends; ``report`` evaluates contacts at points (as the report does).
 """
@@ -136,12 +136,12 @@ class VelocityVerlet:
     """Kick–drift–kick velocity Verlet (second order for position-dependent forces).
 
     The force at ``t`` acts over ``[t - dt/2, t + dt/2]`` (half kicks on either side): contact forces are
-    averaged over that window (``force_window``, :func:`.contact_law.contact_law`), so an impact's outcome
+    averaged over that interval (``force_interval``, :func:`.contact_law.contact_law`), so an impact's outcome
     does not depend on where in a step the contact begins or ends.
     """
 
     predict_velocity = False
-    force_window = (-0.5, 0.5)
+    force_interval = (-0.5, 0.5)
     #: predicted_verlet: weight of the force trend in the velocity predictor (0.75: see the class)
     extrapolate = 0.0
 
@@ -160,11 +160,11 @@ class VelocityVerlet:
             vel, omega = w["v"], w["w"]
         else:
             vel, omega = s.vel, s.omega
-        # the rebuild check with the window's reach at the velocities the law uses (as steploop_fluid)
-        reach_t = sim.window_reach(self.force_window)
+        # the rebuild check with the interval's reach at the velocities the law uses (as steploop_fluid)
+        reach_t = sim.interval_reach(self.force_interval)
         sim.pairs.relist_after_drift(0.0 if reach_t == 0.0 else reach_t * (
             max_speed(sim.idx, vel) if self.predict_velocity else disp[0] / dt))
-        sim.contact_forces(s.pos, vel, omega, sim.force, sim.torque, self.force_window, s.vel, s.omega)
+        sim.contact_forces(s.pos, vel, omega, sim.force, sim.torque, self.force_interval, s.vel, s.omega)
         sim.body_forces(s.pos, vel, omega, sim.t + dt, sim.force, sim.torque)
         sim.global_damping(vel, omega, sim.force, sim.torque, 1.0)
         kick(idx, s.vel, s.omega, sim.force, sim.torque, inv_m, inv_i, 0.5 * dt, sim.lmask, sim.rmask)

@@ -13,7 +13,7 @@ import numba
 import numpy as np
 
 from .contact_law import (HOOKE_HISTORY, ROLLING_DAMPING_RATIO, ROLLING_STIFFNESS, STEP_AVERAGED,  # noqa: F401
-                          contact_law, averaging_window, hooke_history, rolling_law)
+                          contact_law, averaging_interval, hooke_history, rolling_law)
 from .neighbours import (build_grid, displacement_since, find_pairs, min_image,  # noqa: F401  (re-exported)
                          wrap_and_check)
 from .wall_contacts import _bilinear, heightfield_forces, plane_candidates, plane_forces  # noqa: F401  (re-exported)
@@ -38,14 +38,14 @@ def pair_forces(pa, pb, hist, touching, pos, vel, omega, radius, props, awake, a
 @numba.njit(cache=True, error_model="numpy")
 def pair_forces_rolling(pa, pb, hist, rhist, touching, pos, vel, omega, radius, mass, inertia, props, awake,
                         active, geom, periodic, dt, wake_speed, force, torque, wake, wake_ids, n_wake, lo=0.0, hi=0.0):
-    """:func:`pair_forces_window` with the same velocities for dashpots and shear increments."""
-    return pair_forces_window(pa, pb, hist, rhist, touching, pos, vel, omega, vel, omega, False, radius, mass,
+    """:func:`pair_forces_interval` with the same velocities for dashpots and shear increments."""
+    return pair_forces_interval(pa, pb, hist, rhist, touching, pos, vel, omega, vel, omega, False, radius, mass,
                               inertia, props, awake, active, geom, periodic, dt, wake_speed, force, torque, wake,
                               wake_ids, n_wake, lo, hi)
 
 
 @numba.njit(cache=True, error_model="numpy", fastmath={"contract"})
-def pair_forces_window(pa, pb, hist, rhist, touching, pos, vel, omega, vel_h, omega_h, split, radius, mass, inertia,
+def pair_forces_interval(pa, pb, hist, rhist, touching, pos, vel, omega, vel_h, omega_h, split, radius, mass, inertia,
                        props, awake, active, geom, periodic, dt, wake_speed, force, torque, wake, wake_ids, n_wake, lo,
                        hi, law=0):
     """Contact forces of all listed pairs (the loop ``_pair_loop``, arguments and result there).
@@ -113,7 +113,7 @@ def _pair_loop(pa, pb, hist, rhist, touching, pos, vel, omega, vel_h, omega_h, s
 
     props (N, 8): adhesion, friction, kn, ks, c_cn, c_cs, c_cf (columns 0..6; one cache line per particle). A sleeping partner of a
     moving particle (contact-point speed > wake_speed) gets wake[j] = True and is listed in
-    wake_ids[n_wake[0]...]. Forces are averaged over the force window ``[lo, hi]`` (s, relative to now;
+    wake_ids[n_wake[0]...]. Forces are averaged over the force interval ``[lo, hi]`` (s, relative to now;
     :func:`~breachflow.dem.contact_law.contact_law`), so a pair that touches only within it gets its
     share. Returns #contacts (overlapping now). The (N, 3) arrays must be C-contiguous (flat views below).
     """
@@ -155,10 +155,10 @@ def _pair_loop(pa, pb, hist, rhist, touching, pos, vel, omega, vel_h, omega_h, s
         rj = radius[j]
         rs = ri + rj
         gap2 = d2 - rs * rs
-        if gap2 >= 0.0:  # apart now (most listed pairs): in contact within the window at most
+        if gap2 >= 0.0:  # apart now (most listed pairs): in contact within the interval at most
             if law == HOOKE_HISTORY:  # point values: apart (reach_t = 0)
                 apart = True
-            else:  # reach_t |dv.d| <= (d^2 - rs^2)/2 <= d (d - rs): no contact in the window either, no sqrt
+            else:  # reach_t |dv.d| <= (d^2 - rs^2)/2 <= d (d - rs): no contact in the interval either, no sqrt
                 vd = reach_t * abs((velf[U3 * i] - velf[U3 * j]) * dx + (velf[U3 * i + U1] - velf[U3 * j + U1]) * dy
                                    + (velf[U3 * i + U2] - velf[U3 * j + U2]) * dz)
                 apart = vd <= 0.5 * gap2 or (vd + (rs - math.sqrt(d2)) * math.sqrt(d2) <= 0.0)
@@ -212,7 +212,7 @@ def _pair_loop(pa, pb, hist, rhist, touching, pos, vel, omega, vel_h, omega_h, s
             phi, fx, fy, fz, ftx, fty, ftz, fn = contact_law(nx, ny, nz, overlap, vx, vy, vz, gx, gy, gz, hist, p, kn,
                                                              ks, ccn, ccs, ccf, alpha, beta, dt, lo, hi)
         touching[p] = overlap > 0.0
-        if overlap <= 0.0:  # touching only within the window: no rolling contact now
+        if overlap <= 0.0:  # touching only within the interval: no rolling contact now
             rhist[p, 0] = 0.0
             rhist[p, 1] = 0.0
             rhist[p, 2] = 0.0

@@ -63,13 +63,13 @@ class PairList:
         """The rebuild check of a step, after its drift and before its force evaluation, as LAMMPS' Verlet
         (``neighbor->decide()`` after the drift): a check before the drift lets the forces see positions up to
         ``skin/2 + |v| dt`` from the build, so two spheres that each moved nearly ``skin/2`` toward each
-        other could touch while unlisted. *reach* (m, :meth:`DemSimulation.window_reach <breachflow.dem.simulation.DemSimulation.window_reach>` times the largest speed the law
+        other could touch while unlisted. *reach* (m, :meth:`DemSimulation.interval_reach <breachflow.dem.simulation.DemSimulation.interval_reach>` times the largest speed the law
         uses: the step displacement over ``dt`` for velocity Verlet, the predicted speed for predicted Verlet,
         as ``fluid_verlet_steps``): how far beyond its gap the step-averaged law looks for any particle.
         The list is rebuilt when ``moved + reach > skin/2``: an unlisted pair was more than ``skin`` apart
         at the build, so it is still more than ``2 reach >= max(-lo, hi) dt |v_rel . n|`` apart and gets no
-        force in the window either (with ``moved`` alone, a pair apart by less than the reach got its
-        partial-window force one step late).
+        force in the interval either (with ``moved`` alone, a pair apart by less than the reach got its
+        partial-interval force one step late).
         The rebuild is the compiled loop's (``fluid_verlet_steps``):
         :func:`.neighbours.rebuild` on the current sleeping grid, so both paths keep the same list; when
         awake particles left the domain in this drift (the grid of the sleepers is still right) the flags

@@ -11,7 +11,7 @@ The driver holds the set-up, the force assembly the integrators call and the ste
 other parts are components in their own modules, held as attributes:
 
 - ``pairs``, a :class:`.pairlist.PairList` — the neighbour list: pairs closer than ``skin`` are listed and reused until some awake
-  particle has moved more than ``skin/2`` (less the window law's reach) or particles fell asleep / woke /
+  particle has moved more than ``skin/2`` (less the interval law's reach) or particles fell asleep / woke /
   were inserted; each pair keeps its shear and rolling histories across steps and rebuilds (parked while
   both partners sleep);
 - ``sleepers``, a :class:`.sleeping.Sleepers` — sleeping and waking (docs/theory.md, *DEM contact*): slow particles are put to sleep (not integrated,
@@ -266,10 +266,10 @@ class DemSimulation:
         self._row_models = [_accepts_idx(m.added_mass) for m in models]
         self._models_checked = False
 
-    def contact_forces(self, pos, vel, omega, force, torque, window=(0.0, 0.0), vel_h=None, omega_h=None):
+    def contact_forces(self, pos, vel, omega, force, torque, interval=(0.0, 0.0), vel_h=None, omega_h=None):
         """Zero the awake rows of force/torque, then add all contact forces (particles and boundaries).
 
-        Called once per step: it advances the shear histories by one step. *window* ``(lo, hi)`` in
+        Called once per step: it advances the shear histories by one step. *interval* ``(lo, hi)`` in
         steps: the interval around the evaluation time over which the integrator applies these forces
         (``(-1/2, 1/2)`` for kick–drift–kick Verlet); contact forces are averaged over it so that contact
         onset and release inside a step are resolved (:func:`.contact_law.contact_law`). ``(0, 0)``: point values.
@@ -280,11 +280,11 @@ class DemSimulation:
         zero_rows(self.idx, force, torque)
         sl, pl = self.sleepers, self.pairs
         sl.n_wake[0] = 0
-        lo, hi = window[0] * self._dt, window[1] * self._dt
+        lo, hi = interval[0] * self._dt, interval[1] * self._dt
         split = vel_h is not None and vel_h is not vel
         vel_h = vel if vel_h is None else vel_h
         omega_h = omega if omega_h is None else omega_h
-        n = pair_contacts.pair_forces_window(pl.pa, pl.pb, pl.hist, pl.rhist, pl.touch, pos, vel, omega,
+        n = pair_contacts.pair_forces_interval(pl.pa, pl.pb, pl.hist, pl.rhist, pl.touch, pos, vel, omega,
                                         vel_h, omega_h, split, s.radius, s.mass, s.inertia, s._props, s.awake,
                                         s.active, self.geom, self.periodic, self._dt, self.wake_velocity, force,
                                         torque, sl.wake_flag, sl.wake_ids, sl.n_wake, lo, hi, self._law)
@@ -451,7 +451,7 @@ class DemSimulation:
         """Wrap periodic coordinates, retire particles that left the domain, refuse NaN; then, before the
         forces at these positions, rebuild the pair list if some awake particle moved more than ``skin/2``
         since the build (:meth:`.pairlist.PairList.relist_after_drift`; *relist* False: the caller does it,
-        with the window's reach, once it knows the velocities the contact law will use)."""
+        with the interval's reach, once it knows the velocities the contact law will use)."""
         s = self.state
         nleft, bad = neighbours.wrap_and_check(self.idx, s.pos, s.vel, s.omega, self.geom, self.periodic, self._box,
                                              self._use_box, s.active, s.awake, self._tmp_ids)
@@ -466,12 +466,12 @@ class DemSimulation:
         if relist:
             self.pairs.relist_after_drift()
 
-    def window_reach(self, window) -> float:
-        """How far ahead in time (s) the contact law looks with the force *window* ``(lo, hi)`` in steps:
+    def interval_reach(self, interval) -> float:
+        """How far ahead in time (s) the contact law looks with the force *interval* ``(lo, hi)`` in steps:
         ``max(-lo, hi) dt`` for the step-averaged law (it gives a force to a pair apart by less than
         ``max(-lo, hi) dt |v_rel . n|``, :func:`.contact_law.contact_law`), 0 for point values. Times the
         largest speed the law uses, the reach of :meth:`.pairlist.PairList.relist_after_drift`."""
-        return max(-(window[0] * self._dt), window[1] * self._dt) if self._law == STEP_AVERAGED else 0.0
+        return max(-(interval[0] * self._dt), interval[1] * self._dt) if self._law == STEP_AVERAGED else 0.0
 
     def sleep(self, ids) -> np.ndarray:
         """Put particles *ids* to sleep now (e.g. masses that were at rest at the end of the previous

@@ -27,9 +27,9 @@ def plane_forces(idx, point, normal, wvel, wprops, hist, rhist, pos, vel, omega,
     moving at *wvel* (``_wall_loop``).
 
     Adds the force on the plane (minus the sum of particle forces) to *reaction*; returns #contacts
-    (overlapping now). Forces are averaged over the force window ``[lo, hi]``
+    (overlapping now). Forces are averaged over the force interval ``[lo, hi]``
     (:func:`~breachflow.dem.contact_law.contact_law`). The loop is compiled once per contact law (*law* a
-    constant in each copy), as the pair loop: with both laws in one loop, the window law's code slowed the
+    constant in each copy), as the pair loop: with both laws in one loop, the interval law's code slowed the
     loop by 12 % for either law.
     """
     geom = (point[0], point[1], point[2], normal[0], normal[1], normal[2], wvel[0], wvel[1], wvel[2])
@@ -47,7 +47,7 @@ def heightfield_forces(idx, x0, y0, hx, hy, bed, wprops, hist, rhist, pos, vel, 
 
     The contact point is the foot of the perpendicular from the centre on the local tangent plane,
     refined by three fixed-point iterations (exact on planar patches). Outside the grid: no contact.
-    Forces are averaged over the force window ``[lo, hi]`` (:func:`~breachflow.dem.contact_law.contact_law`).
+    Forces are averaged over the force interval ``[lo, hi]`` (:func:`~breachflow.dem.contact_law.contact_law`).
     Returns #contacts (overlapping now).
     """
     geom = (x0, y0, hx, hy, 0.0, 0.0, 0.0, 0.0, 0.0)
@@ -62,7 +62,7 @@ def _wall_loop(idx, geom, bed, wprops, hist, rhist, pos, vel, omega, radius, mas
     the domain, velocity; *bed* unused; the reaction added to *reaction*) or the height field *bed* (*kind*
     HEIGHT_FIELD, *geom* = x0, y0, hx, hy, ...; at rest). Returns #contacts (overlapping now).
 
-    Contact (docs/theory.md, *DEM contact*) with the normal n from the centre towards the boundary, averaged over the force window
+    Contact (docs/theory.md, *DEM contact*) with the normal n from the centre towards the boundary, averaged over the force interval
     ``[lo, hi]`` (:func:`~breachflow.dem.contact_law.contact_law`); *vel*, *omega* at the evaluation time,
     *vel_h*, *omega_h* over the last step; hist / rhist: the boundary's (N, 3) per-particle shear /
     rolling-moment histories; the contact's properties are the minimum of the particle's row of *props* and
@@ -169,7 +169,7 @@ def _wall_loop(idx, geom, bed, wprops, hist, rhist, pos, vel, omega, radius, mas
                                                              min(props[i, 3], ks_w), min(props[i, 4], ccn_w),
                                                              min(props[i, 5], ccs_w), min(props[i, 6], ccf_w),
                                                              min(props[i, 0], al_w), beta, dt, lo, hi)
-        if overlap <= 0.0:  # touching only within the window: no rolling contact now
+        if overlap <= 0.0:  # touching only within the interval: no rolling contact now
             rhist[i, 0] = 0.0
             rhist[i, 1] = 0.0
             rhist[i, 2] = 0.0
@@ -254,7 +254,7 @@ def plane_candidates(idx, pos_ref, radius, point, normal, margin, hist, rhist, o
 def candidates_hold(moved, reach, margin):
     """Whether every particle left out of the :func:`plane_candidates` lists built with *margin* is far from
     its plane now: each moved at most *moved* from its reference position and reaches at most *reach* further
-    within the force window (``max(-lo, hi) |v . n|``, the step-averaged law's test in :func:`plane_forces`;
+    within the force interval (``max(-lo, hi) |v . n|``, the step-averaged law's test in :func:`plane_forces`;
     0 for point values), so its gap is at least ``margin - moved - reach`` > 0 with
     :data:`CANDIDATE_RESERVE` of the margin to spare."""
     return moved + reach <= (1.0 - CANDIDATE_RESERVE) * margin

@@ -16,12 +16,12 @@ Public API: :func:`run`, :func:`plan`, :func:`load_spec`, :func:`parse_spec`, :c
 from .dataset import STATUS_FAILED, STATUS_NOT_RUN, STATUS_OK, build_dataset, open_result, validate_result, write_result
 from .execute import execute_member, plan, run
 from .runners import (CLOSURE_OUTPUTS, MemberRunner, MemberScenario, ResultValue, SyntheticRunner,
-                      WindowRunner, member_runners, window_scalars)
+                      ClosureWindowRunner, member_runners, window_scalars)
 from .spec import EnsembleSpec, Member, Parameter, as_spec, load_spec, member_seed, parse_spec
 
 __all__ = [
     "run", "plan", "load_spec", "parse_spec", "as_spec", "EnsembleSpec", "Member", "Parameter", "member_seed",
-    "member_runners", "MemberRunner", "MemberScenario", "ResultValue", "WindowRunner", "SyntheticRunner",
+    "member_runners", "MemberRunner", "MemberScenario", "ResultValue", "ClosureWindowRunner", "SyntheticRunner",
     "window_scalars", "CLOSURE_OUTPUTS", "execute_member", "build_dataset", "validate_result", "write_result", "open_result",
     "STATUS_OK", "STATUS_FAILED", "STATUS_NOT_RUN",
 ]

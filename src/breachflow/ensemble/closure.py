@@ -10,7 +10,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any, ClassVar
 
-from .runners import CLOSURE_OUTPUTS, MemberScenario, WindowRunner, member_runners, window_scalars
+from .runners import CLOSURE_OUTPUTS, MemberScenario, ClosureWindowRunner, member_runners, window_scalars
 from ..errors import InputError
 from ..units import Q_
 
@@ -21,8 +21,8 @@ class ClosureRunner:
     sections = None
     #: the members' cycle files, whose per-cycle figures the ensemble result carries (breachflow.ensemble.cycles)
     cycle_files = "closure/cycle_*.nc"
-    outputs: ClassVar[dict[str, dict]] = {**WindowRunner.outputs, **CLOSURE_OUTPUTS}
-    optional_outputs: ClassVar[frozenset[str]] = WindowRunner.optional_outputs
+    outputs: ClassVar[dict[str, dict]] = {**ClosureWindowRunner.outputs, **CLOSURE_OUTPUTS}
+    optional_outputs: ClassVar[frozenset[str]] = ClosureWindowRunner.optional_outputs
 
     def __init__(self, plots: bool = False, **options):
         if options:

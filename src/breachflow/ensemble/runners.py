@@ -5,8 +5,8 @@ A member runner is a class with one method::
     @member_runners.register("closure")
     class ClosureRunner:
         sections = None                       # scenario sections it reads (None: all of them)
-        outputs = {**WindowRunner.outputs, **CLOSURE_OUTPUTS}   # CF attributes of its results
-        optional_outputs = WindowRunner.optional_outputs         # declared, but only present sometimes
+        outputs = {**ClosureWindowRunner.outputs, **CLOSURE_OUTPUTS}   # CF attributes of its results
+        optional_outputs = ClosureWindowRunner.optional_outputs         # declared, but only present sometimes
         def __init__(self, **options): ...    # the spec's [ensemble.options] table
         def run(self, member: MemberScenario, run_dir: Path, seed: int) -> dict: ...
 
@@ -216,7 +216,7 @@ _WINDOW_FLAGS = ("balance_reached", "inundation_reached", "wind_calm_reached")
 
 @member_runners.register("window")  # the former name, kept as an alias (an ensemble spec warns)
 @member_runners.register("closure_window")
-class WindowRunner:
+class ClosureWindowRunner:
     """Closure window of the member's scenario (docs/theory.md, *Closure window*): ``breachflow.scenario.closure_window`` on the
     member's ``[flood]``, ``[polder]``, ``[breach]`` (and ``[wind]``), reduced to scalars: t_B, t_Q, t_I,
     depth at the window's end, r_P, Q_D, the governing constraint (flag) and the reached-flags.

@@ -1,18 +1,18 @@
-"""The far field of the window re-solve (issue 16; :mod:`breachflow.hydro.resolve_region`).
+"""The far field of the region re-solve (issue 16; :mod:`breachflow.hydro.resolve_region`).
 
-A window re-solve keeps the domain outside the window at the previous steady state and takes its edge
+A region re-solve keeps the domain outside the region at the previous steady state and takes its edge
 levels from there. When the pile cuts the breach flow, the whole flood-side pool rises (the drawdown
 towards the breach shrinks; a weir estimate gives ΔQ/Q ≈ 1.5 Δη/H at the breach), so the true edge
-levels move and no window smaller than the pool holds the change. A far-field model gives the window
-the level change Δη of the far field; the window's edges and warm start are the previous state plus
-Δη, and the merged snapshot outside the window is the previous state plus Δη (velocities kept).
+levels move and no region smaller than the pool holds the change. A far-field model gives the region
+the level change Δη of the far field; the region's edges and warm start are the previous state plus
+Δη, and the merged snapshot outside the region is the previous state plus Δη (velocities kept).
 
 Far-field models (registry :data:`far_fields`, ``[hydro] resolve_far``), one method
 ``level_change(dom, previous, previous_pile, box) -> Δη (ny, nx)`` (or None: no change), *dom* the
 domain with the pile, *previous* the previous steady state (its bed and no-flow mask, *previous_pile*
-its porous pile), *box* the window ``(j0, j1, i0, i1)``:
+its porous pile), *box* the region ``(j0, j1, i0, i1)``:
 
-* ``frozen``: no change, the previous state as it was (the plain window re-solve);
+* ``frozen``: no change, the previous state as it was (the plain region re-solve);
 * ``coarse``: the same domain on cells ``factor`` times larger (bed averaged over the open fine cells,
   no-flow where at least half the fine cells are, porous pile averaged: :func:`coarse_domain`), solved to steady state with the
   pile and without it; Δη is the difference of the two coarse levels, interpolated bilinearly to the fine
@@ -23,11 +23,11 @@ its porous pile), *box* the window ``(j0, j1, i0, i1)``:
   A coarse solve costs about ``factor^-3`` of a fine one (``factor^2`` fewer cells, ``factor`` times
   longer time steps).
 
-Measured (issue 16; ``python3 tasks.py bench window_far``), ``coarse`` does not
+Measured (issue 16; ``python3 tasks.py bench region_far``), ``coarse`` does not
 beat the full re-solve: the steady states of the pool judged near the breach still drift by centimetres
-far from it, in the fine and in the coarse model alike, so the coarse level change outside the window is
-not the fine one (on the scene of ``tests/cycle/test_window_resolve.py``, 1.5–1.7 m cells, 6 m margin:
-mean rise outside the window 9–13 mm against 1.2–1.4 mm of the full re-solve, breach discharge
+far from it, in the fine and in the coarse model alike, so the coarse level change outside the region is
+not the fine one (on the scene of ``tests/cycle/test_region_resolve.py``, 1.5–1.7 m cells, 6 m margin:
+mean rise outside the region 9–13 mm against 1.2–1.4 mm of the full re-solve, breach discharge
 +1.2…+1.8 % off it against +0.2…+0.4 % frozen); the default stays ``frozen`` and ``[hydro] resolve =
 "full"``.
 """
@@ -40,8 +40,8 @@ from ..errors import InputError
 from ..registry import Registry
 from ..swe.domain import BoundaryCondition, Domain
 
-#: far-field models of the window re-solve, by name (``[hydro] resolve_far``)
-far_fields: Registry = Registry("window far-field model", "breachflow.window_far_fields")
+#: far-field models of the region re-solve, by name (``[hydro] resolve_far``)
+far_fields: Registry = Registry("region far-field model", "breachflow.region_far_fields")
 
 
 @far_fields.register("frozen")
@@ -55,8 +55,8 @@ class FrozenFarField:
     def level_change(self, dom: Domain, previous: xr.Dataset, previous_pile, box):
         return None
 
-    def scale(self, q_previous: float, q_window: float):
-        """The factor on the level change once the window's breach discharge is known (None: keep it)."""
+    def scale(self, q_previous: float, q_region: float):
+        """The factor on the level change once the region's breach discharge is known (None: keep it)."""
         return None
 
     def accept(self, returned: xr.Dataset) -> None:
@@ -167,7 +167,7 @@ class CoarseFarField:
 
     def __init__(self, full, factor: int = 4):
         if int(factor) != factor or factor < 2:
-            raise InputError(f"window re-solve: the coarse far field needs an integer factor >= 2, got {factor!r}")
+            raise InputError(f"region re-solve: the coarse far field needs an integer factor >= 2, got {factor!r}")
         self.full, self.factor = full, int(factor)
         self._kept = None  # (snapshot returned by the re-solve, coarse steady state of it)
         self.last_cpu = 0.0
@@ -187,7 +187,7 @@ class CoarseFarField:
         tol = self.full.tolerance
         cdom, (jy, ix) = coarse_domain(dom, self.factor)
         j0, j1, i0, i1 = box
-        region = np.zeros(cdom.shape, bool)  # the coarse cells over the window: its edges must have settled
+        region = np.zeros(cdom.shape, bool)  # the coarse cells over the region: its edges must have settled
         region[jy[j0]:jy[j1 - 1] + 1, ix[i0]:ix[i1 - 1] + 1] = True
         region &= ~cdom.obstacle
         if self._kept is not None and self._kept[0] is previous:
@@ -211,16 +211,16 @@ class CoarseFarField:
     def _q(self, sim):
         return sim.section_discharge(self.full.section) if self.full.section is not None else float("nan")
 
-    def scale(self, q_previous: float, q_window: float):
+    def scale(self, q_previous: float, q_region: float):
         """``(Q_prev |Q_prev| - Q_w |Q_w|) / (Q_c,prev |Q_c,prev| - Q_c |Q_c|)``: the drawdown of the pool
         towards the breach (velocity head and friction) goes with Q²; the coarse model gives its shape,
-        the window's breach discharge Q_w its size (the coarse pile, averaged over larger cells, cuts the
+        the region's breach discharge Q_w its size (the coarse pile, averaged over larger cells, cuts the
         flow less than the fine one). Clipped to [0, 4]; None when the coarse discharge hardly changed."""
         qc0, qc1 = self._q_coarse
         den = qc0 * abs(qc0) - qc1 * abs(qc1)
         if not np.isfinite(den) or abs(den) <= 1e-3 * qc0 * qc0:
             return None
-        return float(np.clip((q_previous * abs(q_previous) - q_window * abs(q_window)) / den, 0.0, 4.0))
+        return float(np.clip((q_previous * abs(q_previous) - q_region * abs(q_region)) / den, 0.0, 4.0))
 
     def accept(self, returned: xr.Dataset) -> None:
         if self._pending is not None:

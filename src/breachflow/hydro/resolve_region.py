@@ -1,31 +1,31 @@
-"""Warm re-solve of the closure cycle in a local window (issue 16; docs/theory.md, *The closure cycle* cycle <g>, step re-solve).
+"""Warm re-solve of the closure cycle in a local region (issue 16; docs/theory.md, *The closure cycle* cycle <g>, step re-solve).
 
 A cycle's remap changes a few cells at the breach; the flow far from them hardly moves. ``resolve =
-"window"`` re-solves only a window around the changed cells and keeps the rest of the domain frozen at
+"region"`` re-solves only a region around the changed cells and keeps the rest of the domain frozen at
 the previous steady state:
 
-* window: the bounding box of the changed cells and of the breach section, plus ``margin`` (m) on each
+* region: the bounding box of the changed cells and of the breach section, plus ``margin`` (m) on each
   side, on the same grid (a sub-array of the domain, nothing is interpolated);
-* edge conditions of the window from the previous steady state, the machinery of the nested local model
+* edge conditions of the region from the previous steady state, the machinery of the nested local model
   (:func:`breachflow.hydro.nested.edge_conditions`): where water enters, the previous water level
   (absorbing; supercritical inflow: level and unit discharge), where it leaves free outflow, obstacle
-  cells walls; window sides on the domain's own edge keep the domain's boundary conditions;
+  cells walls; region sides on the domain's own edge keep the domain's boundary conditions;
 * steady state judged on the breach discharge and on depth and discharge of the monitoring region
-  (the breach vicinity) inside the window, as the full re-solve;
-* growth: after the solve the water level in the outer ``band`` cells of every interior window side is
+  (the breach vicinity) inside the region, as the full re-solve;
+* growth: after the solve the water level in the outer ``band`` cells of every interior region side is
   compared with the previous state; where it moved by more than ``edge_level`` (m) the change reached
-  the edge, the window's margin is doubled and the solve re-run (warm, from the merged state);
-* fall back to the full domain when the window would hold more than ``max_fraction`` of its cells: the
-  full re-solve from the previous steady state, as ``resolve = "full"`` (from the window's merged state
-  instead it stopped 4.0–5.7 % below it on the typical breach, ``bench window_wp``: the far field's slow rise
+  the edge, the region's margin is doubled and the solve re-run (warm, from the merged state);
+* fall back to the full domain when the region would hold more than ``max_fraction`` of its cells: the
+  full re-solve from the previous steady state, as ``resolve = "full"`` (from the region's merged state
+  instead it stopped 4.0–5.7 % below it on the typical breach, ``bench region_wp``: the far field's slow rise
   passed the rate test after one check);
 * the far field (``far``, :mod:`breachflow.hydro.far_field`): ``frozen`` keeps the previous state
-  outside the window; ``coarse`` adds the level change of a coarse full-domain solve to the previous
-  state — the window's edge levels, its warm start and the merged state outside it — so that the rise
-  of the whole flood-side pool when the pile cuts the flow reaches the window's edges.
+  outside the region; ``coarse`` adds the level change of a coarse full-domain solve to the previous
+  state — the region's edge levels, its warm start and the merged state outside it — so that the rise
+  of the whole flood-side pool when the pile cuts the flow reaches the region's edges.
 
-The returned snapshot is the full domain: the window's state merged into the frozen previous one, with
-``hydro_window`` (the window and its growth) in its attributes.
+The returned snapshot is the full domain: the region's state merged into the frozen previous one, with
+``hydro_region`` (the region and its growth) in its attributes.
 """
 from __future__ import annotations
 
@@ -67,7 +67,7 @@ def _clip_side(bcs, s_full: np.ndarray, i0: int, i1: int) -> list:
     return out
 
 
-def region_domain(domain: Domain, previous: xr.Dataset, box, *, name: str = "window"):
+def region_domain(domain: Domain, previous: xr.Dataset, box, *, name: str = "region"):
     """The sub-domain of *domain* on cells ``box = (j0, j1, i0, i1)`` (end exclusive), its edge conditions
     from the previous steady state *previous* (a grid snapshot of *domain*'s grid) on interior sides and
     from *domain* on sides that lie on the domain's edge."""
@@ -146,16 +146,16 @@ def _section_discharge(ds: xr.Dataset, section) -> float:
 
 
 class RegionResolver:
-    """Re-solve a warm start in a local window (module docstring); a drop-in for the warm
+    """Re-solve a warm start in a local region (module docstring); a drop-in for the warm
     :class:`~breachflow.swe.solver.SWESolver` *full* (its options, tolerance, t_max, region and
     section are used).
 
     *margin* (m) around the changed cells (default ``2 B``, B the breach section's length, else 20 cells);
-    *edge_level* (m) the level change in the outer *band* cells of an interior side that grows the window;
+    *edge_level* (m) the level change in the outer *band* cells of an interior side that grows the region;
     *max_fraction* of the domain's cells above which the full domain is solved instead; *max_grow* the
     number of growths before falling back to the full domain; *far* the far-field model (a name in
     :data:`~breachflow.hydro.far_field.far_fields`), *far_factor* the coarsening of ``coarse``.
-    ``last_info`` describes the last solve (window, cells, growths)."""
+    ``last_info`` describes the last solve (region, cells, growths)."""
 
     def __init__(self, full, margin: float | None = None, edge_level: float = 0.03, band: int = 2,
                   max_fraction: float = 0.5, max_grow: int = 3, far: str = "frozen", far_factor: int | None = None,
@@ -163,11 +163,11 @@ class RegionResolver:
         from .far_field import far_fields
 
         if margin is not None and not margin > 0:
-            raise InputError(f"window re-solve: margin must be > 0 m, got {margin!r}")
+            raise InputError(f"region re-solve: margin must be > 0 m, got {margin!r}")
         if not edge_level > 0:
-            raise InputError(f"window re-solve: edge_level must be > 0 m, got {edge_level!r}")
+            raise InputError(f"region re-solve: edge_level must be > 0 m, got {edge_level!r}")
         if not 0 < max_fraction <= 1:
-            raise InputError(f"window re-solve: max_fraction must be in (0, 1], got {max_fraction!r}")
+            raise InputError(f"region re-solve: max_fraction must be in (0, 1], got {max_fraction!r}")
         self.full, self.margin, self.edge_level, self.band = full, margin, edge_level, int(band)
         self.max_fraction, self.max_grow = max_fraction, int(max_grow)
         self.far = far_fields.get(far)(full, **({} if far_factor is None else {"factor": far_factor}))
@@ -197,10 +197,10 @@ class RegionResolver:
         out = self.full.solve(domain, obstacles=obstacles, initial=initial)
         self.last = self.full.last
         self.last_info = {"mode": "full", "why": why, "cells": int(np.prod(domain.shape)), "grown": grown}
-        if edge_change is not None:  # the level changes at the window's edges that made it grow (m)
+        if edge_change is not None:  # the level changes at the region's edges that made it grow (m)
             self.last_info["edge_change"] = dict(edge_change)
         edge = f"; edge level change {max(edge_change.values()):.3f} m" if edge_change else ""
-        out.attrs["hydro_window"] = f"full domain ({why}{edge})"
+        out.attrs["hydro_region"] = f"full domain ({why}{edge})"
         return out
 
     def solve(self, domain: Domain, obstacles=None, initial=None) -> xr.Dataset:
@@ -225,19 +225,19 @@ class RegionResolver:
             q_prev = _section_discharge(initial, sec) if sec is not None else None
             scale, passes, grown, state = 1.0, 0, 0, initial
             far_info = {}
-            while True:  # passes: the far field's level change rescaled to the window's breach discharge
+            while True:  # passes: the far field's level change rescaled to the region's breach discharge
                 base = initial if d_eta is None else _shifted(initial, scale * d_eta)
                 h0 = np.asarray(base["depth"].values, float)
                 eta0 = np.asarray(base["bed_elevation"].values, float) + h0
                 if state is initial:
                     state = base
-                while True:  # growth of the window while the change reaches its edge
+                while True:  # growth of the region while the change reaches its edge
                     box = self._box(dom, changed, margin)
                     j0, j1, i0, i1 = box
                     if (j1 - j0) * (i1 - i0) > self.max_fraction * ncell or grown > self.max_grow:
-                        why = (f"window {i1 - i0} x {j1 - j0} cells > {self.max_fraction:g} of the domain"
-                               if grown <= self.max_grow else f"change still at the window edge after {self.max_grow} growths")
-                        # from the previous steady state, not from the window's merged state: the full
+                        why = (f"region {i1 - i0} x {j1 - j0} cells > {self.max_fraction:g} of the domain"
+                               if grown <= self.max_grow else f"change still at the region edge after {self.max_grow} growths")
+                        # from the previous steady state, not from the region's merged state: the full
                         # re-solve from the latter stops with the far field still at its old level (the
                         # pool's slow rise passes the rate test), docs/performance.md, *Studies behind the defaults*
                         out = self._full(dom, None, initial, why, getattr(self, "_edge_change", None) if grown else None,
@@ -253,7 +253,7 @@ class RegionResolver:
                     sim = SWESimulation(sub, self.full.options, initial=state.isel(y=sl[0], x=sl[1]))
                     sim.run_to_steady(self.full.tolerance, self.full.t_max, self.full.check_interval, region=reg,
                                       section=sec, average=getattr(self.full, "average", False) and sec is not None)
-                    # outside the window the (shifted) previous state; every earlier window lies inside this one
+                    # outside the region the (shifted) previous state; every earlier region lies inside this one
                     h_new = h0.copy()
                     hu_new = h0 * np.asarray(base["u"].values, float)
                     hv_new = h0 * np.asarray(base["v"].values, float)
@@ -277,9 +277,9 @@ class RegionResolver:
                 if step < self.far_level:
                     break
             self.last = sim
-            self.last_info = {"mode": "window", "box": box, "edge_change": dict(self._edge_change), "cells": (j1 - j0) * (i1 - i0), "grown": grown,
+            self.last_info = {"mode": "region", "box": box, "edge_change": dict(self._edge_change), "cells": (j1 - j0) * (i1 - i0), "grown": grown,
                               "fraction": (j1 - j0) * (i1 - i0) / ncell, **far_info}
-            merged.attrs["hydro_window"] = (
+            merged.attrs["hydro_region"] = (
                 f"x {dom.x[i0] - 0.5 * dom.dx:g}..{dom.x[i1 - 1] + 0.5 * dom.dx:g}, y {dom.y[j0] - 0.5 * dom.dy:g}.."
                 f"{dom.y[j1 - 1] + 0.5 * dom.dy:g} m ({i1 - i0} x {j1 - j0} cells, "
                 f"{100 * (j1 - j0) * (i1 - i0) / ncell:.1f} % of the domain; grown {grown} times; edge level "
@@ -293,7 +293,7 @@ class RegionResolver:
 
     def _edge_moved(self, dom, box, sim, eta_old, h_old) -> bool:
         """Did the water level move by more than ``edge_level`` in the outer band of an interior side, next
-        to its edge cells that hold the previous state (water entering the window)?"""
+        to its edge cells that hold the previous state (water entering the region)?"""
         j0, j1, i0, i1 = box
         ny, nx = dom.shape
         b = self.band

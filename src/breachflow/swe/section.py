@@ -1,6 +1,6 @@
 """The breach discharge through a channel section: one definition for the closure's reported value
 (:func:`breachflow.cycle.criteria.section_discharge`) and the steady-state monitor of the ``swe`` solver
-(:meth:`breachflow.swe.solver.SWESimulation.section_discharge`), and the window re-solve's
+(:meth:`breachflow.swe.solver.SWESimulation.section_discharge`), and the region re-solve's
 (:mod:`breachflow.hydro.resolve_region`)."""
 from __future__ import annotations
 

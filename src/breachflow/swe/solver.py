@@ -83,11 +83,11 @@ class ConvergenceHistory:
     tolerance: float = float("nan")
     #: ``run_to_steady(average=True)``: per check, the running mean of the section discharge (m³/s) and its
     #: error (m³/s: batch-means standard error and drift, ``BatchMeans.stats``), NaN below 8 batches; ``averaged``: the run converged on
-    #: the mean (the state is then the time mean over ``average_window`` = (t0, t1) s)
+    #: the mean (the state is then the time mean over ``average_interval`` = (t0, t1) s)
     section_mean: list = field(default_factory=list)
     section_se: list = field(default_factory=list)
     averaged: bool = False
-    average_window: tuple = (math.nan, math.nan)
+    average_interval: tuple = (math.nan, math.nan)
 
 
 class SWESimulation:
@@ -280,22 +280,22 @@ class SWESimulation:
                       average: bool = False) -> ConvergenceHistory:
         """March until the relative rates of change of depth and discharge fall below *tolerance* (1/s).
 
-        Rates over each check window Δt: ``sum|h - h_prev| / (sum h Δt)`` and the same with the
+        Rates over each check interval Δt: ``sum|h - h_prev| / (sum h Δt)`` and the same with the
         discharge magnitude, summed over the cells of *region* (a boolean mask; default all cells —
         e.g. the breach vicinity when only the flow there matters). With *section* ``(x0, x1, y)``
         (the breach: :meth:`section_discharge`) its discharge Q must settle too:
         ``|Q - Q_prev| / (max(|Q|, |Q_prev|) Δt) < tolerance``. Stops at *t_max* (s) of simulated time
-        otherwise (``converged`` False). *progress(sim, history)* is called after each check window.
+        otherwise (``converged`` False). *progress(sim, history)* is called after each check interval.
 
         *average* (needs *section*): a flow that sheds eddies never settles, so also accept the running
-        mean of Q (:class:`~breachflow.swe.steady_mean.BatchMeans`, Q sampled 8 times per check window):
+        mean of Q (:class:`~breachflow.swe.steady_mean.BatchMeans`, Q sampled 8 times per check interval):
         converged when its error (standard error and drift, ``BatchMeans.stats``) is at most
-        ``tolerance × check_interval`` of it (the relative change the rate test accepts over one window)
-        with at least 8 batches (of at least one check window each) and no drift between the
+        ``tolerance × check_interval`` of it (the relative change the rate test accepts over one interval)
+        with at least 8 batches (of at least one check interval each) and no drift between the
         first and second half of the batches (else the first half is dropped as a transient); the first half
         of the record is always left out as the start-up transient. The state
-        is then the time mean of depth and unit discharges over the averaging window
-        (``history.averaged``, ``history.average_window``); ``history.section_mean`` / ``section_se``
+        is then the time mean of depth and unit discharges over the averaging interval
+        (``history.averaged``, ``history.average_interval``); ``history.section_mean`` / ``section_se``
         record the running mean and its standard error per check. A flow that does settle converges on
         the rate test as without *average*.
         """
@@ -372,7 +372,7 @@ class SWESimulation:
                 hist.converged = True
                 if not settled:
                     hist.averaged = True
-                    hist.average_window = acc.window()
+                    hist.average_interval = acc.interval()
                     self.h[inner], self.hu[inner], self.hv[inner] = acc.mean_fields()
                 break
         return hist

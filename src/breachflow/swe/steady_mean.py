@@ -104,7 +104,7 @@ class BatchMeans:
         """Drop the closed batches that start before time *t* (s): the start-up transient."""
         self.closed = [b for b in self.closed if b["t0"] >= t]
 
-    def window(self) -> tuple[float, float]:
+    def interval(self) -> tuple[float, float]:
         """Simulated time (s) of the first and the last sample of the closed batches."""
         if not self.closed:
             return math.nan, math.nan

@@ -1,8 +1,8 @@
-"""Work–precision of the window re-solve on a closure cycle's pile, against a settled reference (issue 16).
+"""Work–precision of the region re-solve on a closure cycle's pile, against a settled reference (issue 16).
 
-    python3 tasks.py bench window_wp [--resolution 4] [--tolerances 2e-3,5e-4,2e-4,5e-5] [--reference 2e-5]
+    python3 tasks.py bench region_wp [--resolution 4] [--tolerances 2e-3,5e-4,2e-4,5e-5] [--reference 2e-5]
                                      [--reference-t-max 2400] [--t-max 600] [--scenario examples/typical_breach.toml]
-                                     [--no-full] [--out benchmarks/results/window_wp]
+                                     [--no-full] [--out benchmarks/results/region_wp]
 
 The pile is a real one: the scenario (default the shipped typical breach, ``examples/typical_breach.toml``,
 at ``--resolution``) runs its first closure cycle as ``breachflow run`` does (cold open-breach solve, DEM
@@ -14,12 +14,12 @@ its warm start, the open breach's steady state — is the problem every solve be
   (``run_to_steady(average=True)``, :mod:`breachflow.swe.steady_mean`: batch means of the breach
   discharge, the first half of the record left out as the transient), t_max ``--reference-t-max``. Its
   breach discharge is given with the batch-means error (standard error and half-drift,
-  ``BatchMeans.stats``) and the linear drift of Q over the averaging window (per 1000 s); the largest
-  speed near the pile with the standard error of that speed over the averaging window's checks
+  ``BatchMeans.stats``) and the linear drift of Q over the averaging region (per 1000 s); the largest
+  speed near the pile with the standard error of that speed over the averaging region's checks
   (batch means over the checks, the same estimator);
 * for each tolerance of ``--tolerances``: the full-domain re-solve (``resolve = "full"``, skipped with
-  ``--no-full``) and the window re-solve (``resolve = "region"``, frozen far field, default margin 2 B
-  and edge level 0.03 m), t_max ``--t-max``; at the tolerances of ``--frozen`` also the window that
+  ``--no-full``) and the region re-solve (``resolve = "region"``, frozen far field, default margin 2 B
+  and edge level 0.03 m), t_max ``--t-max``; at the tolerances of ``--frozen`` also the region that
   never grows (``win-nogrow``, edge level 1 km): the error of the frozen far field itself; at the
   tolerances of ``--average`` the full-domain re-solve with the averaged criterion (``full-avg``,
   ``[hydro] steady_average = true``).
@@ -27,7 +27,7 @@ its warm start, the open breach's steady state — is the problem every solve be
 "Near the pile": the open cells within B (the breach length) of the breach centre. Printed per solve:
 breach discharge Q and its difference to the reference (%, and in units of the reference's error σ_Q),
 the largest speed near the pile and its difference (m/s, and in σ_v), the mean |Δ speed| there, the
-simulated time, this process's CPU time and the window (cells, share of the domain, growths). The
+simulated time, this process's CPU time and the region (cells, share of the domain, growths). The
 effect of the pile change itself (the warm start against the reference) is printed for scale. A plot of
 the errors against CPU time and of the reference's record is written to ``--out``.
 """
@@ -59,7 +59,7 @@ def _se_batch(values) -> float:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="bench window_wp", description=__doc__.split("\n\n")[0])
+    ap = argparse.ArgumentParser(prog="bench region_wp", description=__doc__.split("\n\n")[0])
     ap.add_argument("--scenario", default=str(HERE.parent / "examples" / "typical_breach.toml"))
     ap.add_argument("--resolution", type=float, default=4.0)
     ap.add_argument("--tolerances", default="2e-3,5e-4,2e-4,5e-5")
@@ -67,13 +67,13 @@ def main(argv=None) -> int:
     ap.add_argument("--reference-t-max", type=float, default=3000.0)
     ap.add_argument("--reference-min-time", type=float, default=1500.0,
                     help="simulated time (s) the reference runs at least before its criterion may stop it")
-    ap.add_argument("--frozen", default="2e-4,5e-5", help="tolerances of the window re-solve that never grows "
+    ap.add_argument("--frozen", default="2e-4,5e-5", help="tolerances of the region re-solve that never grows "
                     "(edge_level 1 km): the frozen far field's own error")
     ap.add_argument("--t-max", type=float, default=600.0, help="t_max (s) of the re-solves at --tolerances")
-    ap.add_argument("--no-full", action="store_true", help="window re-solves only (no full-domain ones)")
+    ap.add_argument("--no-full", action="store_true", help="region re-solves only (no full-domain ones)")
     ap.add_argument("--average", default="2e-3,2e-4", help="tolerances of a full-domain re-solve with the "
                     "averaged criterion too (full-avg: [hydro] steady_average = true)")
-    ap.add_argument("--out", default=str(HERE / "results" / "window_wp"))
+    ap.add_argument("--out", default=str(HERE / "results" / "region_wp"))
     a = ap.parse_args(argv)
     sys.path.insert(0, str(HERE / "dev"))
     from bench_steady import record
@@ -130,7 +130,7 @@ def main(argv=None) -> int:
     ref = result(sim.snapshot(derived=False), time.process_time() - c, sim, {"mode": "full"})
     tr = np.array(trace)
     if hist.averaged:
-        w0, w1 = hist.average_window
+        w0, w1 = hist.average_interval
     else:  # settled on the rate test or stopped at t_max: the second half of the record
         w0, w1 = t_start + 0.5 * (sim.t - t_start), sim.t
     inw = (tr[:, 0] >= w0) & (tr[:, 0] <= w1)
@@ -141,9 +141,9 @@ def main(argv=None) -> int:
                                  tr[tr[:, 0] > t_start + 0.5 * (sim.t - t_start), 1], 1)[0]) * 1000.0
     print(f"reference: full domain at {a.reference:.0e} 1/s, averaged criterion: "
           f"{'converged on the mean' if hist.averaged else ('settled' if hist.converged else 'NOT converged')} after "
-          f"{sim.t - t_start:.0f} s simulated, {ref['cpu']:.0f} CPU s; averaging window {w0 - t_start:.0f}..{w1 - t_start:.0f} s "
+          f"{sim.t - t_start:.0f} s simulated, {ref['cpu']:.0f} CPU s; averaging region {w0 - t_start:.0f}..{w1 - t_start:.0f} s "
           f"({inw.sum()} checks); Q {ref['q']:.2f} m3/s (running mean {hist.section_mean[-1]:.2f}), "
-          f"sigma_Q {sig_q:.3f} m3/s ({100 * sig_q / ref['q']:.3f} %), drift of Q over the window {drift:+.2f} m3/s "
+          f"sigma_Q {sig_q:.3f} m3/s ({100 * sig_q / ref['q']:.3f} %), drift of Q over the region {drift:+.2f} m3/s "
           f"per 1000 s ({100 * drift / ref['q']:+.3f} %; over the second half of the record {drift_all:+.2f}); "
           f"vmax near the pile {ref['vmax']:.3f} m/s, sigma_v {sig_v:.4f} m/s", flush=True)
     before = dict(q=section_discharge(init, setup.breach_x, setup.levee_y), vmax=float(speeds(init)[near].max()))
@@ -200,27 +200,27 @@ def main(argv=None) -> int:
             f"{r['t'] - (t_start if name == 'reference' else 0.0):.0f}{'' if r['converged'] else '*'}",
             f"{r['cpu']:.1f}", f"{frac:.1f}", row["grown"])))
     print("  (* not converged within t_max; sim s of the reference counted from its warm start; grown full@N: the "
-          "window grew N times, then the full domain was re-solved)")
+          "region grew N times, then the full domain was re-solved)")
     for tol in sorted({t for _, t, _ in rows}):
         f = [r for n, t, r in rows if n == "full" and t == tol]
         w = [r for n, t, r in rows if n == "window" and t == tol]
         if f and w:
-            print(f"  tol {tol:.0e}: CPU window / full = {w[0]['cpu'] / max(f[0]['cpu'], 1e-9):.2f}; "
-                  f"Q window - full = {w[0]['q'] - f[0]['q']:+.2f} m3/s ({100 * (w[0]['q'] - f[0]['q']) / f[0]['q']:+.3f} %)")
+            print(f"  tol {tol:.0e}: CPU region / full = {w[0]['cpu'] / max(f[0]['cpu'], 1e-9):.2f}; "
+                  f"Q region - full = {w[0]['q'] - f[0]['q']:+.2f} m3/s ({100 * (w[0]['q'] - f[0]['q']) / f[0]['q']:+.3f} %)")
     out = Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
     tag = f"{a.resolution:g}m"
-    (out / f"window_wp_{tag}.json").write_text(json.dumps(dict(
+    (out / f"region_wp_{tag}.json").write_text(json.dumps(dict(
         reference=dict(tol=a.reference, q=ref["q"], sigma_q=sig_q, vmax=ref["vmax"], sigma_v=sig_v,
-                       drift_per_1000s=drift, averaged=bool(hist.averaged), window=[w0 - t_start, w1 - t_start],
+                       drift_per_1000s=drift, averaged=bool(hist.averaged), region=[w0 - t_start, w1 - t_start],
                        cpu=ref["cpu"]), before=before, rows=out_rows), indent=1))
     np.save(out / f"reference_trace_{tag}.npy", tr)
-    _plot(out / f"window_wp_{tag}.png", out_rows[1:], ref, sig_q, sig_v, before, tr, t_start, (w0, w1),
+    _plot(out / f"region_wp_{tag}.png", out_rows[1:], ref, sig_q, sig_v, before, tr, t_start, (w0, w1),
           f"{Path(a.scenario).stem} at {a.resolution:g} m, first cycle's pile")
     return 0
 
 
-def _plot(path, rows, ref, sig_q, sig_v, before, tr, t_start, window, title):
+def _plot(path, rows, ref, sig_q, sig_v, before, tr, t_start, region, title):
     try:
         import matplotlib
 
@@ -250,7 +250,7 @@ def _plot(path, rows, ref, sig_q, sig_v, before, tr, t_start, window, title):
     t = tr[:, 0] - t_start
     ax[2].plot(t, tr[:, 1], lw=0.8, label="Q per check")
     ax[2].plot(t, tr[:, 3], lw=1.0, label="running mean")
-    ax[2].axvspan(window[0] - t_start, window[1] - t_start, color="0.9", label="averaging window")
+    ax[2].axvspan(region[0] - t_start, region[1] - t_start, color="0.9", label="averaging region")
     ax[2].axhline(ref["q"], color="k", ls="--", lw=0.8)
     ax[2].set(xlabel="simulated s since the warm start", ylabel="breach discharge m³/s", title="reference record")
     ax[2].legend(fontsize=8)

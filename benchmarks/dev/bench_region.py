@@ -1,24 +1,24 @@
-"""Work–precision of the warm re-solve: window vs full domain (issue 16).
+"""Work–precision of the warm re-solve: region vs full domain (issue 16).
 
-    python3 tasks.py bench window [--scene typical_breach] [--resolution 4] [--tolerances 2e-3,5e-4,2e-4,5e-5]
+    python3 tasks.py bench region [--scene typical_breach] [--resolution 4] [--tolerances 2e-3,5e-4,2e-4,5e-5]
                                   [--reference 2e-5] [--margin M] [--far frozen,coarse] [--factor 4]
 
 The report's typical breach (``[site] preset``) at ``--resolution`` is solved cold to steady state, then a
 pile is placed — an asymmetric mound against the west breach wall, 40 % of the breach long, 0.24 B wide
-across the levee, raised to 60 % of the flood depth (the unfavourable case of the window: the change
+across the levee, raised to 60 % of the flood depth (the unfavourable case of the region: the change
 is off-centre and large) — and re-solved warm:
 
 * the open breach solved cold at ``--cold`` (1/s), the warm start of every re-solve;
 * reference: the full domain at ``--reference`` (1/s), t_max ``--reference-t-max`` (s);
 * for each tolerance of ``--tolerances``: the full-domain re-solve (``[hydro] resolve = "full"``) and the
-  window re-solve (``resolve = "region"``, :mod:`breachflow.hydro.resolve_region`) with each far-field model of
+  region re-solve (``resolve = "region"``, :mod:`breachflow.hydro.resolve_region`) with each far-field model of
   ``--far`` (:mod:`breachflow.hydro.far_field`; ``coarse`` on cells ``--factor`` times larger). Each
-  window re-solve is the first of a run (a new resolver): the coarse far field pays for two coarse solves.
+  region re-solve is the first of a run (a new resolver): the coarse far field pays for two coarse solves.
 
 Printed per solve: breach discharge Q (m³/s) and its difference to the reference (%), the largest speed
 within B of the breach and its difference, the largest and mean |Δ speed| against the reference over the
 cells within B of the breach wet in both (m/s), the simulated time, this process's CPU time, and the
-window (cells, growths). CPU times of one run on a shared machine: the ratios window / full at the same
+region (cells, growths). CPU times of one run on a shared machine: the ratios region / full at the same
 tolerance are the figure to read.
 """
 from __future__ import annotations
@@ -49,7 +49,7 @@ def main(argv) -> int:
     from breachflow.cycle.criteria import section_discharge
     from breachflow.scenario.config import parse_scenario
 
-    ap = argparse.ArgumentParser(prog="bench window")
+    ap = argparse.ArgumentParser(prog="bench region")
     ap.add_argument("--scene", default="typical_breach")
     ap.add_argument("--resolution", type=float, default=4.0)
     ap.add_argument("--tolerances", default="2e-3,5e-4,2e-4,5e-5")
@@ -59,7 +59,7 @@ def main(argv) -> int:
     ap.add_argument("--margin", default=None, help="resolve_margin, e.g. '120 m' (default 2 B)")
     ap.add_argument("--site", default="", help="extra [site] keys, e.g. 'levee_length_each_side = \"54 m\"'"
                     " (';' separates keys)")
-    ap.add_argument("--far", default="frozen", help="far-field models of the window re-solve, comma-separated")
+    ap.add_argument("--far", default="frozen", help="far-field models of the region re-solve, comma-separated")
     ap.add_argument("--factor", type=int, default=4, help="coarsening of the 'coarse' far field")
     a = ap.parse_args(argv)
     from breachflow.hydro.resolve_region import RegionResolver

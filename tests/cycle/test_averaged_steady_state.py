@@ -1,16 +1,16 @@
-"""The averaged steady-state criterion in the closure's solvers (issue 16), and the window re-solve's
+"""The averaged steady-state criterion in the closure's solvers (issue 16), and the region re-solve's
 fall-back to the full domain.
 
 * ``[hydro] steady_average``: validated (a boolean, the error names the key and the value) and given to
-  every ``swe`` solve of the run (cold, warm, window).
-* The window re-solve of a flow that never settles converges on the running mean: a 4 m gap in a wall
+  every ``swe`` solve of the run (cold, warm, region).
+* The region re-solve of a flow that never settles converges on the running mean: a 4 m gap in a wall
   between a basin whose level oscillates (±0.15 m, period 6 s; the scene of
   ``tests/swe/test_steady_mean.py``) and a channel held at a fixed level, in a domain 100 m wide so that
-  the window (the section ± 16 m, reaching both forced edges) is 44 % of it; a 0.4 m mound in the gap,
-  re-solved warm from the averaged open state. (Its mean is not the full domain's: the window's frozen
-  absorbing sides change the sloshing of the basin, +1.5 % here; README "work–precision of the window".)
-* A window that has to fall back to the full domain gives the full re-solve from the previous steady
-  state, bit for bit (it started from the window's merged state before, and on the typical breach
+  the region (the section ± 16 m, reaching both forced edges) is 44 % of it; a 0.4 m mound in the gap,
+  re-solved warm from the averaged open state. (Its mean is not the full domain's: the region's frozen
+  absorbing sides change the sloshing of the basin, +1.5 % here; docs/performance.md, work–precision of the region re-solve.)
+* A region that has to fall back to the full domain gives the full re-solve from the previous steady
+  state, bit for bit (it started from the region's merged state before, and on the typical breach
   stopped 4.0–5.7 % below the full re-solve: README).
 """
 from __future__ import annotations
@@ -54,7 +54,7 @@ def open_state():
     return ds
 
 
-def test_window_resolve_of_an_oscillating_flow_converges_on_the_running_mean(open_state):
+def test_region_resolve_of_an_oscillating_flow_converges_on_the_running_mean(open_state):
     dom = wide_tidal_gap()
     X, Y = np.meshgrid(dom.x, dom.y)
     bed = dom.bed.copy()
@@ -62,18 +62,18 @@ def test_window_resolve_of_an_oscillating_flow_converges_on_the_running_mean(ope
     full = SWESolver(tolerance=1e-3, t_max=1500.0, section=SECTION, average=True)
     solver = RegionResolver(full, margin=16.0)
     ds = solver.solve(wide_tidal_gap(bed), initial=open_state)
-    assert solver.last_info["mode"] == "window" and solver.last_info["fraction"] < 0.5, solver.last_info
+    assert solver.last_info["mode"] == "region" and solver.last_info["fraction"] < 0.5, solver.last_info
     hist = solver.last.history
     assert hist.converged and hist.averaged
     mean, err = hist.section_mean[-1], hist.section_se[-1]
     assert err <= 1e-3 * (hist.time[1] - hist.time[0]) * abs(mean) * (1 + 1e-12)
-    # the state left is the window's time mean, merged into the full domain: its discharge is the mean
+    # the state left is the region's time mean, merged into the full domain: its discharge is the mean
     assert snapshot_discharge(ds, SECTION[:2], SECTION[2]) == pytest.approx(mean, rel=1e-9)
     # the mound cuts the mean flow by far more than the error
     assert snapshot_discharge(open_state, SECTION[:2], SECTION[2]) - mean > 20.0 * err
 
 
-def test_a_window_that_falls_back_gives_the_full_resolve_from_the_previous_state():
+def test_a_region_that_falls_back_gives_the_full_resolve_from_the_previous_state():
     setup = closure_setup(parse_scenario(SCENE))
     snap = setup.solver.solve(setup.domain)
     dom = setup.domain
@@ -81,10 +81,10 @@ def test_a_window_that_falls_back_gives_the_full_resolve_from_the_previous_state
     x0, x1 = setup.breach_x
     mask = (X > x0) & (X < 0.5 * (x0 + x1)) & (np.abs(Y - setup.levee_y) < 2.0)
     piled = dom.with_raised_bed(mask, float(dom.bed.min()) + 0.6 * (setup.flood_level - float(dom.bed.min())))
-    # a small window whose edge level must not move by 0.1 mm and may not grow: it is solved, then falls back
-    window = RegionResolver(setup.solver.warm, margin=2.0, edge_level=1e-4, max_grow=0)
-    got = window.solve(piled, initial=snap)
-    assert window.last_info["mode"] == "full" and window.last_info["grown"] == 1, window.last_info
+    # a small region whose edge level must not move by 0.1 mm and may not grow: it is solved, then falls back
+    region = RegionResolver(setup.solver.warm, margin=2.0, edge_level=1e-4, max_grow=0)
+    got = region.solve(piled, initial=snap)
+    assert region.last_info["mode"] == "full" and region.last_info["grown"] == 1, region.last_info
     want = setup.solver.warm.solve(piled, initial=snap)
     for name in ("depth", "u", "v"):
         np.testing.assert_array_equal(got[name].values, want[name].values, err_msg=name)

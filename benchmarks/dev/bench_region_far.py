@@ -1,12 +1,12 @@
-"""The window re-solve's far field, frozen vs coarse, against the full-domain re-solve (issue 16).
+"""The region re-solve's far field, frozen vs coarse, against the full-domain re-solve (issue 16).
 
-    python3 tasks.py bench window_far [--factor 2]
+    python3 tasks.py bench region_far [--factor 2]
 
-The scene of ``tests/cycle/test_window_resolve.py`` (the default breach in a larger domain, 6 m window
+The scene of ``tests/cycle/test_region_resolve.py`` (the default breach in a larger domain, 6 m region
 margin, 5e-5 1/s) at 1.7 m cells with a pile against the east wall (the breach ends fall inside cells)
 and at 1.5 m with a pile against the west wall. Printed per far-field model: breach discharge of the
-full and the window re-solve and their difference, the mean water-level rise on the flood side outside
-the window (full and window) and the rms of their difference, the window's growths and the far field's
+full and the region re-solve and their difference, the mean water-level rise on the flood side outside
+the region (full and region) and the rms of their difference, the region's growths and the far field's
 CPU time (:mod:`breachflow.hydro.far_field`).
 """
 from __future__ import annotations
@@ -19,11 +19,11 @@ import numpy as np
 
 
 def main(argv) -> int:
-    ap = argparse.ArgumentParser(prog="bench window_far")
+    ap = argparse.ArgumentParser(prog="bench region_far")
     ap.add_argument("--factor", type=int, default=2)
     a = ap.parse_args(argv)
     sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "tests" / "cycle"))
-    from test_window_resolve import SCENE, closure_setup, parse_scenario, section_discharge
+    from test_region_resolve import SCENE, closure_setup, parse_scenario, section_discharge
 
     from breachflow.hydro.resolve_region import RegionResolver
 
@@ -49,8 +49,8 @@ def main(argv) -> int:
             outside[j0:j1, i0:i1] = False
             pool = outside & (Y < setup.levee_y) & (snap.depth.values > 0.01)
             rf, rw = (eta(full) - eta(snap))[pool], (eta(win) - eta(snap))[pool]
-            print(f"{res} {wall:4s} {far:6s}: Q full {q(full):.3f} window {q(win):.3f} m3/s ({100 * (q(win) / q(full) - 1):+.2f} %); "
-                  f"rise outside the window: full {rf.mean():.4f} window {rw.mean():.4f} m, rms difference "
+            print(f"{res} {wall:4s} {far:6s}: Q full {q(full):.3f} region {q(win):.3f} m3/s ({100 * (q(win) / q(full) - 1):+.2f} %); "
+                  f"rise outside the region: full {rf.mean():.4f} region {rw.mean():.4f} m, rms difference "
                   f"{np.sqrt(np.mean((rw - rf) ** 2)):.4f} m; mode {info['mode']}, grown {info.get('grown')}, "
                   f"far CPU {info.get('far_cpu', 0.0):.2f} s", flush=True)
     return 0
