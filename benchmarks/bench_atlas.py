@@ -45,42 +45,6 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 
-TOML = """
-[district]
-name = "benchmark district"
-terrain = "{terrain}"
-levee = "{levee}"
-flood_side = "left"
-spacing = "{spacing}"
-margin = "100 m"
-
-[flood]
-level = "5.0 m"
-fall_rate = "1 cm/h"
-
-[polder]
-area = "12000 ha"
-inundation_depth = "1 m"
-pump_capacity = "5 m^3/s"
-
-[breach]
-growth = "verheij_clay"
-max_length = "von_thun_gillette"
-development_time = "12 h"
-flow = "{flow}"
-resolution = "{resolution}"
-
-[methods.split_barge]
-capacity = "1000 t/h"
-mobilisation = "24 h"
-
-[methods.end_dumping]
-capacity = "350 t/h"
-working_hours = "16 h"
-mobilisation = "12 h"
-"""
-
-
 def main(argv):
     if "--detailed" in argv:
         return detailed_main([a for a in argv if a != "--detailed"])
@@ -105,8 +69,8 @@ def main(argv):
         tmp = Path(tmp)
         mod.write(tmp, length=a.length)
         path = tmp / "district.toml"
-        path.write_text(TOML.format(terrain=tmp / "terrain.tif", levee=tmp / "levee.geojson", spacing=a.spacing,
-                                    flow=a.flow, resolution=a.resolution))
+        path.write_text(mod.district_toml(tmp / "terrain.tif", tmp / "levee.geojson", spacing=a.spacing, flow=a.flow,
+                                          resolution=a.resolution, name="benchmark district"))
         walls, effs = [], []
         for rep in range(a.reps):
             t0 = time.perf_counter()
@@ -228,8 +192,8 @@ def detailed_main(argv):
             template = tmp / "closure.toml"
             template.write_text(text)
         path = tmp / "district.toml"
-        path.write_text(TOML.format(terrain=tmp / "terrain.tif", levee=tmp / "levee.geojson", spacing=a.spacing,
-                                    flow=a.flow, resolution=a.resolution)
+        path.write_text(mod.district_toml(tmp / "terrain.tif", tmp / "levee.geojson", spacing=a.spacing, flow=a.flow,
+                                          resolution=a.resolution, name="benchmark district")
                         + f'\n[detailed]\nworst = {a.worst}\nreplicates = {a.replicates}\n'
                           f'scenario = "{template}"\n')
         from breachflow.warmup import warm_up

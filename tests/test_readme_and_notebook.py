@@ -12,6 +12,8 @@ import xarray as xr
 from breachflow.cycle.main import run_closure
 from breachflow.warmup import warm_up_scenario
 
+from ._scenes import TINY_CLOSURE_MEMBER
+
 ROOT = Path(__file__).resolve().parents[1]
 
 TINY_ENSEMBLE = """
@@ -22,35 +24,7 @@ seed = 7
 replicates = 2
 [ensemble.vary]
 mass_size = { parameter = "placement.diameter", values = ["1.6 m", "2.0 m"], long_name = "diameter of the dropped masses" }
-[flood]
-surge_height = "3 m"
-fall_rate = "0.3 m/hr"
-[polder]
-area = "100 ha"
-inundation_depth = "1.5 m"
-[breach]
-length = "12 m"
-depth = "3 m"
-wall_slope = 0
-[site]
-preset = "demo_breach"
-levee_length_each_side = "16 m"
-flood_side_extent = "20 m"
-protected_side_extent = "20 m"
-[hydro]
-resolution = "2 m"
-order = 1
-t_max_initial = "60 s"
-t_max = "20 s"
-monitor_radius = "10 m"
-[dem]
-max_time = "3 s"
-[placement]
-batch = 3
-[criteria]
-max_cycles = 2
-max_speed = "0.05 m/s"
-"""
+""" + TINY_CLOSURE_MEMBER
 
 
 def python_blocks(markdown: str) -> list[str]:

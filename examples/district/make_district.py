@@ -120,6 +120,48 @@ def write(out: Path, length: float = 6000.0) -> tuple[Path, Path]:
     return tif, gj
 
 
+
+def district_toml(terrain, levee, *, spacing: str = "400 m", flow: str = "weir", resolution: str = "16 m",
+                  name: str | None = None) -> str:
+    """The atlas scenario of a district on the *terrain* and *levee* files :func:`write` makes: the flood,
+    polder and breach growth of ``district.toml`` with candidate breaches every *spacing*, the breach's
+    open flow by *flow* (``weir`` or ``swe`` at *resolution*) and two delivery methods (split barges, end
+    dumping). A quick district for tests and the atlas benchmark."""
+    title = f'name = "{name}"\n' if name else ""
+    return f"""
+[district]
+{title}terrain = "{terrain}"
+levee = "{levee}"
+flood_side = "left"
+spacing = "{spacing}"
+margin = "100 m"
+
+[flood]
+level = "5.0 m"
+fall_rate = "1 cm/h"
+
+[polder]
+area = "12000 ha"
+inundation_depth = "1 m"
+pump_capacity = "5 m^3/s"
+
+[breach]
+growth = "verheij_clay"
+max_length = "von_thun_gillette"
+development_time = "12 h"
+flow = "{flow}"
+resolution = "{resolution}"
+
+[methods.split_barge]
+capacity = "1000 t/h"
+mobilisation = "24 h"
+
+[methods.end_dumping]
+capacity = "350 t/h"
+working_hours = "16 h"
+mobilisation = "12 h"
+"""
+
 if __name__ == "__main__":
     args = sys.argv[1:]
     length = 6000.0

@@ -77,41 +77,6 @@ def test_cross_section_of_an_analytic_levee(angle):
 
 
 # ------------------------------------------------------------------------------------------ screening
-DISTRICT_TOML = """
-[district]
-terrain = "{terrain}"
-levee = "{levee}"
-flood_side = "left"
-spacing = "{spacing}"
-margin = "100 m"
-
-[flood]
-level = "5.0 m"
-fall_rate = "1 cm/h"
-
-[polder]
-area = "12000 ha"
-inundation_depth = "1 m"
-pump_capacity = "5 m^3/s"
-
-[breach]
-growth = "verheij_clay"
-max_length = "von_thun_gillette"
-development_time = "12 h"
-flow = "{flow}"
-resolution = "16 m"
-
-[methods.split_barge]
-capacity = "1000 t/h"
-mobilisation = "24 h"
-
-[methods.end_dumping]
-capacity = "350 t/h"
-working_hours = "16 h"
-mobilisation = "12 h"
-"""
-
-
 @pytest.fixture(scope="module")
 def small_district(tmp_path_factory):
     """A 1.6 km levee of the example generator (4 m pixels), written once."""
@@ -122,8 +87,8 @@ def small_district(tmp_path_factory):
 
 def _district(folder: Path, *, flow="weir", spacing="400 m"):
     p = folder / f"district_{flow}_{spacing.replace(' ', '')}.toml"
-    p.write_text(DISTRICT_TOML.format(terrain=folder / "terrain.tif", levee=folder / "levee.geojson", flow=flow,
-                                      spacing=spacing))
+    p.write_text(_make_district().district_toml(folder / "terrain.tif", folder / "levee.geojson", flow=flow,
+                                                spacing=spacing))
     return p
 
 

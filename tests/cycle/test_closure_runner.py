@@ -3,41 +3,15 @@ import numpy as np
 
 from breachflow.ensemble import build_dataset, execute_member, parse_spec, plan, validate_result
 
+from .._scenes import TINY_CLOSURE_MEMBER
+
 SPEC = """
 [ensemble]
 name = "closure pair"
 runner = "closure"
 [ensemble.vary]
 "placement.diameter" = ["1.6 m", "2.0 m"]
-[flood]
-surge_height = "3 m"
-fall_rate = "0.3 m/hr"
-[polder]
-area = "100 ha"
-inundation_depth = "1.5 m"
-[breach]
-length = "12 m"
-depth = "3 m"
-wall_slope = 0
-[site]
-preset = "demo_breach"
-levee_length_each_side = "16 m"
-flood_side_extent = "20 m"
-protected_side_extent = "20 m"
-[hydro]
-resolution = "2 m"
-order = 1
-t_max_initial = "60 s"
-t_max = "20 s"
-monitor_radius = "10 m"
-[dem]
-max_time = "3 s"
-[placement]
-batch = 3
-[criteria]
-max_cycles = 2
-max_speed = "0.05 m/s"
-"""
+""" + TINY_CLOSURE_MEMBER
 
 
 def test_closure_members_reduce_to_labelled_results(tmp_path):

@@ -16,15 +16,12 @@ from breachflow.cycle.criteria import section_discharge
 from breachflow.hydro.nested import consistency
 from breachflow.scenario.config import parse_scenario
 
+from .._scenes import LARGE_DEMO_SITE
+
 SCENE = """
 [scenario]
 name = "refine"
-[site]
-preset = "demo_breach"
-levee_length_each_side = "54 m"
-flood_side_extent = "60 m"
-protected_side_extent = "48 m"
-[hydro]
+""" + LARGE_DEMO_SITE + """[hydro]
 resolution = "%s"
 tolerance = "1e-4 1/s"
 %s

@@ -18,15 +18,12 @@ from breachflow.cycle.criteria import section_discharge
 from breachflow.errors import ParseError
 from breachflow.scenario.config import parse_scenario
 
+from .._scenes import LARGE_DEMO_SITE
+
 SCENE = """
 [scenario]
 name = "region re-solve"
-[site]
-preset = "demo_breach"
-levee_length_each_side = "54 m"
-flood_side_extent = "60 m"
-protected_side_extent = "48 m"
-[hydro]
+""" + LARGE_DEMO_SITE + """[hydro]
 resolution = "1.5 m"
 tolerance = "5e-5 1/s"
 resolve = "region"

@@ -114,37 +114,12 @@ def _atlas_file(tmp: Path) -> Path:
     folder = tmp / "district"
     folder.mkdir()
     mod.write(folder, length=1600.0)
-    (folder / "district.toml").write_text(DISTRICT.format(folder=folder))
+    (folder / "district.toml").write_text(mod.district_toml(folder / "terrain.tif", folder / "levee.geojson"))
     district, locations = plan(folder / "district.toml")
     records = [screen_location(district, loc, str(tmp / f"loc{loc.index}.json"), "k") for loc in locations]
     records[0] = {"result": {"status": "failed", "message": "RuntimeError: no terrain"}}
     write_outputs(build_dataset(district, locations, records), district, locations, tmp / "atlas")
     return tmp / "atlas" / "atlas.nc"
-
-
-DISTRICT = """
-[district]
-terrain = "{folder}/terrain.tif"
-levee = "{folder}/levee.geojson"
-flood_side = "left"
-spacing = "400 m"
-margin = "100 m"
-[flood]
-level = "5.0 m"
-fall_rate = "1 cm/h"
-[polder]
-area = "12000 ha"
-inundation_depth = "1 m"
-pump_capacity = "5 m^3/s"
-[breach]
-growth = "verheij_clay"
-max_length = "von_thun_gillette"
-development_time = "12 h"
-flow = "weir"
-[methods.split_barge]
-capacity = "1000 t/h"
-mobilisation = "24 h"
-"""
 
 
 def _ensemble_file(tmp: Path) -> Path:
