@@ -78,3 +78,12 @@ def test_every_quoted_bench_command_exists():
     known = _names(BENCH) | _names(DEV)
     unknown = sorted((doc, name) for doc, name in quoted if name not in known)
     assert not unknown, f"documents quote benchmarks that do not exist: {unknown}"
+
+
+def test_every_quoted_benchmark_path_exists():
+    docs = [ROOT / "README.md", *sorted((ROOT / "docs").rglob("*.md")), *sorted((ROOT / "src").rglob("*.py"))]
+    quoted = {(doc.name, m) for doc in docs
+              for m in re.findall(r"benchmarks/(?:dev/)?bench_[a-z_]+\.py", doc.read_text(encoding="utf-8"))}
+    assert quoted, "no quoted benchmark path found: the pattern is wrong"
+    missing = sorted((doc, path) for doc, path in quoted if not (ROOT / path).exists())
+    assert not missing, f"documents quote benchmark files that do not exist: {missing}"
