@@ -1,4 +1,6 @@
-"""Breach-atlas screening at district scale: a levee of ``--length`` metres (default 20 km) at ``--spacing``
+"""Breach atlas of a district-scale levee on dask: wall and CPU time, scheduling efficiency.
+
+Breach-atlas screening at district scale: a levee of ``--length`` metres (default 20 km) at ``--spacing``
 (default 200 m: 100 locations) through the screening tier on a local dask cluster; with ``--detailed``, the
 scheduling efficiency of the detailed tier (closure simulations) on 1 and 2 workers.
 

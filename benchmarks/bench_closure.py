@@ -1,4 +1,6 @@
-"""The report's typical breach closed end to end, timed against the issue-16 targets.
+"""The typical breach closed end to end: CPU, memory, cycles, tonnage, the time of each part of a cycle.
+
+The report's typical breach closed end to end, timed against the issue-16 targets.
 
     python3 tasks.py bench closure [--resolutions 4,2] [--scenario examples/typical_breach.toml] [--no-dem]
                                    [--threads N] [--tolerances 2e-3,5e-4,2e-4] [--seeds 1,2,3] [--json FILE]

@@ -1,4 +1,6 @@
-"""DEM throughput against LAMMPS gran/hooke/history, memory, pile-growth cost (issues 5, 16).
+"""DEM against LAMMPS, the same scenes: particle-steps per CPU second, the ratio, the state difference.
+
+DEM throughput against LAMMPS gran/hooke/history, memory, pile-growth cost (issues 5, 16).
 
     python3 tasks.py bench dem [--sizes 1000,10000] [--big] [--steps 500] [--reps 3] [--no-lammps]
                                [--scenes bed,pour] [--pile 10,100,1000,10000] [--no-pile]

@@ -1,4 +1,6 @@
-"""Ensemble execution on dask: parallel efficiency 1 vs 2 workers, CPU-busy fraction per worker, and the
+"""Ensembles on dask: parallel efficiency on 1 and 2 workers and the scheduling CPU per member.
+
+Ensemble execution on dask: parallel efficiency 1 vs 2 workers, CPU-busy fraction per worker, and the
 per-member scheduling overhead.
 
     python benchmarks/run.py ensemble [--work-seconds 1.0] [--grid 3] [--noop-grid 4] [--size 192]

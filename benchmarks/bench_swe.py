@@ -1,4 +1,6 @@
-"""Shallow-water solver benchmark: ``python3 tasks.py bench swe [options]``.
+"""Shallow water against ANUGA (Stoker's dam break): CPU time at equal error; cell updates per CPU s.
+
+Shallow-water solver benchmark: ``python3 tasks.py bench swe [options]``.
 
 1. Cell updates per second per core (one numba thread, CPU time) for first and second order on
    10^4 … 10^6 cells (a wet dam break with Manning friction), plus the 2-thread rate.
