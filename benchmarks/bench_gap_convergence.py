@@ -12,10 +12,11 @@ section as :func:`breachflow.swe.section.section_speeds` does):
 
 * the open width of the levee line's section and the breach discharge ``Q`` (the closure's definition);
 * the gap speed on the levee line: depth-weighted mean and max (the check's figures);
-* the control section: the first section downstream of the entrance where the section Froude number
-  ``Fr = Q / (A √(g A / T))`` (A the wet area, T the wet width) reaches 1, its position and its mean speed
-  ``Q / A_c`` — at a critical section the mean speed is the critical speed, set by the discharge alone
-  (``(g Q / T)^{1/3}`` on a rectangle: the broad-crested weir's control);
+* the control section (:func:`breachflow.cycle.criteria.control_speed`): the first section of the breach
+  channel, with the flow, where the section Froude number ``Fr = Q / (A √(g A / T))`` (A the wet area, T the
+  wet width) reaches 1, its position and its mean speed ``Q / A_c`` — at a critical section the critical
+  speed, set by the discharge alone (``(g Q / T)^{1/3}`` on a rectangle, printed with T the levee line's
+  wet width: the broad-crested weir's control);
 * the mean speed over the channel ``Q / A`` averaged over the sections between the entrance (the flood-side
   toe) and the levee line, and the CPU seconds of the solve (``time.process_time`` of the child).
 """
@@ -77,7 +78,7 @@ def sections(snap, x_range, ys):
 
 def child(res: float, refine: float | None, wall_slope: float, result: str) -> None:
     from breachflow.cycle.config import closure_setup
-    from breachflow.cycle.criteria import gap_section_speeds, section_discharge
+    from breachflow.cycle.criteria import control_speed, gap_section_speeds, section_discharge
     from breachflow.scenario import load_scenario
 
     with tempfile.TemporaryDirectory() as d:
@@ -95,15 +96,14 @@ def child(res: float, refine: float | None, wall_slope: float, result: str) -> N
     ys = np.arange(-33.4, 33.4 + 1e-9, 0.5)  # the levee footprint: flood-side toe to protected-side toe
     sec = sections(snap, xr_, ys)
     fr = np.array([Q / (A * np.sqrt(GRAVITY * A / T)) if A > 0 and T > 0 else np.nan for A, T, Q, _ in sec])
-    k = int(np.argmax(fr >= 1.0)) if np.any(fr >= 1.0) else -1
     A = np.array([s[0] for s in sec])
+    yc, vc = control_speed(snap, xr_, y0)
     jl = int(np.argmin(np.abs(ys - y0)))
     row = sec[jl]
     out = {"res": res, "refine": refine, "wall_slope": wall_slope, "dx": dx, "cpu": cpu,
            "q": q, "gap_mean": gmean, "gap_max": gmax, "open_width": row[1], "area_levee_line": row[0],
            "fr_levee_line": float(fr[jl]),
-           "y_control": float(ys[k]) if k >= 0 else None,
-           "v_control": q / A[k] if k >= 0 else None,
+           "y_control": yc, "v_control": vc, "v_critical": (GRAVITY * q / row[1]) ** (1 / 3),
            "v_channel": float(np.mean(q / A[: jl + 1])),
            "converged": int(snap.attrs.get("steady_state", 0)), "t": float(snap.attrs.get("simulated_time_s", np.nan))}
     Path(result).write_text(json.dumps(out))
@@ -129,7 +129,7 @@ def main(argv) -> int:
             r = json.loads(Path(result).read_text())
             rows.append(r)
             label = f"{r['res']:g} m" + (f" nested {r['refine']:g} m" if r["refine"] else "")
-            vc = "" if r["v_control"] is None else f"{r['v_control']:.3f} m/s at y = {r['y_control']:+.1f} m"
+            vc = f"{r['v_control']:.3f} m/s at y = {r['y_control']:+.1f} m ((g Q / T)^(1/3) {r['v_critical']:.3f})"
             print(f"wall slope {a.wall_slope:g} | {label} (cells {r['dx']:.3f} m) | open {r['open_width']:.2f} m | "
                   f"Q {r['q']:.1f} m3/s | gap mean {r['gap_mean']:.3f} max {r['gap_max']:.3f} m/s | "
                   f"Fr(levee line) {r['fr_levee_line']:.2f} | control {vc} | channel Q/A {r['v_channel']:.3f} m/s | "
