@@ -1,11 +1,12 @@
 """The typical breach's open-breach flow on a sequence of grids: does it converge, and where is its control?
 
-    python3 tasks.py bench gap_convergence [--grids 8,4,2,4/2,4/1] [--wall-slope 0] [--json FILE]
+    python3 tasks.py bench gap_convergence [--grids 8,4,2,4/2,4/1] [--wall-slope 0] [--scenario FILE] [--json FILE]
 
 ``examples/typical_breach.toml`` as shipped with only ``[hydro] resolution`` (``8``: uniform 8 m cells) or
 ``resolution`` and ``refine`` (``4/1``: a nested 1 m grid at the breach in the 4 m solve, its terrain from the
 preset's analytic geometry) changed, and with ``--wall-slope`` the breach walls' slope ``m_W`` (horizontal per
 vertical; 0: the preset's vertical walls; the report: "vertical to 1V:1H, mostly 2V:1H", 0.5). The open breach
+(``--scenario``: another scenario, e.g. the embedded default ``src/breachflow/data/closure_default.toml``)
 is solved cold to its steady state (the closure's first solve), each grid in a fresh child process. Printed
 per grid, on the sections ``y = const`` of the breach channel (its rows, linearly interpolated to the exact
 section as :func:`breachflow.swe.section.section_speeds` does):
@@ -37,8 +38,11 @@ ROOT = Path(__file__).resolve().parents[1]
 GRAVITY = 9.81
 
 
-def scenario_text(res: float, refine: float | None, wall_slope: float) -> str:
-    text = (ROOT / "examples" / "typical_breach.toml").read_text()
+DEFAULT = ROOT / "examples" / "typical_breach.toml"
+
+
+def scenario_text(res: float, refine: float | None, wall_slope: float, scenario=DEFAULT) -> str:
+    text = Path(scenario).read_text()
     grid = f'resolution = "{res:g} m"' + (f'\nrefine = "{refine:g} m"' if refine else "")
     text = re.sub(r'^resolution = .*$', grid, text, count=1, flags=re.M)
     if wall_slope:
@@ -76,14 +80,14 @@ def sections(snap, x_range, ys):
     return out
 
 
-def child(res: float, refine: float | None, wall_slope: float, result: str) -> None:
+def child(res: float, refine: float | None, wall_slope: float, result: str, scenario=DEFAULT) -> None:
     from breachflow.cycle.config import closure_setup
     from breachflow.cycle.criteria import control_speed, gap_section_speeds, section_discharge
     from breachflow.scenario import load_scenario
 
     with tempfile.TemporaryDirectory() as d:
         path = Path(d) / "s.toml"
-        path.write_text(scenario_text(res, refine, wall_slope))
+        path.write_text(scenario_text(res, refine, wall_slope, scenario))
         t0 = time.process_time()
         setup = closure_setup(load_scenario(path))
         snap = setup.solver.solve(setup.domain)
@@ -114,18 +118,20 @@ def main(argv) -> int:
     ap.add_argument("--grids", default="8,4,2,4/2,4/1")
     ap.add_argument("--wall-slope", type=float, default=0.0)
     ap.add_argument("--json")
+    ap.add_argument("--scenario", default=str(DEFAULT), help="another scenario (its [hydro] resolution changed)")
     ap.add_argument("--child", nargs=4, help=argparse.SUPPRESS)
     a = ap.parse_args(argv)
     if a.child:
         res, ref, ws, result = a.child
-        child(float(res), float(ref) or None, float(ws), result)
+        child(float(res), float(ref) or None, float(ws), result, a.scenario)
         return 0
     rows = []
     with tempfile.TemporaryDirectory() as d:
         for g in a.grids.split(","):
             res, _, ref = g.partition("/")
             result = str(Path(d) / f"r{len(rows)}.json")
-            subprocess.run([sys.executable, __file__, "--child", res, ref or "0", str(a.wall_slope), result], check=True)
+            subprocess.run([sys.executable, __file__, "--scenario", a.scenario, "--child", res, ref or "0",
+                            str(a.wall_slope), result], check=True)
             r = json.loads(Path(result).read_text())
             rows.append(r)
             label = f"{r['res']:g} m" + (f" nested {r['refine']:g} m" if r["refine"] else "")
