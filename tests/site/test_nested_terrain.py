@@ -105,3 +105,31 @@ def test_nested_1m_discharge_and_gap_speed_agree_with_uniform_1m(coarse, uniform
     qn, sn = _scenario_solve(tmp_path, coarse, "1")
     assert abs(qn / q1 - 1) <= 0.02, (qn, q1)
     assert abs(sn / s1 - 1) <= 0.02, (sn, s1)
+
+
+def test_a_site_nested_grid_takes_the_terrain_file_with_the_breach_cut(tmp_path):
+    """The example site (12 m breach cut to 2.0 m in a GeoTIFF levee) at 5 m cells with a nested 0.5 m grid:
+    on the levee line the nested grid's floor is the breach bottom over exactly the breach's 12 m (24 cells),
+    where the coarse 5 m bed interpolated holds it over no cell's full width."""
+    from breachflow.cycle.config import closure_setup
+    from breachflow.scenario import load_scenario
+
+    from .conftest import site_toml
+
+    path = site_toml(tmp_path, replace={"resolution": '"5 m"', "t_max_initial": '"60 s"'},
+                     extra_site="")
+    text = path.read_text().replace('resolution = "5 m"', 'resolution = "5 m"\nrefine = "0.5 m"')
+    path.write_text(text)
+    setup = closure_setup(load_scenario(path))
+    dom = setup.domain
+    assert dom.dx == pytest.approx(0.5)
+    j = int(np.argmin(np.abs(dom.y - setup.levee_y)))
+    floor = np.isclose(dom.bed[j], 2.0, atol=1e-9) & ~dom.obstacle[j]
+    assert floor.sum() == 24
+    xs = dom.x[floor]
+    assert xs.min() - 0.25 == pytest.approx(setup.breach_x[0]) and xs.max() + 0.25 == pytest.approx(setup.breach_x[1])
+    coarse = setup.solver.regional
+    from breachflow.hydro.nested import nested_domain
+
+    smeared, _ = nested_domain(coarse, setup.solver.window, 0.5)
+    assert not (np.isclose(smeared.bed[j], 2.0, atol=1e-9) & ~smeared.obstacle[j]).sum() == 24
