@@ -34,7 +34,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..swe.section import open_wet as _open_wet
-from ..swe.section import snapshot_discharge, snapshot_section_speeds
+from ..swe.section import snapshot_control_section, snapshot_discharge, snapshot_section_speeds
 from ..registry import Registry
 from ..units import to_si
 
@@ -149,6 +149,14 @@ def gap_section_speeds(ds, x_range, y: float) -> tuple[float, float]:
     the mean velocity through the gap's wet flow area that closure design compares with the stones'
     critical speed (Izbash & Khaldre 1970); (0, 0) when no cell of the section is open."""
     return snapshot_section_speeds(ds, x_range, y)
+
+
+def control_speed(ds, x_range, y: float) -> tuple[float, float]:
+    """The breach's control section: ``(position, mean speed)`` (m, m/s), where the flow through the breach
+    channel passes critical depth (:func:`breachflow.swe.section.control_section`). Its speed, the critical
+    speed set by the unit discharge, is the gap speed the verdict check compares between grids
+    (docs/verdict-check.md, *The gap speed that converges*)."""
+    return snapshot_control_section(ds, x_range, y)
 
 
 @criteria.register("blocked_fraction")

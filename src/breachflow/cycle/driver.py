@@ -38,7 +38,7 @@ from ..io import RunDirectory, particles_dataset, trajectories_dataset
 from ..io.cf import pad_particles
 from ..io.cycle_variables import cycle_coordinate, cycle_variables
 from .dem_cycle import CycleDem, dem_view  # noqa: F401  (dem_view: re-exported, the nested tests import it here)
-from .criteria import CycleContext, EndCriteria, gap_section_speeds, section_discharge, seepage_in_section
+from .criteria import CycleContext, EndCriteria, control_speed, gap_section_speeds, section_discharge, seepage_in_section
 from .losses import (LOSS_LIMIT, cannot_close, carried_away_faster, cycle_losses, gap_speed, gap_speed_and_depth,
                      izbash_speed, losses_flagged, not_closable_verdict, rolling_speed)
 from .placement import PlacementPlan
@@ -293,6 +293,7 @@ class ClosureRun:
             ctx0 = CycleContext(cycle=0, snapshot=snapshot, breach_x=s.breach_x, levee_y=s.levee_y)
             self._q_open = section_discharge(snapshot, s.breach_x, s.levee_y)
             gmax, gmean = gap_section_speeds(snapshot, s.breach_x, s.levee_y)
+            yc, vc = control_speed(snapshot, s.breach_x, s.levee_y)
             if s.timeline is not None:
                 s.timeline.record(self._q_open, "start")
                 self.rundir.update_metadata(timeline_start={**s.timeline.state(),
@@ -303,7 +304,8 @@ class ClosureRun:
                 "discharge_proxy": DischargeProxy("0 m^3/s").value(ctx0),
                 "breach_discharge": self._q_open,
                 "gap_speed": gap_speed(snapshot, s.area if s.area is not None else (-np.inf, np.inf, -np.inf, np.inf)),
-                "gap_max_speed": gmax, "gap_mean_speed": gmean,
+                "gap_max_speed": gmax, "gap_mean_speed": gmean, "control_speed": vc if np.isfinite(vc) else None,
+                "control_y": yc if np.isfinite(yc) else None,
                 "solve_wall_time": self.initial_solve_time, "solve_cpu_time": initial_solve_cpu}, warnings=list(s.warnings))
         for g in range(g0 + 1, s.criteria.max_cycles + 1):
             rep, rec, snapshot = self._cycle(g, rec, snapshot)

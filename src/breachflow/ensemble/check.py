@@ -9,7 +9,10 @@ therefore checks its answer (``[check]``, on by default; ``--no-check`` for a qu
 * with ``refine`` the next finer grid: the cell size halved (``grid = "uniform"``) or a nested grid of
   half the cell size around the breach (``grid = "nested"``, ``[hydro] refine``), on which the open
   breach is solved (its breach discharge and gap speed against the run's) and ``refine_seeds`` closures
-  are run.
+  are run. The gap speed judged is the mean speed at the breach's control section, where the flow passes
+  critical depth (:func:`breachflow.cycle.criteria.control_speed`): it converges with the discharge, where
+  the speed past the control, on the levee line, keeps rising as the grid resolves the jet behind square
+  breach heads (docs/verdict-check.md, *The gap speed that converges*); that one is reported, not judged.
 
 The extra closures are the members of an ensemble (:mod:`breachflow.ensemble`, member runner
 ``closure``, design ``members``) in ``RUN/check/``: resumed member by member, run in parallel with
@@ -92,6 +95,8 @@ class CheckRun:
     discharge: float = math.nan      #: open breach's discharge, m³/s
     gap_mean_speed: float = math.nan  #: open breach's depth-weighted mean gap speed, m/s
     gap_max_speed: float = math.nan
+    #: open breach's mean speed at its control section (where the flow passes critical depth), m/s
+    control_speed: float = math.nan
     cpu: float = math.nan            #: CPU s of the closure (or solve), NaN when unknown
     own: bool = False                #: the checked run itself
     error: str = ""
@@ -144,8 +149,8 @@ class CheckResult:
             extra = "" if r.closed is None else f", {r.cycles} cycles, {r.in_place:,.0f} t in place"
             who = f"{r.label}, seed {r.seed}" if r.seed >= 0 else r.label
             out.append((f"  {who}{' (this run)' if r.own else ''}",
-                        f"{what}{extra}; open breach {r.discharge:,.0f} m³/s, gap speed {r.gap_mean_speed:.2f} mean / "
-                        f"{r.gap_max_speed:.2f} max m/s"))
+                        f"{what}{extra}; open breach {r.discharge:,.0f} m³/s, control speed {r.control_speed:.2f} m/s, "
+                        f"gap speed {r.gap_mean_speed:.2f} mean / {r.gap_max_speed:.2f} max m/s"))
         for k, v in self.flow_difference.items():
             out.append((f"  grid difference of the open breach's {k}", f"{100 * v:+.2f} % (tolerance {100 * self.tolerance:g} %)"))
         return out
@@ -160,6 +165,7 @@ class CheckResult:
                           "verdict": r.verdict, "tonnage_t": _f(r.tonnage), "lost_tonnage_t": _f(r.lost_tonnage),
                           "cycles": r.cycles, "open_breach_discharge_m3_s": _f(r.discharge),
                           "open_gap_mean_speed_m_s": _f(r.gap_mean_speed), "open_gap_max_speed_m_s": _f(r.gap_max_speed),
+                          "open_control_speed_m_s": _f(r.control_speed),
                           "cpu_s": _f(r.cpu), "own": r.own, "error": r.error} for r in self.runs],
                 "wall_time_s": self.wall_time, "cpu_time_s": self.cpu_time}
 
@@ -189,6 +195,8 @@ class CheckResult:
             "open_gap_mean_speed": var([r.gap_mean_speed for r in rs], "m s-1",
                                        "depth-weighted mean speed in the gap section of the open breach"),
             "open_gap_max_speed": var([r.gap_max_speed for r in rs], "m s-1", "largest speed in the gap section of the open breach"),
+            "open_control_speed": var([r.control_speed for r in rs], "m s-1",
+                                      "mean speed at the control section (critical depth) of the open breach"),
             "this_run": ("run", np.array([int(r.own) for r in rs], np.int8), {"long_name": "the checked run itself"}),
         }, coords={"run": ("run", np.arange(n, dtype="i4"), {"long_name": "run of the check (this_run: the checked run)",
                                                             "units": "1"})})
@@ -324,7 +332,9 @@ def _run_of(man: dict, res: float, refine, seed: int, *, own: bool = False, cpu:
                     lost_tonnage=float(last.get("lost_tonnage", 0.0)), cycles=len(cycles),
                     discharge=float(ini.get("breach_discharge", math.nan)),
                     gap_mean_speed=float(ini.get("gap_mean_speed", math.nan)),
-                    gap_max_speed=float(ini.get("gap_max_speed", math.nan)), cpu=cpu, own=own)
+                    gap_max_speed=float(ini.get("gap_max_speed", math.nan)),
+                    control_speed=float(ini.get("control_speed") if ini.get("control_speed") is not None else math.nan),
+                    cpu=cpu, own=own)
 
 
 def _member_run(rec: dict, res: float, refine, seed: int) -> CheckRun:
@@ -357,7 +367,7 @@ def _open_breach_cached(path: Path, text: str, sc, scenario_path, res: float, se
 def _open_breach_on(sc, scenario_path, res: float, section: CheckSection) -> CheckRun:
     """The open breach solved on the finer grid (no closure): its discharge and gap speeds."""
     from ..cycle.config import closure_setup
-    from ..cycle.criteria import gap_section_speeds, section_discharge
+    from ..cycle.criteria import control_speed, gap_section_speeds, section_discharge
 
     hydro = sc["hydro"]
     old = (hydro.resolution, hydro.refine)
@@ -375,9 +385,10 @@ def _open_breach_on(sc, scenario_path, res: float, section: CheckSection) -> Che
         hydro.resolution, hydro.refine = old
     q = section_discharge(snap, setup.breach_x, setup.levee_y)
     gmax, gmean = gap_section_speeds(snap, setup.breach_x, setup.levee_y)
+    vc = control_speed(snap, setup.breach_x, setup.levee_y)[1]
     return CheckRun(label=_label(res if section.grid == "nested" else fine, fine if section.grid == "nested" else None),
                     cell_size=fine, seed=-1, closed=None, discharge=float(q), gap_mean_speed=float(gmean),
-                    gap_max_speed=float(gmax), cpu=cpu)
+                    gap_max_speed=float(gmax), control_speed=float(vc), cpu=cpu)
 
 
 # ---------------------------------------------------------------------------------------------- judging
@@ -410,6 +421,7 @@ def judge(runs: list[CheckRun], tolerance: float, *, bed: str = "") -> CheckResu
     if fine:
         f = fine[0]
         for name, a, b in (("breach discharge", coarse.discharge, f.discharge),
+                           ("control speed", coarse.control_speed, f.control_speed),
                            ("gap mean speed", coarse.gap_mean_speed, f.gap_mean_speed),
                            ("gap max speed", coarse.gap_max_speed, f.gap_max_speed)):
             if np.isfinite(a) and np.isfinite(b) and a != 0:
@@ -419,7 +431,10 @@ def judge(runs: list[CheckRun], tolerance: float, *, bed: str = "") -> CheckResu
         by_grid.setdefault(r.label, []).append(r)
     words = {g: _grid_words(rs) for g, rs in by_grid.items()}
     failed = [r for r in runs if r.error]
-    flow_off = {k: v for k, v in out.flow_difference.items() if k != "gap max speed" and abs(v) > tolerance}
+    # the gap speed judged: the control section's (it converges with the discharge), else the levee line's mean
+    # (runs recorded without a control section); the speeds past the control are reported, not judged
+    judged = {"breach discharge", "control speed" if "control speed" in out.flow_difference else "gap mean speed"}
+    flow_off = {k: v for k, v in out.flow_difference.items() if k in judged and abs(v) > tolerance}
     grid_note = ""
     if flow_off:
         grid_note = "; open-breach flow not grid-converged (" + ", ".join(

@@ -3,8 +3,10 @@
 The regional field is an ingested snapshot (ADH/SMS mesh, HEC-RAS sdf or HDF mesh, ESRI grid, or a
 grid snapshot of our own solver). Around the breach a local structured-grid model is built from it:
 
-* terrain: the regional bed interpolated at the local cell centres (bilinear on grids, barycentric on
-  triangles — :class:`~breachflow.field.sampling.FieldSampler`); cells outside the regional field (mesh
+* terrain: from its finest source when one is given (``terrain``: the analytic geometry of a preset or
+  scene, or a site's terrain file, at the local cells — a nested grid of a closure's own coarse solve,
+  ``[hydro] refine``, always has one), else the regional bed interpolated at the local cell centres
+  (bilinear on grids, barycentric on triangles — :class:`~breachflow.field.sampling.FieldSampler`); cells outside the regional field (mesh
   holes such as an intact levee modelled as no-flow, or the regional model's obstacle cells) are local
   obstacles; a grid without an obstacle mask (ESRI grids: the levee is dry terrain) gets one from its
   dry cells that the wet cells' water surface would flood (:mod:`~breachflow.hydro.regional_grid`);
@@ -150,11 +152,17 @@ def _regional_obstacle(regional: xr.Dataset, X, Y) -> np.ndarray:
 
 
 def nested_domain(regional: xr.Dataset, box, resolution: float, manning=0.025, *, name: str = "nested",
-                  leaving: str = "free", frame=None):
+                  leaving: str = "free", frame=None, terrain=None):
     """The local :class:`~breachflow.swe.domain.Domain` in *box* ``(x0, x1, y0, y1)`` at *resolution* and its initial state
     ``(h, hu, hv)`` from *regional*; boundary conditions from the regional field (module docstring). With
     *frame* (:class:`~breachflow.site.frame.GridFrame`) the box and the domain are in its grid coordinates
-    and the velocities grid components; *regional* stays on the CRS axes."""
+    and the velocities grid components; *regional* stays on the CRS axes.
+
+    *terrain*: the finest source of the terrain, ``terrain(X, Y) -> (bed, obstacle)`` at the local cell centres
+    (box coordinates): the analytic geometry of a preset or scene (:func:`breachflow.swe.domain.breach_terrain`)
+    or a site's terrain file (:meth:`breachflow.site.domain.Site.terrain_at`). The local bed and no-flow cells are
+    then its own, not the regional bed interpolated (which smears a breach wall over the regional cells next to
+    it); the initial depth is the regional water surface over the local bed. None: the regional bed."""
     x0, x1, y0, y1 = map(float, box)
     regional = with_no_flow(regional)  # a raster without a no-flow mask (ESRI grids): dry cells it held dry
     dom = uniform_grid(x0, x1, y0, y1, resolution)
@@ -175,6 +183,18 @@ def nested_domain(regional: xr.Dataset, box, resolution: float, manning=0.025, *
     # a raster's no-flow cells (ESRI grids, our own snapshots) keep their own bed, the levee's real shape
     raw = FramedSampler(regional, "bilinear", frame).sample(X.ravel(), Y.ravel()).bed.reshape(dom.shape)
     bed = np.where(inside, bed, np.where(np.isfinite(raw), raw, fill))
+    if terrain is not None:
+        fine_bed, fine_obstacle = terrain(X, Y)
+        fine_bed = np.asarray(fine_bed, float).reshape(dom.shape)
+        if not np.all(np.isfinite(fine_bed)):
+            bad = np.argwhere(~np.isfinite(fine_bed))[0]
+            raise InputError(f"nested box {box}: the terrain has no elevation at "
+                             f"({X[tuple(bad)]:.2f}, {Y[tuple(bad)]:.2f})")
+        inside = smp.inside.reshape(dom.shape) & ~np.asarray(fine_obstacle, bool).reshape(dom.shape)
+        surface = np.nan_to_num(smp.surface.reshape(dom.shape), nan=-np.inf)
+        wet0 = inside & (np.nan_to_num(smp.depth.reshape(dom.shape)) > DRY_DEPTH)
+        h = np.where(wet0, np.maximum(surface - fine_bed, 0.0), 0.0)
+        bed = fine_bed
     u = np.where(inside & (h > DRY_DEPTH), np.nan_to_num(smp.u.reshape(dom.shape)), 0.0)
     v = np.where(inside & (h > DRY_DEPTH), np.nan_to_num(smp.v.reshape(dom.shape)), 0.0)
     dom.bed = bed
@@ -273,6 +293,8 @@ class NestedSolver:
     the closure runs on. ``solve(domain, obstacles=None, initial=None)``: a cold solve starts from the
     regional state; every later one from the previous local state (warm start).
 
+    *terrain*: the local grid's terrain from its finest source (:func:`nested_domain`); None: the regional bed.
+
     *frame*: the :class:`~breachflow.site.frame.GridFrame` of a site whose levee runs in any direction:
     *box*, the domain, the solutions and the DEM's positions are in its grid coordinates, the regional
     field stays on the CRS axes (:class:`FramedSampler`); the solutions carry their map coordinates."""
@@ -282,7 +304,7 @@ class NestedSolver:
 
     def __init__(self, snapshots=None, box=None, resolution: float = 4.0, manning=0.025, *, order: int = 2,
                  courant: float = 0.45, tolerance: float = 2e-3, t_max_initial: float = 300.0, t_max: float = 60.0,
-                 region=None, threads: int | None = 1, leaving: str = "free", frame=None):
+                 region=None, threads: int | None = 1, leaving: str = "free", frame=None, terrain=None):
         if snapshots is None or box is None:
             raise InputError("nested solver: give snapshots= (the ingested regional field) and box=(x0, x1, y0, y1)")
         self.regional = load_regional(snapshots)
@@ -304,7 +326,7 @@ class NestedSolver:
             raise InputError(f"nested box {w} does not overlap the regional field "
                              f"(x {np.min(bx):g}..{np.max(bx):g}, y {np.min(by):g}..{np.max(by):g})")
         self.domain, self.initial_state = nested_domain(self.regional, self.box, resolution, manning,
-                                                        leaving=leaving, frame=self.frame)
+                                                        leaving=leaving, frame=self.frame, terrain=terrain)
         from ..swe.solver import SWEOptions
 
         self.options = SWEOptions(order=order, courant=courant, threads=threads)

@@ -99,6 +99,15 @@ class Site:
     def breach_x(self) -> tuple:
         return (self.centre[0] - 0.5 * self.breach.length, self.centre[0] + 0.5 * self.breach.length)
 
+    def terrain_at(self, X, Y):
+        """``(bed, obstacle)`` at points (X, Y) in the grid coordinates: the terrain file sampled at their map
+        positions with the breach cut, as :func:`build_site` builds the domain's bed, at any spacing (a nested
+        grid's terrain, :func:`breachflow.hydro.nested.nested_domain`); no no-flow cells (the levee is terrain)."""
+        X, Y = np.asarray(X, float), np.asarray(Y, float)
+        MX, MY = self.frame.to_map(X, Y) if self.frame.rotated else (X, Y)
+        s, d = self.levee.frame(MX, MY)
+        return np.minimum(self.terrain.sample(MX, MY), self.breach.cut(s, d, self.half_width)), np.zeros(X.shape, bool)
+
     def level_at(self, t: float) -> float:
         """Flood level (m) at operation time *t* (s): the constant level or the stage hydrograph."""
         if self.stage is None:

@@ -284,6 +284,31 @@ def levee_bed(scene, X: np.ndarray, Y: np.ndarray) -> np.ndarray:
     return bed
 
 
+def levee_obstacle(scene, X: np.ndarray, Y: np.ndarray) -> np.ndarray:
+    """The intact levee as a no-flow region at points (X, Y): its footprint (toe to toe) outside the
+    breach, ``|x| > B/2`` (the report's ADH model; :func:`breach_domain` with ``levee_no_flow``)."""
+    lev = scene.levee
+    half_b = 0.5 * lev.crown_width
+    toe_f = -(half_b + lev.height * lev.flood_slope)
+    toe_p = half_b + lev.height * lev.protected_slope
+    X, Y = np.asarray(X, float), np.asarray(Y, float)
+    return (Y >= toe_f) & (Y <= toe_p) & (np.abs(X) > 0.5 * scene.breach.length)
+
+
+def breach_terrain(scene, *, levee_no_flow: bool = True):
+    """The scene's terrain as a function of position, ``terrain(X, Y) -> (bed, obstacle)``: the analytic bed
+    (:func:`levee_bed`) and, with *levee_no_flow*, the intact levee's no-flow region (:func:`levee_obstacle`)
+    at any points — the terrain a nested grid takes at its own cells instead of interpolating a coarser
+    grid's bed (:func:`breachflow.hydro.nested.nested_domain`, ``terrain``)."""
+
+    def terrain(X, Y):
+        X, Y = np.asarray(X, float), np.asarray(Y, float)
+        obstacle = levee_obstacle(scene, X, Y) if levee_no_flow else np.zeros(X.shape, bool)
+        return levee_bed(scene, X, Y), obstacle
+
+    return terrain
+
+
 def breach_domain(scene, resolution: float, *, levee_no_flow: bool = True, flood_level_profile: bool = True,
                   absorbing_source: bool = True) -> Domain:
     """Structured-grid :class:`Domain` of a :class:`~breachflow.scenario.geometry.BreachScene` at *resolution* (m).
@@ -329,12 +354,9 @@ def breach_domain(scene, resolution: float, *, levee_no_flow: bool = True, flood
 
     half_b = 0.5 * lev.crown_width
     toe_f = -(half_b + lev.height * lev.flood_slope)
-    toe_p = half_b + lev.height * lev.protected_slope
     obstacle = np.zeros(dom.shape, bool)
     if levee_no_flow:
-        in_footprint = (Y >= toe_f) & (Y <= toe_p)
-        outside_breach = np.abs(X) > 0.5 * scene.breach.length
-        obstacle = in_footprint & outside_breach
+        obstacle = levee_obstacle(scene, X, Y)
         # at least one blocked cell per column so that the levee is watertight at any resolution
         jc = int(np.argmin(np.abs(dom.y)))
         obstacle[jc, np.abs(dom.x) > 0.5 * scene.breach.length] = True

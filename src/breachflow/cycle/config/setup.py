@@ -79,9 +79,17 @@ def closure_setup(scenario, *, overrides: dict | None = None):
                                  f"site runs along the levee ({frame.angle_deg:.1f}° from the CRS x axis); leave it out "
                                  f"(the default box is the breach ± (B/2 + 3 B) along the levee and ± 3 B across)")
             box, spacing = hydro.nested_box, fine
+        terrain = None
+        if hydro.refine is not None:  # the nested grid's terrain from its finest source, not the coarse bed
+            if built is not None:
+                terrain = built.terrain_at
+            else:
+                from ...swe.domain import breach_terrain
+
+                terrain = breach_terrain(scene)
         nested = NestedSolver(regional, box, spacing, manning=float(np.mean(dom.manning)),
                               order=hydro.order, courant=hydro.courant, tolerance=hydro.tolerance,
-                              t_max_initial=hydro.t_max_initial, t_max=hydro.t_max, frame=frame)
+                              t_max_initial=hydro.t_max_initial, t_max=hydro.t_max, frame=frame, terrain=terrain)
         if nested.domain.crs_wkt is None:  # regional files without a CRS (e.g. ADH without its .prj): the site's
             nested.domain.crs_wkt = dom.crs_wkt
         elif built is not None and hydro.refine is None:
