@@ -118,8 +118,13 @@ def test_mix_fractions_hold_by_tonnage():
     mass, rho, idx = mix.sample(np.random.default_rng(4), 20000)
     t = np.array([mass[idx == k].sum() for k in range(2)]) / mass.sum()
     assert t == pytest.approx([0.25, 0.75], abs=0.02)
-    with pytest.raises(InputError, match="one drag coefficient"):
-        MaterialMix(["HMA_1000_3000", "concrete_cube"])
+    # materials of different shape drag mix: each keeps its own (the DEM carries it per mass)
+    mix = MaterialMix(["HMA_1000_3000", "concrete_cube"], [0.5, 0.5])
+    units = mix.unit_parameters()
+    assert [u["drag_coefficient"] for u in units] == [get_material("HMA_1000_3000").drag_coefficient, 1.05]
+    assert [u["rolling_friction"] for u in units] == [get_material("HMA_1000_3000").rolling_friction,
+                                                       get_material("concrete_cube").rolling_friction]
+    assert mix.dem_parameters()["drag_coefficient"] is None  # no one value shared
 
 
 def test_builtins_are_declared_as_entry_points():

@@ -87,15 +87,15 @@ def fluid_verlet_steps(nmax, t, idx, pos, vel, omega, vel_prev, omega_prev, forc
     *planes* ``(point, normal, velocity, props, hist, rhist, reaction)`` stacked per fixed plane; *hf_at*
     the position of the height field among the boundaries (-1: none), *hf* its ``(x0, y0, hx, hy, bed,
     props, hist, rhist)``; *fluid_on* whether there is a fluid model, *field* its fused field arguments
-    (``FluidForces._fused``), *fluid* ``(wind, rho_w, nu_w, rho_a, nu_a, with_air, gravity, law, params, xi,
-    time_step, torque, rho_a_added)``; *fm*, *tm* the model force/torque rows (``sim._fm``/``_tm``);
+    (``FluidForces._fused``), *fluid* ``(wind, rho_w, nu_w, rho_a, nu_a, with_air, gravity, law, params,
+    own drag coefficients, own lift coefficients, xi, time_step, torque, rho_a_added)``; *fm*, *tm* the model force/torque rows (``sim._fm``/``_tm``);
     *inv_m* receives the inverse masses with the apparent mass (``sim._inv_m_added``, or ``sim._inv_m``
     without fluid, then untouched).
     """
     pl_point, pl_normal, pl_vel, pl_props, pl_hist, pl_rhist, pl_reaction = planes
     hx0, hy0, hhx, hhy, hbed, hprops, hhist, hrhist = hf
     method, bed, depth, u, v, x0, y0, dx, dy, smax, outside_air, profile, k_s, bedp = field
-    wind, rho_w, nu_w, rho_a, nu_a, with_air, grav, dlaw, params, xi, time_step, do_torque, rho_am = fluid
+    wind, rho_w, nu_w, rho_a, nu_a, with_air, grav, dlaw, params, cds, cls, xi, time_step, do_torque, rho_am = fluid
     nb = pl_point.shape[0] + (1 if hf_at >= 0 else 0)
     phi = np.empty(idx.shape[0])
     if fluid_on:  # the apparent mass at the start positions (as DemSimulation.inverse_mass)
@@ -164,7 +164,7 @@ def fluid_verlet_steps(nmax, t, idx, pos, vel, omega, vel_prev, omega_prev, forc
             zero_rows(idx, fm, tm)
             grid_fluid_forces_phi(idx, pos, ve, we, pos, awake, radius, method, bed, depth, u, v, x0, y0, dx, dy,
                                   smax, outside_air, profile, k_s, bedp, wind, rho_w, nu_w, rho_a, nu_a, with_air, grav,
-                                  dlaw, params, xi, time_step, do_torque, fm, tm, phi)
+                                  dlaw, params, cds, cls, xi, time_step, do_torque, fm, tm, phi)
             for k in range(idx.shape[0]):
                 i = idx[k]
                 for d in range(3):
@@ -265,12 +265,14 @@ def run(sim, nmax: int, e_tol: float = -1.0, crit: int = 0, consecutive: int = 1
         inv_m = sim._inv_m_added
         air = model.air if model.air is not None else model.water
         fluid = (model.wind, model.water.rho, model.water.nu, air.rho, air.nu, model.air is not None, model.gravity,
-                 model.drag_law.law_id, model.drag_law.params, model.xi, model.time_step or 0.0, model.torque,
+                 model.drag_law.law_id, model.drag_law.params, *model.own_coefficients(s), model.xi,
+                 model.time_step or 0.0, model.torque,
                  0.0 if model.air is None else model.air.rho)
         field = model._fused
     else:
         inv_m = sim._inv_m
-        fluid = (np.zeros(3), 1.0, 1.0, 1.0, 1.0, False, 0.0, 0, np.zeros(1), 0.0, 0.0, False, 0.0)
+        fluid = (np.zeros(3), 1.0, 1.0, 1.0, 1.0, False, 0.0, 0, np.zeros(1), np.zeros(1), np.zeros(1), 0.0, 0.0,
+                 False, 0.0)
         field = _NO_FIELD
     integ, w, dt = sim.integrator, sim.work, sim._dt
     nl, sl = sim.pairs, sim.sleepers

@@ -13,6 +13,7 @@ import numpy as np
 import xarray as xr
 
 from ..dem import DemSimulation, HeightField
+from ..dem.state import UNSET
 from ..fluid.forces import FluidForces
 from ..fluid.profile import roughness_from_manning
 from ..field.sampling import FieldSampler
@@ -123,15 +124,27 @@ class CycleDem:
         heaviest = p.density[1] * 4.0 / 3.0 * np.pi * (0.5 * p.diameter[1]) ** 3
         return self.material(p.density[1], heaviest)
 
-    def add(self, sim, pos, radius, density, vel=None, omega=None):
-        """Insert masses, one call per distinct density (no per-particle Python work for big piles)."""
+    def add(self, sim, pos, radius, density, vel=None, omega=None, material=None):
+        """Insert masses, one call per distinct density and material (no per-particle Python work for big piles).
+
+        *material* (n,): each mass's index into the run's closure materials (``DemSettings.units``, the
+        placement's mix); its masses carry that material's friction, rolling resistance, drag and lift
+        coefficients (docs: *Materials and the seal*). None (spheres): the run's ``[dem]`` material and drag law."""
         idx = np.zeros(len(radius), int)
+        units = self.setup.dem.units
+        which = np.zeros(len(radius), int) if material is None or not units else np.asarray(material, int)
         for rho in np.unique(density):
-            sel = np.flatnonzero(density == rho)
-            mass_ref = rho * 4.0 / 3.0 * np.pi * float(np.median(radius[sel])) ** 3
-            idx[sel] = sim.add_particles(pos[sel], radius[sel], self.material(rho, mass_ref),
-                                         vel=None if vel is None else vel[sel],
-                                         omega=None if omega is None else omega[sel])
+            for m in np.unique(which[density == rho]):
+                sel = np.flatnonzero((density == rho) & (which == m))
+                mass_ref = rho * 4.0 / 3.0 * np.pi * float(np.median(radius[sel])) ** 3
+                mat = self.material(rho, mass_ref)
+                own = {}
+                if material is not None and units:
+                    u = units[int(m)]
+                    mat = replace(mat, friction=u["friction"], rolling_friction=u["rolling_friction"])
+                    own = {k: (UNSET if u[k] is None else u[k]) for k in ("drag_coefficient", "lift_coefficient")}
+                idx[sel] = sim.add_particles(pos[sel], radius[sel], mat, vel=None if vel is None else vel[sel],
+                                             omega=None if omega is None else omega[sel], **own)
         return idx
 
     def settle(self, sim, max_time, record_ids=None):

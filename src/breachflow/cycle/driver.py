@@ -40,7 +40,7 @@ from ..io.cycle_variables import cycle_coordinate, cycle_variables
 from .dem_cycle import CycleDem, dem_view  # noqa: F401  (dem_view: re-exported, the nested tests import it here)
 from .criteria import CycleContext, EndCriteria, control_speed, gap_section_speeds, section_discharge, seepage_in_section
 from .losses import (LOSS_LIMIT, cannot_close, carried_away_faster, cycle_losses, gap_speed, gap_speed_and_depth,
-                     izbash_speed, losses_flagged, not_closable_verdict, rolling_speed)
+                     izbash_speed, losses_flagged, not_closable_verdict, rolling_speed, verdict_drag_law)
 from .placement import PlacementPlan
 from .strategies import PileView
 from .strategies import band as strategy_band
@@ -80,6 +80,10 @@ class DemSettings:
     #: the ``[bed]`` settings (:class:`~breachflow.cycle.config.BedSettings`): rough terrain, near-bed forces,
     #: erosion; None: smooth terrain, centre-height flow
     bed: object = None
+    #: per closure material of the placement (the index a release carries): the ``friction``,
+    #: ``rolling_friction``, ``drag_coefficient`` and ``lift_coefficient`` its masses carry (None: the run's drag
+    #: law / lift term); empty: every mass takes ``material`` and ``drag_law``
+    units: tuple = ()
 
     def __post_init__(self):
         for name in ("e_tol", "max_time", "rest_speed", "record_interval", "stability_time", "rest_time"):
@@ -368,7 +372,7 @@ class ClosureRun:
 
         sill = self._pile_view(sim, rec) if s.placement.uses_pile else None
         rel = s.placement.release(g, s.seed, surface_at, pile=sill)
-        new_ids = self.dem.add(sim, rel.pos, rel.radius, rel.density)
+        new_ids = self.dem.add(sim, rel.pos, rel.radius, rel.density, material=rel.material)
         placed_cycle = np.concatenate([rec["placed_cycle"], np.full(len(new_ids), g, np.int32)])
         if s.timeline is not None:  # the operation time after delivering every mass placed so far
             s.timeline.advance(float(sim.state.mass[:sim.state.n].sum()))
@@ -519,7 +523,7 @@ class ClosureRun:
         rho = float(np.median(rel.density))
         speed, depth = gap_speed_and_depth(snapshot, area)
         factor = float(profile_factors(d.velocity_profile, 0.5 * diam, depth, self.dem.fluid_roughness()))
-        roll = rolling_speed(diam, rho, d.material.rolling_friction, d.drag_law)
+        roll = rolling_speed(diam, rho, d.material.rolling_friction, verdict_drag_law(d, s.placement))
         if not cannot_close(losses, s.loss_limit, speed=speed, izbash=float(izbash_speed(diam, rho)),
                             felt_speed=factor * speed, roll_speed=roll):
             return ""

@@ -150,6 +150,18 @@ def rolling_speed(diameter: float, density: float, rolling_friction: float, drag
     return u
 
 
+def verdict_drag_law(dem, placement):
+    """The drag law of the "not closable" verdict's :func:`rolling_speed`: the run's (``dem.drag_law``), or for a
+    mix of closure materials whose drag coefficients differ, the constant law of their tonnage-weighted mean
+    (each mass in the DEM keeps its own)."""
+    p = None if placement is None else placement.dem_parameters()
+    if p is None or p["drag_coefficient"] is not None or p.get("drag_coefficient_mean") is None:
+        return dem.drag_law
+    from ..fluid.drag import DRAG_LAWS
+
+    return DRAG_LAWS.create("constant", value=p["drag_coefficient_mean"])
+
+
 def not_closable_verdict(cycle: int, lost: int, placed: int, lost_t: float, placed_t: float, diameters,
                          density, speed: float, *, lost_placed: int | None = None, roll_speed: float | None = None,
                          bed_factor: float = 1.0, cohort: CycleLosses | None = None) -> str:

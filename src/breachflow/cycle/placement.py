@@ -28,12 +28,15 @@ POSITION_MODES = ("line", "zone", "list", "vertical", "horizontal")
 
 @dataclass
 class Release:
-    """The masses of one cycle: centres (n, 3) m, radii (n,) m, densities (n,) kg/m³, time (s)."""
+    """The masses of one cycle: centres (n, 3) m, radii (n,) m, densities (n,) kg/m³, time (s); ``material``
+    (n,) the index of each mass's material in the plan's mix (:meth:`PlacementPlan.unit_parameters`), None
+    for the spheres of ``diameter``."""
 
     pos: np.ndarray
     radius: np.ndarray
     density: np.ndarray
     time: float
+    material: np.ndarray | None = None
 
 
 @dataclass
@@ -177,6 +180,12 @@ class PlacementPlan:
         coefficients), None for spheres."""
         return None if self._mix is None else self._mix.dem_parameters()
 
+    def unit_parameters(self) -> list[dict] | None:
+        """Per material of ``material`` (the index a :class:`Release` carries): friction, rolling friction,
+        drag and lift coefficients each of its masses carries (:meth:`~breachflow.materials.MaterialMix.unit_parameters`);
+        None for spheres."""
+        return None if self._mix is None else self._mix.unit_parameters()
+
     @property
     def strategy(self):
         """The placement strategy object named by ``positions``."""
@@ -206,10 +215,11 @@ class PlacementPlan:
         release, for the strategies that read it (``uses_pile``)."""
         rng = np.random.default_rng([int(seed), int(g)])
         n = self.batch
+        which = None
         if self._mix is not None:
             from ..materials import sphere_diameter
 
-            mass, rho, _ = self._mix.sample(rng, n)
+            mass, rho, which = self._mix.sample(rng, n)
             d = sphere_diameter(mass, rho)  # the volume-equivalent sphere of each unit
         else:
             d = rng.uniform(self.diameter[0], self.diameter[1], n) if self.diameter[1] > self.diameter[0] else np.full(n, self.diameter[0])
@@ -227,7 +237,7 @@ class PlacementPlan:
             raise InputError(f"placement: release point(s) {xy[~np.isfinite(z)].tolist()} lie outside the field")
         # masses of one batch must not be spawned overlapping: stack them vertically if they would
         pos = destack(np.column_stack([xy, z]), r)
-        return Release(pos=pos, radius=r, density=rho, time=self.operation_time(int(k[-1]) + 1))
+        return Release(pos=pos, radius=r, density=rho, time=self.operation_time(int(k[-1]) + 1), material=which)
 
 
 def destack(pos: np.ndarray, r: np.ndarray) -> np.ndarray:

@@ -13,7 +13,7 @@ import numpy as np
 from ..errors import InputError
 from . import memory
 from .boundaries import Plane
-from .state import ParticleState
+from .state import FLUID_FIELDS, ParticleState
 
 
 #: the arrays a checkpoint holds (besides the particle state, work arrays and boundaries): the key after
@@ -91,7 +91,9 @@ def from_state(cls, data, *, boundaries=(), models=(), **kwargs):
     does not match the saved one (e.g. the Basset force on in one, off in the other) is an InputError.
     """
     try:
-        state = ParticleState(**{f.name: np.array(data["state." + f.name]) for f in fields(ParticleState)})
+        # the per-particle fluid parameters are absent from states saved before they existed: the run's values
+        state = ParticleState(**{f.name: np.array(data["state." + f.name]) for f in fields(ParticleState)
+                                 if f.name not in FLUID_FIELDS or "state." + f.name in data})
         nb = int(data["n_boundaries"])
     except KeyError as e:
         raise InputError(f"DEM state lacks entry {e.args[0]!r} (not written by save_state?)") from None

@@ -38,7 +38,7 @@ from .integrators import integrators
 from .contact_law import STEP_AVERAGED
 from .pairlist import PairList
 from .sleeping import Sleepers
-from .state import Material, ParticleState
+from .state import UNSET, Material, ParticleState
 from .timestep import SAFETY, check_dt, stable_dt
 
 
@@ -176,9 +176,13 @@ class DemSimulation:
             self.geom[d], self.geom[3 + d], self.geom[6 + d], self.ncell[d] = lo, L / n, L, n
         self.pairs.invalidate()
 
-    def add_particles(self, pos, radius, material: Material | None = None, vel=None, omega=None) -> np.ndarray:
-        """Insert spheres (SI); returns their indices. They start awake."""
-        idx = self.state.add(pos, radius, material, vel=vel, omega=omega)
+    def add_particles(self, pos, radius, material: Material | None = None, vel=None, omega=None, *,
+                      drag_coefficient=UNSET, lift_coefficient=UNSET) -> np.ndarray:
+        """Insert spheres (SI); returns their indices. They start awake. *drag_coefficient*,
+        *lift_coefficient*: the particles' own fluid parameters (:class:`~.state.ParticleState`; unset: the
+        force model's)."""
+        idx = self.state.add(pos, radius, material, vel=vel, omega=omega, drag_coefficient=drag_coefficient,
+                             lift_coefficient=lift_coefficient)
         self._on_added(idx)
         return idx
 

@@ -22,6 +22,14 @@ rolling friction ``mu_r`` (extension)  ``rolling_friction``  1
 
 ``rolling_friction`` is not in the report (its spheres roll freely); it stands in for the shape
 resistance of angular blocks (elastic–plastic rolling spring, :func:`.contact_law.rolling_law`).
+
+Per-particle fluid parameters (:data:`FLUID_FIELDS`, read by :class:`breachflow.fluid.forces.FluidForces`):
+``drag_coefficient`` the particle's own Newton-regime drag coefficient (its shape's, e.g. angular rock or a
+cube; used at every Reynolds number, in water and in air) and ``lift_coefficient`` its own lift coefficient
+(replaces the lift term's C_L where the near-bed lift is on). :data:`UNSET` (NaN, the default) means "the
+run's": the force model's drag law, the lift term's coefficient. A closure run fills them from each mass's
+material when it is placed (:mod:`breachflow.materials`), so that masses of different materials in one run
+each feel their own drag.
 """
 from __future__ import annotations
 
@@ -33,6 +41,10 @@ from ..errors import InputError
 
 #: per-particle material fields (Table 3.1), in the order used by the kernels
 MATERIAL_FIELDS = ("adhesion", "friction", "kn", "ks", "c_cn", "c_cs", "c_cf", "c_gn", "c_gw", "rolling_friction")
+#: per-particle fluid parameters (module docstring); :data:`UNSET` = the run's drag law / lift coefficient
+FLUID_FIELDS = ("drag_coefficient", "lift_coefficient")
+#: the value of a per-particle fluid parameter that the particle does not set (the run's value applies)
+UNSET = float("nan")
 
 
 @dataclass(frozen=True)
@@ -135,12 +147,19 @@ class ParticleState:
     active: np.ndarray
     vel_prev: np.ndarray = field(default=None)
     omega_prev: np.ndarray = field(default=None)
+    #: the particle's own drag coefficient (:data:`UNSET`: the force model's drag law), module docstring
+    drag_coefficient: np.ndarray = field(default=None)
+    #: the particle's own lift coefficient (:data:`UNSET`: the lift term's), module docstring
+    lift_coefficient: np.ndarray = field(default=None)
 
     def __post_init__(self):
         if self.vel_prev is None:
             self.vel_prev = self.vel.copy()
         if self.omega_prev is None:
             self.omega_prev = self.omega.copy()
+        for name in FLUID_FIELDS:  # states saved before these existed: every particle takes the run's values
+            if getattr(self, name) is None:
+                setattr(self, name, np.full(self.radius.shape[0], UNSET))
         self.refresh_props()
 
     # ------------------------------------------------------------------ construction
@@ -162,8 +181,11 @@ class ParticleState:
         s.add(pos, radius, material, vel=vel, omega=omega)
         return s
 
-    def add(self, pos, radius, material: Material | None = None, vel=None, omega=None) -> np.ndarray:
-        """Append spheres; returns their indices. Validates finiteness and positivity."""
+    def add(self, pos, radius, material: Material | None = None, vel=None, omega=None, drag_coefficient=UNSET,
+            lift_coefficient=UNSET) -> np.ndarray:
+        """Append spheres; returns their indices. Validates finiteness and positivity. *drag_coefficient* and
+        *lift_coefficient* (scalar or (n,)) are the particles' own fluid parameters (module docstring;
+        :data:`UNSET`: the run's)."""
         material = material or Material()
         pos = np.atleast_2d(np.asarray(pos, dtype=float))
         if pos.ndim != 2 or pos.shape[1] != 3:
@@ -177,6 +199,14 @@ class ParticleState:
                 raise InputError(f"particle {name} contains NaN or infinity")
         if np.any(radius <= 0):
             raise InputError("particle radius must be > 0")
+        fluid = {}
+        for name, v in (("drag_coefficient", drag_coefficient), ("lift_coefficient", lift_coefficient)):
+            a = np.broadcast_to(np.asarray(UNSET if v is None else v, dtype=float), (n,)).copy()
+            ok = np.isnan(a) | (np.isfinite(a) & ((a > 0) if name == "drag_coefficient" else (a >= 0)))
+            if not ok.all():
+                raise InputError(f"particle {name} must be {'> 0' if name == 'drag_coefficient' else '>= 0'} "
+                                 f"(or unset), got {a[~ok][0]!r}")
+            fluid[name] = a
         mass = sphere_mass(radius, material.density)
         values = dict(
             pos=pos, vel=vel, omega=omega, radius=radius, mass=mass,
@@ -185,7 +215,7 @@ class ParticleState:
             kn=np.full(n, material.kn), ks=np.full(n, material.ks_value), c_cn=np.full(n, material.c_cn),
             c_cs=np.full(n, material.c_cs), c_cf=np.full(n, material.c_cf), c_gn=np.full(n, material.c_gn),
             c_gw=np.full(n, material.c_gw), rolling_friction=np.full(n, material.rolling_friction), awake=np.ones(n, bool), active=np.ones(n, bool),
-            vel_prev=vel.copy(), omega_prev=omega.copy(),
+            vel_prev=vel.copy(), omega_prev=omega.copy(), **fluid,
         )
         n0 = self.n
         for name, v in values.items():

@@ -95,7 +95,7 @@ def grid_added_masses(rows, pos, radius, method, bed, depth, u, v, x0, y0, dx, d
 @numba.njit(cache=True)
 def grid_fluid_forces(idx, pos, vel, omega, state_pos, awake, radius, method, bed, depth, u, v, x0, y0, dx, dy,
                       smax, outside_air, profile, k_s, bedp, wind, rho_w, nu_w, rho_a, nu_a, with_air, g, law, params,
-                      xi, time_step, do_torque, force, torque):
+                      cds, cls, xi, time_step, do_torque, force, torque):
     """Add buoyancy, drag, convective apparent mass and gridpoint torque on particles *idx* to *force*/*torque*.
 
     The kinematics are rows of *pos*/*vel*/*omega*; a sleeping particle (``awake`` False) is taken at rest
@@ -107,17 +107,19 @@ def grid_fluid_forces(idx, pos, vel, omega, state_pos, awake, radius, method, be
     particle's centre height, here and at the predicted position of the convective term (the gridpoint
     torque uses the depth-averaged gridpoint velocities, as the step path); with the near-bed terms on
     (*bedp*, :mod:`~breachflow.fluid.nearbed`) the near-bed velocity and the lift instead. ``time_step`` 0 means the
-    default horizon of the convective term, ``0.125 max(s_max, 1e-3) / max |v_h|``. Returns -1 on success.
+    default horizon of the convective term, ``0.125 max(s_max, 1e-3) / max |v_h|``. *cds*, *cls* (N,): each
+    particle's own drag and lift coefficients (NaN: the law *law*/*params*, the lift term's;
+    :class:`~breachflow.dem.state.ParticleState`). Returns -1 on success.
     """
     return grid_fluid_forces_phi(idx, pos, vel, omega, state_pos, awake, radius, method, bed, depth, u, v, x0, y0,
                                  dx, dy, smax, outside_air, profile, k_s, bedp, wind, rho_w, nu_w, rho_a, nu_a, with_air,
-                                 g, law, params, xi, time_step, do_torque, force, torque, np.empty(idx.size))
+                                 g, law, params, cds, cls, xi, time_step, do_torque, force, torque, np.empty(idx.size))
 
 
 @numba.njit(cache=True)
 def grid_fluid_forces_phi(idx, pos, vel, omega, state_pos, awake, radius, method, bed, depth, u, v, x0, y0, dx, dy,
                           smax, outside_air, profile, k_s, bedp, wind, rho_w, nu_w, rho_a, nu_a, with_air, g, law,
-                          params, xi, time_step, do_torque, force, torque, phi):
+                          params, cds, cls, xi, time_step, do_torque, force, torque, phi):
     """:func:`grid_fluid_forces`, leaving the submerged fraction of particle ``idx[k]`` in ``phi[k]`` (0 outside
     the field or in the air): with :func:`apparent_mass` the next step's apparent mass at the same positions
     without sampling the field again (the DEM's compiled step loop, :mod:`breachflow.coupling.steploop`)."""
@@ -178,18 +180,18 @@ def grid_fluid_forces_phi(idx, pos, vel, omega, state_pos, awake, radius, method
             ry = pv[k, 1] - sv[k]
             rz = pv[k, 2]
             s = math.sqrt(rx * rx + ry * ry + rz * rz)
-            kk = f * K.drag_factor(law, params, rho_w, nu_w, d, s)
+            kk = f * K.drag_factor(law, params, cds[i], rho_w, nu_w, d, s)
             fx -= kk * rx
             fy -= kk * ry
             fz -= kk * rz
             if lam[k] > 0.0:
-                fz += lift_force(bedp, lam[k], rho_w, a, f, rx, ry)
+                fz += lift_force(bedp, lam[k], rho_w, a, f, rx, ry, cls[i])
         if with_air and f < 1.0:
             rx = pv[k, 0] - wind[0]
             ry = pv[k, 1] - wind[1]
             rz = pv[k, 2] - wind[2]
             s = math.sqrt(rx * rx + ry * ry + rz * rz)
-            kk = (1.0 - f) * K.drag_factor(law, params, rho_a, nu_a, d, s)
+            kk = (1.0 - f) * K.drag_factor(law, params, cds[i], rho_a, nu_a, d, s)
             fx -= kk * rx
             fy -= kk * ry
             fz -= kk * rz
@@ -211,19 +213,22 @@ def grid_fluid_forces_phi(idx, pos, vel, omega, state_pos, awake, radius, method
         force[i, 2] += fz
     if do_torque and any_wet:
         _torque_rows(idx, px, pv, po, radius, phi, x0, y0, dx, dy, u, v, depth, smax, rho_w, nu_w, law, params,
-                     torque)
+                     cds, torque)
     return -1
 
 
 @numba.njit(cache=True)
-def _torque_rows(idx, px, pv, po, radius, phi, x0, y0, dx, dy, u, v, depth, smax, rho_w, nu_w, law, params, torque):
+def _torque_rows(idx, px, pv, po, radius, phi, x0, y0, dx, dy, u, v, depth, smax, rho_w, nu_w, law, params, cds,
+                 torque):
     """:func:`~breachflow.fluid.kernels.neighbourhood_torque` of the gathered rows, added to ``torque[idx]``."""
     n = idx.size
     rad = np.empty(n)
+    cd = np.empty(n)
     for k in range(n):
         rad[k] = radius[idx[k]]
+        cd[k] = cds[idx[k]]
     tq = np.zeros((n, 3))
-    K.neighbourhood_torque(px, pv, po, rad, phi, x0, y0, dx, dy, u, v, depth, smax, rho_w, nu_w, law, params, tq)
+    K.neighbourhood_torque(px, pv, po, rad, phi, x0, y0, dx, dy, u, v, depth, smax, rho_w, nu_w, law, params, cd, tq)
     for k in range(n):
         i = idx[k]
         torque[i, 0] += tq[k, 0]

@@ -6,6 +6,9 @@ Per particle, with ``V_sub`` the submerged volume (spherical cap while straddlin
 * buoyancy ``f_B = (rho_W V_sub + rho_A (V - V_sub)) g e_z`` (gravity ``rho_S V g`` is the DEM's);
 * drag ``f_D = -1/2 A [phi rho_W C_D(R_W) |r_W| r_W + (1 - phi) rho_A C_D(R_A) |r_A| r_A]``,
   ``r_W = v - (u, v, 0)`` relative to the sampled water velocity, ``r_A = v - wind``, ``R = |r| D / nu``;
+  ``C_D`` the model's drag law, or a particle's own drag coefficient where it has one (the state's
+  ``drag_coefficient``, e.g. a closure material's shape drag; also in the gridpoint torque), so that
+  masses of different materials in one simulation each feel their own;
 * apparent mass: :meth:`FluidForces.added_mass` returns ``xi (rho_W V_sub + rho_A (V - V_sub))``, which the
   integrators add to ``m``; :meth:`FluidForces.accumulate` adds the convective part ``xi rho_W V_sub (u(x_pred) - u(x)) / dt``
   with ``x_pred = x + v dt`` in the frozen field (Fig 4.3 Step 7H);
@@ -258,6 +261,18 @@ class FluidForces:
         K.submerged_fractions(pos, radius, surface, bed, inside, phi)
         return phi
 
+    @staticmethod
+    def own_coefficients(state):
+        """``(drag, lift)`` (N,) each: the particles' own drag and lift coefficients
+        (:class:`~breachflow.dem.state.ParticleState` ``drag_coefficient``, ``lift_coefficient``; NaN where a
+        particle takes the model's drag law and the lift term's coefficient). A state without them: all NaN."""
+        n = state.radius.shape[0]
+        out = []
+        for name in ("drag_coefficient", "lift_coefficient"):
+            a = getattr(state, name, None)
+            out.append(np.full(n, np.nan) if a is None or a.shape[0] != n else a)
+        return out[0], out[1]
+
     # -- ForceModel protocol --------------------------------------------------------------------------
     def added_mass(self, state, pos=None, idx=None) -> np.ndarray | None:
         """Apparent mass ``xi (rho_W V_sub + rho_A (V - V_sub))`` (kg) per particle at ``state.pos`` (or *pos*);
@@ -302,7 +317,8 @@ class FluidForces:
             air = self.air if self.air is not None else self.water
             k = grid_fluid_forces(ids, pos, vel, omega, state.pos, awake, state.radius, *self._fused, self.wind,
                                   self.water.rho, self.water.nu, air.rho, air.nu, self.air is not None, self.gravity,
-                                  self.drag_law.law_id, self.drag_law.params, self.xi, self.time_step or 0.0,
+                                  self.drag_law.law_id, self.drag_law.params, *self.own_coefficients(state), self.xi,
+                                  self.time_step or 0.0,
                                   self.torque, force, torque)
             if k < 0:
                 return
@@ -316,12 +332,14 @@ class FluidForces:
         f = np.zeros((idx.size, 3))
         tq = np.zeros((idx.size, 3))
         law, params = self.drag_law.law_id, self.drag_law.params
+        cds, cls = (np.ascontiguousarray(a[idx]) for a in self.own_coefficients(state))
         air = self.air if self.air is not None else self.water
         K.buoyancy_and_drag(p, w, rad, phi, u, v, self.wind, self.water.rho, self.water.nu, air.rho, air.nu,
-                            self.gravity, law, params, self.air is not None, f)
-        if self.near_bed_on and self.bedp[NB.LIFT] > 0.0:  # lift (fluid/nearbed.py)
+                            self.gravity, law, params, cds, self.air is not None, f)
+        if self.near_bed_on and self.bedp[NB.LIFT] > 0.0:  # lift (fluid/nearbed.py); a particle's own C_L wins
             rx, ry = w[:, 0] - u, w[:, 1] - v
-            f[:, 2] += (0.5 * self.water.rho * self.bedp[NB.LIFT] * np.pi * rad ** 2 * phi
+            c_l = np.where(cls >= 0.0, cls, self.bedp[NB.LIFT])
+            f[:, 2] += (0.5 * self.water.rho * c_l * np.pi * rad ** 2 * phi
                         * np.maximum(self._lam, 0.0) * (rx * rx + ry * ry))
         wet = phi > 0.0
         if wet.any():
@@ -330,7 +348,7 @@ class FluidForces:
             if self.xi > 0.0 and not self.field.uniform:
                 self._convective(p, w, rad, phi, u, v, inside, f)
             if self.torque:
-                self._torque(p, w, om, rad, phi, u, v, tq)
+                self._torque(p, w, om, rad, phi, u, v, tq, cds)
         force[idx] += f
         torque[idx] += tq
 
@@ -388,17 +406,18 @@ class FluidForces:
         v1 = np.where(ok, sv, v)
         K.convective_added_mass(rad, phi, u, v, u1, v1, horizon, self.water.rho, self.xi, f)
 
-    def _torque(self, p, w, om, rad, phi, u, v, tq):
+    def _torque(self, p, w, om, rad, phi, u, v, tq, cds):
         law, params = self.drag_law.law_id, self.drag_law.params
         grid = getattr(self.field, "grid", None)
         if self.field.uniform:
             if not np.any(om):
                 return  # a uniform stream exerts no torque on a non-spinning sphere
             K.uniform_field_torque(w, om, rad, phi, u, v, self.torque_points, self.water.rho, self.water.nu,
-                                   law, params, tq)
+                                   law, params, cds, tq)
         elif grid is not None:
             K.neighbourhood_torque(p, w, om, rad, phi, grid.x0, grid.y0, grid.dx, grid.dy, grid.u, grid.v,
-                                   grid.depth, self.field.s_max, self.water.rho, self.water.nu, law, params, tq)
+                                   grid.depth, self.field.s_max, self.water.rho, self.water.nu, law, params, cds,
+                                   tq)
         # meshes: no gridpoint torque yet (documented limitation)
 
     def __repr__(self):

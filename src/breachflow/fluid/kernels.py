@@ -64,10 +64,22 @@ def submerged_fraction(z, radius, surface, bed=-math.inf):
 
 
 @numba.njit(cache=True, inline="always")
-def drag_factor(law, params, rho, nu, diameter, speed):
-    """``k`` in ``f_D = -k r``: ``k = 1/2 C_D rho A |r| = rho nu A (C_D R) / (2 D)``, ``R = |r| D / nu`` (docs/theory.md, *Fluid forces on a mass*)."""
+def particle_cd_re(law, params, cd, r):
+    """``C_D R`` of a particle at Reynolds number *r*: its own drag coefficient *cd* (a shape's Newton-regime
+    value, :class:`~breachflow.dem.state.ParticleState` ``drag_coefficient``) when set (> 0), else the run's
+    law *law*/*params* (NaN, unset). ``cd * r`` is the ``constant`` law's arithmetic, so a particle with its
+    own ``cd`` feels exactly what the ``constant`` law of that value gives."""
+    if cd > 0.0:
+        return cd * r
+    return cd_re(law, params, r)
+
+
+@numba.njit(cache=True, inline="always")
+def drag_factor(law, params, cd, rho, nu, diameter, speed):
+    """``k`` in ``f_D = -k r``: ``k = 1/2 C_D rho A |r| = rho nu A (C_D R) / (2 D)``, ``R = |r| D / nu`` (docs/theory.md, *Fluid forces on a mass*);
+    *cd* the particle's own drag coefficient or NaN (:func:`particle_cd_re`)."""
     area = 0.25 * math.pi * diameter * diameter
-    return 0.5 * rho * nu * area * cd_re(law, params, speed * diameter / nu) / diameter
+    return 0.5 * rho * nu * area * particle_cd_re(law, params, cd, speed * diameter / nu) / diameter
 
 
 @numba.njit(cache=True)
@@ -90,12 +102,13 @@ def added_masses(radius, phi, rho_w, rho_a, xi, out):
 
 @numba.njit(cache=True)
 def buoyancy_and_drag(pos, vel, radius, phi, u, v, wind, rho_w, nu_w, rho_a, nu_a, g,
-                      law, params, with_air, force):
+                      law, params, cds, with_air, force):
     """Add buoyancy and drag to *force* (N,3).
 
     Buoyancy ``+(rho_W V_sub + rho_A (V - V_sub)) g e_z``; drag with water velocity ``(u, v, 0)`` on the
     submerged fraction and still air (or *wind*) on the rest, see the module docstring.  ``with_air``
-    False drops the air terms (vacuum above the water).
+    False drops the air terms (vacuum above the water). *cds* (N,): each particle's own drag coefficient
+    (NaN: the law *law*/*params*), :func:`particle_cd_re`.
     """
     for i in range(pos.shape[0]):
         a = radius[i]
@@ -109,7 +122,7 @@ def buoyancy_and_drag(pos, vel, radius, phi, u, v, wind, rho_w, nu_w, rho_a, nu_
             ry = vel[i, 1] - v[i]
             rz = vel[i, 2]
             sp = math.sqrt(rx * rx + ry * ry + rz * rz)
-            k = f * drag_factor(law, params, rho_w, nu_w, d, sp)
+            k = f * drag_factor(law, params, cds[i], rho_w, nu_w, d, sp)
             force[i, 0] -= k * rx
             force[i, 1] -= k * ry
             force[i, 2] -= k * rz
@@ -118,7 +131,7 @@ def buoyancy_and_drag(pos, vel, radius, phi, u, v, wind, rho_w, nu_w, rho_a, nu_
             ry = vel[i, 1] - wind[1]
             rz = vel[i, 2] - wind[2]
             sp = math.sqrt(rx * rx + ry * ry + rz * rz)
-            k = (1.0 - f) * drag_factor(law, params, rho_a, nu_a, d, sp)
+            k = (1.0 - f) * drag_factor(law, params, cds[i], rho_a, nu_a, d, sp)
             force[i, 0] -= k * rx
             force[i, 1] -= k * ry
             force[i, 2] -= k * rz
@@ -142,19 +155,19 @@ def convective_added_mass(radius, phi, u0, v0, u1, v1, horizon, rho_w, xi, force
 
 
 @numba.njit(cache=True, inline="always")
-def _point_torque(vel, omega, i, ox, oy, ax, ay, uy, vy, pre, law, params, d, nu):
+def _point_torque(vel, omega, i, ox, oy, ax, ay, uy, vy, pre, law, params, cd, d, nu):
     """Torque ``a x f_y`` of the drag ``f_y = -pre C_D(R_y) R_y q_y`` at arm ``o = (ox, oy, 0)``, lever ``a``."""
     qx = vel[i, 0] - omega[i, 2] * oy - uy
     qy = vel[i, 1] + omega[i, 2] * ox - vy
     qz = vel[i, 2] + omega[i, 0] * oy - omega[i, 1] * ox
     sp = math.sqrt(qx * qx + qy * qy + qz * qz)
-    kf = pre * cd_re(law, params, sp * d / nu)
+    kf = pre * particle_cd_re(law, params, cd, sp * d / nu)
     return -kf * (ay * qz), kf * (ax * qz), -kf * (ax * qy - ay * qx)
 
 
 @numba.njit(cache=True)
 def neighbourhood_torque(pos, vel, omega, radius, phi, x0, y0, dx, dy, ugrid, vgrid, depth,
-                         min_radius, rho_w, nu_w, law, params, torque):
+                         min_radius, rho_w, nu_w, law, params, cds, torque):
     """Fluid torque from the gridpoints ``y`` inside each particle's neighbourhood (docs/theory.md, *Fluid forces on a mass*, Fig 4.4, Step 7E).
 
     Neighbourhood radius ``max(D/2, min_radius)`` (the report's small-particle rule: ``min_radius`` is the
@@ -163,7 +176,7 @@ def neighbourhood_torque(pos, vel, omega, radius, phi, x0, y0, dx, dy, ugrid, vg
     ``f_y = -1/2 C_D(R_y) rho_W phi (A / Y) |q_y| q_y``, torque ``sum_y (o_y - o_mean) x f_y``.  Measuring
     lever arms from the centroid ``o_mean`` of the gridpoints found keeps a uniform stream from exerting a
     spurious torque ``(sum o_y) x f`` when the gridpoints are not centred on the particle.  Adds into
-    *torque*.  Grid arrays are (ny, nx) with cell centres ``x0 + j dx``, ``y0 + k dy``; wet = depth > 1e-6.
+    *torque*; *cds* (N,) each particle's own drag coefficient (NaN: the law).  Grid arrays are (ny, nx) with cell centres ``x0 + j dx``, ``y0 + k dy``; wet = depth > 1e-6.
     """
     ny, nx = ugrid.shape
     for i in range(pos.shape[0]):
@@ -202,7 +215,7 @@ def neighbourhood_torque(pos, vel, omega, radius, phi, x0, y0, dx, dy, ugrid, vg
                 oy = y0 + k * dy - py
                 if ox * ox + oy * oy <= rad * rad and depth[k, j] > 1e-6:
                     a, b, c = _point_torque(vel, omega, i, ox, oy, ox - mx, oy - my, ugrid[k, j], vgrid[k, j],
-                                            pre, law, params, d, nu_w)
+                                            pre, law, params, cds[i], d, nu_w)
                     tx += a
                     ty += b
                     tz += c
@@ -212,7 +225,7 @@ def neighbourhood_torque(pos, vel, omega, radius, phi, x0, y0, dx, dy, ugrid, vg
 
 
 @numba.njit(cache=True)
-def uniform_field_torque(vel, omega, radius, phi, u, v, points_per_diameter, rho_w, nu_w, law, params, torque):
+def uniform_field_torque(vel, omega, radius, phi, u, v, points_per_diameter, rho_w, nu_w, law, params, cds, torque):
     """The torque of :func:`neighbourhood_torque` for a uniform field without a grid (still / uniform water).
 
     The gridpoints are a virtual square lattice of ``points_per_diameter`` points across the particle,
@@ -238,7 +251,8 @@ def uniform_field_torque(vel, omega, radius, phi, u, v, points_per_diameter, rho
                 ox = (j + 0.5 * (1 - points_per_diameter % 2)) * h
                 oy = (k + 0.5 * (1 - points_per_diameter % 2)) * h
                 if ox * ox + oy * oy <= r2:
-                    a, b, c = _point_torque(vel, omega, i, ox, oy, ox, oy, u[i], v[i], pre, law, params, d, nu_w)
+                    a, b, c = _point_torque(vel, omega, i, ox, oy, ox, oy, u[i], v[i], pre, law, params, cds[i], d,
+                                            nu_w)
                     torque[i, 0] += a
                     torque[i, 1] += b
                     torque[i, 2] += c

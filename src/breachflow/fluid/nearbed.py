@@ -167,9 +167,13 @@ def factors(code, k_s, zc, depth, a, bedp):
 
 
 @numba.njit(cache=True, inline="always")
-def lift_force(bedp, lam, rho_w, a, phi, rx, ry):
+def lift_force(bedp, lam, rho_w, a, phi, rx, ry, cl=math.nan):
     """Upward lift ``1/2 rho C_L (pi a^2) phi lam (rx^2 + ry^2)`` of a sphere with horizontal velocity *rx*, *ry*
-    relative to the water it feels."""
+    relative to the water it feels; ``C_L`` the lift term's ``bedp[LIFT]``, or where that term is on
+    (> 0) the particle's own coefficient *cl* when set (>= 0; NaN: unset)."""
     if lam <= 0.0 or phi <= 0.0:
         return 0.0
-    return 0.5 * rho_w * bedp[LIFT] * math.pi * a * a * phi * lam * (rx * rx + ry * ry)
+    c = bedp[LIFT]
+    if c > 0.0 and cl >= 0.0:
+        c = cl
+    return 0.5 * rho_w * c * math.pi * a * a * phi * lam * (rx * rx + ry * ry)

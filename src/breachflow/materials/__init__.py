@@ -102,10 +102,6 @@ class MaterialMix:
             raise InputError(f"material fractions {fractions!r} must be one non-negative number per material "
                              f"({len(self.materials)}), not all zero")
         self.fractions = f / f.sum()
-        cds = {m.drag_coefficient for m in self.materials}
-        if len(cds) > 1:
-            raise InputError("material: a mix must share one drag coefficient (the fluid drag law is one per run); "
-                             f"got {[(m.name, m.drag_coefficient) for m in self.materials]}")
 
     @property
     def name(self) -> str:
@@ -131,12 +127,29 @@ class MaterialMix:
         return mass, rho, idx
 
     def dem_parameters(self) -> dict:
-        """Tonnage-weighted friction and rolling resistance, the shared drag coefficient, lift coefficient."""
-        fr = float(np.dot(self.fractions, [m.friction for m in self.materials]))
-        mur = float(np.dot(self.fractions, [m.rolling_friction for m in self.materials]))
-        lift = [m.lift_coefficient for m in self.materials]
-        return {"friction": fr, "rolling_friction": mur, "drag_coefficient": self.materials[0].drag_coefficient,
-                "lift_coefficient": None if any(v is None for v in lift) else float(np.dot(self.fractions, lift))}
+        """The run-wide values of the mix: tonnage-weighted friction and rolling resistance (None where a
+        material has none, e.g. ``sphere``), the drag coefficient all its materials share (None: they differ, or
+        none has one), the tonnage-weighted lift coefficient (None unless every material has one).
+
+        The DEM does not use one value for all masses: each mass carries its own material's values
+        (:meth:`unit_parameters`); these are what a summary of the run (and the "not closable" verdict's
+        rolling speed) quotes."""
+        def weighted(name):
+            vals = [getattr(m, name) for m in self.materials]
+            return None if any(v is None for v in vals) else float(np.dot(self.fractions, vals))
+
+        cds = {m.drag_coefficient for m in self.materials}
+        return {"friction": weighted("friction"), "rolling_friction": weighted("rolling_friction"),
+                "drag_coefficient": cds.pop() if len(cds) == 1 else None,
+                "drag_coefficient_mean": weighted("drag_coefficient"), "lift_coefficient": weighted("lift_coefficient")}
+
+    def unit_parameters(self) -> list[dict]:
+        """Per material of the mix (in order, the index :meth:`sample` returns): what each of its masses
+        carries in the DEM and the fluid forces — ``name``, ``friction``, ``rolling_friction``,
+        ``drag_coefficient``, ``lift_coefficient`` (None: the run's ``[dem]`` value, drag law, lift term)."""
+        return [{"name": m.name, "friction": m.friction, "rolling_friction": m.rolling_friction,
+                 "drag_coefficient": m.drag_coefficient, "lift_coefficient": m.lift_coefficient}
+                for m in self.materials]
 
 
 __all__ = ["MATERIALS", "ClosureMaterial", "MaterialMix", "get_material", "nominal_diameter", "sphere_diameter"]

@@ -109,3 +109,69 @@ def critical_velocity(D, depth, *, velocity_profile="uniform", drag_law="report"
         else:
             lo = mid
     return 0.5 * (lo + hi)
+
+
+def units_move(U, units, depth, *, velocity_profile="uniform", drag_law="report", bed_offset=0.2, duration=None,
+               direction=(1.0, 0.0)) -> list[bool]:
+    """One DEM run of several stones, each in a pocket of its own bed, in ONE scene and one current: which move?
+
+    *units* is a list of dicts ``{"D": m, "material": Material, "drag_coefficient": C_D or None}`` — e.g. the
+    units of a mix of closure materials, each with its own friction, rolling resistance and shape drag carried
+    per particle (:class:`~breachflow.dem.state.ParticleState`; None: the scene's *drag_law*). Each pocket is
+    the set-up of :func:`stone_moves` (a fixed layer of the same units, the stone in a pocket of three, the
+    water's bed level ``bed_offset * D`` below the layer's crest); the pockets lie side by side, 16 stone
+    diameters apart across the flow, at a common bed level, so that no stone touches another's bed. A stone
+    "moves" when it is displaced by more than ``D/4`` within *duration* (default ``10 sqrt(D_max/g)``)."""
+    d = np.asarray(direction, float)
+    d = d / np.hypot(*d)
+    water = UniformWater(surface=depth, u=U * d[0], v=U * d[1], bed=0.0)
+    fluid = FluidForces(water, drag_law=drag_law, velocity_profile=velocity_profile,
+                        roughness=2.0 * max(u["D"] for u in units), air=None)
+    sim = DemSimulation(models=[fluid], sleeping=False, static_models=True)
+    gap = 16.0 * max(u["D"] for u in units)
+    stones, starts = [], []
+    for k, unit in enumerate(units):
+        D, mat = float(unit["D"]), unit["material"]
+        mat = mat.with_restitution(0.3, mat.density * math.pi / 6 * D ** 3)
+        cd = unit.get("drag_coefficient")
+        own = {} if cd is None else {"drag_coefficient": float(cd)}
+        shift = np.array([0.0, k * gap, (bed_offset - 0.5) * D])  # the layer's crest bed_offset D above z = 0
+        ids = sim.add_particles(_bed_layer(D) + shift, 0.5 * D, mat, **own)
+        sim.fix_particles(ids)
+        pocket = np.array([0.5 * D, D * math.sqrt(3) / 6, D * math.sqrt(2.0 / 3.0) + 1e-4 * D]) + shift
+        stones.append(sim.add_particles(pocket[None, :], 0.5 * D, mat, **own)[0])
+    starts = sim.state.pos[stones, :2].copy()
+    dmax = max(u["D"] for u in units)
+    T = 10.0 * math.sqrt(dmax / G) if duration is None else float(duration)
+    n = max(1, int(math.ceil(T / sim.dt / 50)))
+    moved = np.zeros(len(units), bool)
+    limit = np.array([0.25 * u["D"] for u in units])
+    for _ in range(50):
+        sim.step(n)
+        moved |= np.hypot(*(sim.state.pos[stones, :2] - starts).T) > limit
+        if moved.all():
+            break
+    return [bool(m) for m in moved]
+
+
+def critical_velocities(units, depth, *, rel_tol=0.01, u_max=None, **kw) -> list[float]:
+    """Depth-averaged velocity (m/s) at which each stone of :func:`units_move` starts to move *in the scene of all
+    of them* (one bisection per stone to *rel_tol*, every run with all the stones); ``inf`` where a stone stays at
+    *u_max* (default 5 × Izbash-embedded of the lightest, largest unit)."""
+    if u_max is None:
+        u_max = max(5.0 * 1.2 * math.sqrt(2 * G * (u["material"].density - 1000.0) / 1000.0 * u["D"]) for u in units)
+    out = []
+    for k in range(len(units)):
+        hi = float(u_max)
+        if not units_move(hi, units, depth, **kw)[k]:
+            out.append(math.inf)
+            continue
+        lo = 0.0
+        while hi - lo > rel_tol * hi:
+            mid = 0.5 * (lo + hi)
+            if units_move(mid, units, depth, **kw)[k]:
+                hi = mid
+            else:
+                lo = mid
+        out.append(0.5 * (lo + hi))
+    return out

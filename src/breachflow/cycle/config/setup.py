@@ -146,16 +146,25 @@ def closure_setup(scenario, *, overrides: dict | None = None):
     mat_params = placement.dem_parameters()
     if mat_params is not None:
         # the closure material sets friction, rolling resistance and the shape's drag; [dem] keys given
-        # explicitly still win (cycle/placement.py, breachflow.materials)
-        upd = {k: mat_params[k] for k in ("friction", "rolling_friction") if k not in mat_keys}
+        # explicitly still win (cycle/placement.py, breachflow.materials); each mass carries its own
+        # material's values (dem.units), the run-wide ones are the mix's (tonnage-weighted, shared drag)
+        own = dem.material
+        upd = {k: mat_params[k] for k in ("friction", "rolling_friction")
+               if k not in mat_keys and mat_params[k] is not None}
         dem = replace(dem, material=replace(dem.material, **upd))
         if mat_params["drag_coefficient"] is not None:
             from ...fluid.drag import DRAG_LAWS
 
             dem = replace(dem, drag_law=DRAG_LAWS.create("constant", value=mat_params["drag_coefficient"]))
+        units = tuple({**u, **{k: mat_keys[k] if k in mat_keys else getattr(own, k) if u[k] is None else u[k]
+                               for k in ("friction", "rolling_friction")}}
+                      for u in placement.unit_parameters())
+        dem = replace(dem, units=units)
         metadata.update(material=placement.mix.name, material_drag_coefficient=mat_params["drag_coefficient"],
                         material_friction=dem.material.friction,
                         material_rolling_friction=dem.material.rolling_friction)
+        if len(units) > 1:
+            metadata["material_units"] = [dict(u) for u in units]
     if placement.positions not in ("zone", "list") and placement.start == placement.stop == (0.0, 0.0):
         # no line given (line, vertical, horizontal): across the breach along the levee centreline, one
         # radius in from the walls (the breach heads)
