@@ -82,9 +82,9 @@ def test_continue_to_steady_stops_at_the_cap_with_a_solver_that_never_settles():
 
 
 def _scene(height):
-    """A 1 m wide frictionless channel along y, levels 3 m at y = 0 and 2 m at y = 30 m, a rock pile (0.5 m
-    stones, porosity 0.4) of *height* over y = 10..20 m; the levee line at y = 15 m, flood level 3 m."""
-    dom = uniform_grid(0, 1.0, 0, 30.0, 0.5, manning=0.0,
+    """A 2 m wide frictionless channel along y (1 m cells), levels 3 m at y = 0 and 2 m at y = 30 m, a rock
+    pile (0.5 m stones, porosity 0.4) of *height* over y = 10..20 m; the levee line at y = 15 m, flood 3 m."""
+    dom = uniform_grid(0, 2.0, 0, 30.0, 1.0, manning=0.0,
                        boundaries={"south": BC("level", level=3.0), "north": BC("level", level=2.0)})
     yy = dom.y[:, None] * np.ones(dom.shape)
     dom.initial_surface = np.clip(3.0 - (yy - 10.0) / 10.0, 2.0, 3.0)
@@ -110,10 +110,10 @@ def _judge_on_swe(height, t_max, cap):
             return True, [over], "overflow_discharge+polder_leakage"
 
     domain = dom.with_porous(pile)
-    setup = SimpleNamespace(solver=solver, criteria=Criteria(), domain=dom, breach_x=(0.0, 1.0), levee_y=15.0)
+    setup = SimpleNamespace(solver=solver, criteria=Criteria(), domain=dom, breach_x=(0.0, 2.0), levee_y=15.0)
     fake = SimpleNamespace(setup=setup, _seepage=lambda snap, p: 0.0)
     snap = solver.solve(domain)
-    ctx = CycleContext(cycle=1, snapshot=snap, breach_x=(0.0, 1.0), levee_y=15.0, flood_level=3.0)
+    ctx = CycleContext(cycle=1, snapshot=snap, breach_x=(0.0, 2.0), levee_y=15.0, flood_level=3.0)
     return ClosureRun._rock_end(fake, snap, ctx, pile, domain, None, True, [over], "overflow_discharge"), Criteria
 
 
