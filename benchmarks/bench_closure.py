@@ -10,7 +10,8 @@ re-solve (``[hydro] resolve``, default the scenario's) and a nested fine grid of
 (``[hydro] refine``), e.g. ``4/window,4+2,2/window``.
 
 For each resolution the shipped scenario ``examples/typical_breach.toml`` (61 m breach in a 7.6 m levee,
-4 m rock masses) runs in a child process, as ``breachflow run`` would: to closure, to a "not closable"
+10-15 t rock by split barges in time, sealed; the figures quoted in docs/performance.md were measured with
+the 4 m masses it shipped before) runs in a child process, as ``breachflow run`` would: to closure, to a "not closable"
 verdict, or to ``max_cycles``. Printed per resolution: wall and CPU time, peak memory (max RSS), cycles,
 masses, tonnage, masses lost, the outcome, and the time per cycle split into re-solve / DEM / output (wall,
 from the run's manifest), plus the first (cold) solve. Against the targets: the whole run at 2 m cells

@@ -3,6 +3,8 @@
 
     python pipelines/closure_feasibility_timeline.py OUTPUT_DIR
     python pipelines/closure_feasibility_timeline.py OUTPUT_DIR --starts 0 2 4 6 --methods split_barge end_dumping
+    python pipelines/closure_feasibility_timeline.py OUTPUT_DIR --scenario examples/typical_breach.toml \
+        --resolution 8 --starts 24 36 48 --max-cycles 30
 
 "With this method, starting then, do we close it, when, with how much?" Every member is one closure run in
 time (``[closure] method`` and ``start``): the breach opens at the flood's crest, the polder fills through
@@ -64,17 +66,36 @@ POSITIONS = {"end_dumping": "horizontal", "split_barge": "line", "barge_crane": 
              "helicopter": "line"}
 
 
-def member_text(method: str, start_h: float, *, capacity_factor: float = 1.0, max_cycles: int = 8) -> str:
+def member_text(method: str, start_h: float, *, capacity_factor: float = 1.0, max_cycles: int = 8,
+                scenario: str | None = None, resolution: float | None = None) -> str:
+    """The member's scenario: the demo breach (``BASE``), or the TOML text *scenario* (e.g. the typical breach)
+    with ``[closure] method`` and ``start`` set, the method's placement strategy where the scenario's cannot be
+    worked by it, ``max_cycles`` and, given, ``[hydro] resolution`` (m)."""
     from breachflow.cycle.delivery import HOUR, TONNE, delivery_method
 
     cap = ""
     if capacity_factor != 1.0:
         cap = f'capacity = "{delivery_method(method).capacity * capacity_factor * HOUR / TONNE:g} t/hr"'
+    if scenario is not None:
+        import tomllib
+
+        from breachflow.scenario.toml import scenario_with
+
+        changes = {"closure.method": method, "closure.start": f"{start_h:g} h", "criteria.max_cycles": int(max_cycles)}
+        own = tomllib.loads(scenario).get("placement", {}).get("positions", "line")
+        if own not in delivery_method(method).positions:
+            changes["placement.positions"] = POSITIONS.get(method, "line")
+        if cap:
+            changes["closure.capacity"] = cap.split('"')[1]
+        if resolution is not None:
+            changes["hydro.resolution"] = f"{resolution:g} m"
+        return scenario_with(scenario, changes)
     return BASE.format(method=method, start=start_h, positions=POSITIONS.get(method, "line"), capacity=cap,
                        max_cycles=int(max_cycles))
 
 
-def run_member(out: Path, method: str, start_h: float, capacity_factor: float, max_cycles: int) -> dict:
+def run_member(out: Path, method: str, start_h: float, capacity_factor: float, max_cycles: int,
+               scenario: str | None = None, resolution: float | None = None) -> dict:
     """Run (or reuse) one member; returns its row."""
     run_dir = out / "members" / f"{method}_{start_h:g}h"
     plan_path = run_dir / "closure_plan.json"
@@ -83,7 +104,8 @@ def run_member(out: Path, method: str, start_h: float, capacity_factor: float, m
 
         run_dir.parent.mkdir(parents=True, exist_ok=True)
         scen = out / "members" / f"{method}_{start_h:g}h.toml"
-        scen.write_text(member_text(method, start_h, capacity_factor=capacity_factor, max_cycles=max_cycles))
+        scen.write_text(member_text(method, start_h, capacity_factor=capacity_factor, max_cycles=max_cycles,
+                                    scenario=scenario, resolution=resolution))
         run_closure(scen, run_dir, overwrite=True, plots=False)
     plan = json.loads(plan_path.read_text())
     w = plan["window"]
@@ -141,13 +163,17 @@ def main(argv=None) -> int:
     p.add_argument("--methods", nargs="+", default=DEFAULT_METHODS)
     p.add_argument("--capacity", type=float, default=1.0, help="factor on every method's capacity")
     p.add_argument("--max-cycles", type=int, default=8)
+    p.add_argument("--scenario", type=Path, default=None,
+                   help="a scenario file with [polder] (e.g. examples/typical_breach.toml) instead of the demo breach")
+    p.add_argument("--resolution", type=float, default=None, help="[hydro] resolution of the members (m)")
     a = p.parse_args(argv)
+    text = None if a.scenario is None else a.scenario.read_text(encoding="utf-8")
     a.out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
     rows = []
     for method in a.methods:
         for start in a.starts:
-            row = run_member(a.out, method, start, a.capacity, a.max_cycles)
+            row = run_member(a.out, method, start, a.capacity, a.max_cycles, text, a.resolution)
             rows.append(row)
             print(f"{method:12s} start {start:5.1f} h: {'closed' if row['closed'] else 'not closed':10s} "
                   f"{row['placed_t']:8.1f} t, finish {row['finish_h']:6.2f} h, window "

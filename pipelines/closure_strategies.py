@@ -9,7 +9,8 @@ Closure engineering distinguishes *vertical* closure (a sill raised over the who
 positions`` selects either (:mod:`breachflow.cycle.strategies`), ``line`` is the golden-ratio line
 across the breach the scenarios use today. Each scenario (``default``: the embedded default scene,
 ``typical``: ``examples/typical_breach.toml``, or a scenario file) runs once per strategy — the same
-scenario with only ``positions`` changed, so the same masses, rate, gap line, criteria and seed — and
+scenario with only ``positions`` changed (and a delivery method that can work it, :func:`member_text`), so the
+same masses, rate, gap line, criteria and seed — and
 the runs are compared: masses, tonnage, closure operation time (masses ÷ placement rate), cycles,
 the peak gap speed reached over the closure cycles (depth-weighted mean and max over the gap section;
 the open breach's beside it),
@@ -74,10 +75,18 @@ def scenario_text(name_or_path) -> tuple[str, str, Path | None]:
 
 
 def member_text(text: str, strategy: str, max_cycles: int | None = None) -> str:
-    """The scenario *text* with ``[placement] positions = strategy`` (and ``[criteria] max_cycles``)."""
+    """The scenario *text* with ``[placement] positions = strategy`` (and ``[criteria] max_cycles``). A scenario
+    whose ``[closure] method`` cannot work that strategy (split barges do not advance from the heads) gets the
+    method that does: ``end_dumping`` for ``horizontal``, ``split_barge`` otherwise."""
+    import tomllib
+
+    from breachflow.cycle.delivery import delivery_method
     from breachflow.scenario.toml import scenario_with
 
     changes = {"placement.positions": strategy}
+    method = tomllib.loads(text).get("closure", {}).get("method")
+    if method is not None and strategy not in delivery_method(method).positions:
+        changes["closure.method"] = "end_dumping" if strategy == "horizontal" else "split_barge"
     if max_cycles is not None:
         changes["criteria.max_cycles"] = int(max_cycles)
     return scenario_with(text, changes)

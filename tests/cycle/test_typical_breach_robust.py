@@ -1,6 +1,7 @@
 """The typical breach's verdict is grid- and seed-robust at the shipped settings (issue "verdicts that hold").
 
-``examples/typical_breach.toml`` as shipped (4 m cells, 4 m rock, porous remap) runs at 4 m, at uniform
+``examples/typical_breach.toml`` as shipped (4 m cells, 10-15 t rock by split barges in time, porous remap, sealed)
+runs at 4 m, at uniform
 2 m and on a nested 2 m grid at the breach, for placement seeds 1-3 each, through the verdict check
 (:func:`breachflow.ensemble.check.run_check`: the members are closures of the ensemble runner), and its open
 breach is solved once more on a nested 1 m grid. Asserted:

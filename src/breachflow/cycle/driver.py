@@ -201,6 +201,8 @@ class CycleReport:
     bed_change_time: float = 0.0
     bed_change_duration: float = 0.0
     bed_change_steps: int = 0
+    #: the rock stage's end judged on this cycle (:class:`~breachflow.cycle.rock_end.RockEnd`; {} when not judged)
+    rock_end: dict = field(default_factory=dict)
 
     def as_dict(self) -> dict:
         d = dict(self.__dict__)
@@ -446,6 +448,10 @@ class ClosureRun:
                            seepage_discharge=self._seepage(new_snapshot, pile), area=s.area,
                            open_breach_discharge=self._q_open)
         closed, results, governing = s.criteria.evaluate(ctx)
+        rock_end = None
+        if closed and pile is not None:  # a sealed rock dam: the rock stage ends on a steady solve (cycle/rock_end.py)
+            new_snapshot, ctx, closed, results, governing, rock_end = self._rock_end(
+                new_snapshot, ctx, pile, solve_domain, obstacle, closed, results, governing)
         from .criteria import DischargeProxy, MaxSpeed
 
         max_speed = MaxSpeed("0 m/s", region="domain").value(ctx)
@@ -478,6 +484,8 @@ class ClosureRun:
                           not_at_rest=int((st.active[:st.n] & ~resting[:st.n]).sum()),
                           gap_max_speed=gap_max, gap_mean_speed=gap_mean, scour_depth=scour_max, scour_x=scour_x,
                           scour_y=scour_y)
+        if rock_end is not None:
+            rep.rock_end = rock_end.as_dict()
         if s.timeline is not None:
             rep.operation_time, rep.timeline = s.timeline.time, s.timeline.state()
             rep.flood_level, rep.polder_level = s.timeline.flood_level, s.timeline.polder_level
@@ -557,6 +565,33 @@ class ClosureRun:
         disp = np.linalg.norm(sim.state.pos - start, axis=1)
         disp = np.where(sim.state.active, disp, np.inf)[resting]
         return float(disp.max()) if disp.size else 0.0
+
+    def _rock_end(self, snapshot, ctx, pile, solve_domain, obstacle, closed, results, governing):
+        """The rock stage's end (:mod:`~breachflow.cycle.rock_end`) for a run sealed after the rock: continue a
+        re-solve that stopped before its steady state (up to the criterion's ``steady_cap``), judge the criteria
+        again on it, and let the dam hold only when the solve is steady and the crest stands above the flood
+        level across the gap (or, with ``rock_end = "overflow"``, the overflow criterion is met)."""
+        from dataclasses import replace as _replace
+
+        from .rock_end import continue_to_steady, gap_crests, judge
+        from .sealing import seal_criterion
+
+        s = self.setup
+        crit = seal_criterion(s)
+        if crit is None:
+            return snapshot, ctx, closed, results, governing, None
+        snapshot, steady, sim_t, n = continue_to_steady(
+            lambda prev: s.solver.solve(solve_domain, obstacles=obstacle, initial=prev), snapshot, crit.steady_cap)
+        if n > 1:  # the criteria judged again on the continued solve
+            ctx = _replace(ctx, snapshot=snapshot, seepage_discharge=self._seepage(snapshot, pile))
+            closed, results, governing = s.criteria.evaluate(ctx)
+        flood = float(ctx.flood_level)
+        _, crests = gap_crests(s.domain.x, s.domain.y, s.domain.bed, pile.height, s.breach_x, s.levee_y, flood)
+        over = next((r.satisfied for r in results if r.name == "overflow_discharge"), False)
+        end = judge(crit.rock_end, steady, sim_t, n, crests, flood, over)
+        if not end.held:
+            closed, governing = False, ""
+        return snapshot, ctx, closed, results, governing, end
 
     def _seepage(self, snapshot, pile) -> float:
         """Discharge through the porous pile across the breach section (m³/s), from the steady split of

@@ -23,6 +23,8 @@ materials registry (``"LMA_40_200"``, its D_n15/D_n50/D_n85).
 When the rock dam is closed this way, the seal is placed in the flow model's pile and re-solved until the
 leakage read from the flow meets the criterion (:mod:`breachflow.cycle.sealing`; keys ``seal_method``,
 ``seal_capacity``, ``seal_available``, ``seal_steps``, ``seal_leakage``); the run is closed only if it does.
+The rock stage ends only on a steady re-solve with the pile's crest above the flood level in every gap column
+(:mod:`breachflow.cycle.rock_end`; keys ``rock_end`` and ``steady_cap``).
 """
 from __future__ import annotations
 
@@ -105,7 +107,7 @@ class PolderLeakage(Criterion):
     def __init__(self, threshold=f"{DEFAULT_ALLOWED_RISE} m/day", area=None, pump_capacity=None, seal=None,
                  filter_thickness="0.5 m", max_seal_thickness="2 m", face_slope=1.5, law="ergun",
                  seal_method=None, seal_capacity=None, seal_available=None, seal_steps=6,
-                 seal_leakage="series", seal_compare=False):
+                 seal_leakage="series", seal_compare=False, rock_end="emergent", steady_cap=None):
         self.threshold = to_si(threshold, name="criteria.polder_leakage", kind="speed",
                                nonnegative=True) * SECONDS_PER_DAY
         self.area = None if area is None else to_si(area, name="criteria.polder_leakage.area", kind="area",
@@ -139,6 +141,14 @@ class PolderLeakage(Criterion):
                              f"re-solved breach discharge) or 'series' (1-D layers with the re-solved levels)")
         self.seal_leakage = seal_leakage
         self.seal_compare = bool(seal_compare)
+        # when the rock stage may end (cycle.rock_end): the rule and the simulated time a judging re-solve may take
+        from .rock_end import ROCK_END_RULES, STEADY_CAP
+
+        if rock_end not in ROCK_END_RULES:
+            raise InputError(f"criteria.polder_leakage.rock_end = {rock_end!r}; use one of {ROCK_END_RULES}")
+        self.rock_end = rock_end
+        self.steady_cap = STEADY_CAP if steady_cap is None else to_si(
+            steady_cap, name="criteria.polder_leakage.steady_cap", kind="time", positive=True)
         if self.seal_steps < 1:
             raise InputError(f"criteria.polder_leakage.seal_steps must be >= 1, got {seal_steps!r}")
 

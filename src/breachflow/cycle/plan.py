@@ -142,6 +142,8 @@ def closure_plan(rundir, setup, scenario=None) -> dict | None:
                    "window_date": _date(tl, window_sim), "report_closure_window_s": report_window,
                    "fits": bool(fits)},
         "timeline": rows,
+        # the rock stage's end as last judged (cycle/rock_end.py): the rule, steady or not, the crest against the flood
+        "rock_end": next((dict(c["rock_end"], cycle=c["cycle"]) for c in reversed(cycles) if c.get("rock_end")), None),
     }
     if seal and seal.get("steps"):
         plan["seal"] = {k: seal.get(k) for k in ("sealed", "verdict", "method", "capacity_t_h", "start_s", "finish_s",
@@ -172,6 +174,12 @@ def plan_lines(plan: dict) -> list[str]:
     for m in plan["materials"]:
         lines.append(f"    {m['material']}: {m['placed_t']:,.0f} t in {m['masses']} units of "
                      f"{m['unit_mass_t'][0]:.3g}–{m['unit_mass_t'][1]:.3g} t ({m['lost_t']:,.0f} t lost)")
+    re_ = plan.get("rock_end")
+    if re_:
+        from .rock_end import RockEnd
+
+        fields = {k: re_[k] for k in RockEnd.__dataclass_fields__}
+        lines.append(f"  rock    cycle {re_['cycle']}: " + RockEnd(**fields).statement())
     sl = plan.get("seal")
     if sl:
         layers = ", ".join(f"{k} {v:,.0f} t" for k, v in sl["tonnage_t"].items())
