@@ -7,7 +7,9 @@
 (``START:RESOLVE``: ``[hydro] cold_start`` ``cold`` — the first solve from the initial state on the
 run's grid — or ``coarse`` — from the steady state of a grid twice as coarse,
 :mod:`breachflow.hydro.coarse_start`; ``[hydro] resolve`` ``full`` — the warm re-solve over the whole
-domain — or ``region`` — only a region around the changed cells, :mod:`breachflow.hydro.resolve_region`).
+domain — or ``region`` — only a region around the changed cells, :mod:`breachflow.hydro.resolve_region` — or
+``coarse`` — the whole domain from the previous state plus a coarse grid's level change,
+:mod:`breachflow.hydro.coarse_resolve`).
 The first path is the shipped one (``cold:full``). Each run is a fresh child process
 (``time.process_time`` of the child: CPU seconds, not wall, on a shared machine). Printed per path: the
 total CPU time, that of the first solve, of the warm re-solves and of the DEM, the verdict, cycles,
@@ -20,8 +22,8 @@ child re-solves that input once with each resolve of ``--paths`` at the shipped 
 ``--reference-tolerance``, with the full re-solve at that tolerance (1/s; ``t_max`` ``--reference-t-max``
 s) as the tight-tolerance reference. Printed: each re-solve's CPU time as a ratio to the shipped one's (in
 the same process), and its breach discharge and gap speed as differences from the reference. With
-``--reference-tolerance`` the open breach alone is also solved cold at that tolerance, and every path's open
-breach is given as a difference from it.
+``--reference-tolerance`` the open breach alone is also solved cold at that tolerance (not with
+``--no-open-reference``), and every path's open breach is given as a difference from it.
 """
 from __future__ import annotations
 
@@ -110,7 +112,7 @@ def resolve_each(scenarios: dict, inp: dict) -> dict:
         out[tag] = {"cpu": cpu, "q": q, "gap": gmean, "gapmax": gmax,
                     "t": float(snap.attrs.get("simulated_time_s", float("nan"))),
                     "converged": int(snap.attrs.get("steady_state", 0)),
-                    "window": str(snap.attrs.get("hydro_region", ""))}
+                    "window": str(snap.attrs.get("hydro_region", snap.attrs.get("hydro_resolve", "")))}
     return out
 
 
@@ -171,11 +173,13 @@ def main(argv) -> int:
     ap = argparse.ArgumentParser(prog="bench verdict")
     ap.add_argument("--resolution", type=float, default=2.0)
     ap.add_argument("--paths", default="cold:full,cold:region",
-                    help="START:RESOLVE per closure run, the shipped path first (START cold|coarse, RESOLVE full|region)")
+                    help="START:RESOLVE per closure run, the shipped path first (START cold|coarse, RESOLVE full|region|coarse)")
     ap.add_argument("--starts", default=None, help="old form: START,... each with the full re-solve")
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--reference-tolerance", type=float, default=None)
     ap.add_argument("--reference-t-max", type=float, default=600.0)
+    ap.add_argument("--no-open-reference", action="store_true", help="with --reference-tolerance: only the "
+                    "re-solve reference, not the open breach's cold solve at that tolerance")
     ap.add_argument("--json", default=None)
     ap.add_argument("--parallel", action="store_true", help="run the closures at the same time (CPU times are "
                     "per child; on a loaded machine this shortens the wall time)")
@@ -203,7 +207,7 @@ def main(argv) -> int:
             if not a.parallel:
                 jobs[names[k]] = finish_child(jobs[names[k]])
         ref_job = None
-        if a.reference_tolerance:
+        if a.reference_tolerance and not a.no_open_reference:
             sc = write_scenario(work, "reference", scenario_text(a.resolution, a.seed, "cold", "full",
                                                                  a.reference_tolerance, a.reference_t_max))
             ref_job = start_child(work, "reference", "first", [sc])
