@@ -37,7 +37,7 @@ def listing() -> str:
     dev = available(DEV)
     pad = max(map(len, names + dev)) + 2
     lines = ["usage: python3 tasks.py bench NAME [ARGS...]   (NAME --help: its options)", "",
-             "comparisons (benchmarks/, reported in docs/performance.md):"]
+             "comparisons (benchmarks/, reported in docs/performance.md and docs/atlas.md):"]
 
     def row(name: str, path: Path) -> str:
         text = f"  {name:<{pad}}{summary(path)}"
