@@ -7,9 +7,7 @@
 (``START:RESOLVE``: ``[hydro] cold_start`` ``cold`` — the first solve from the initial state on the
 run's grid — or ``coarse`` — from the steady state of a grid twice as coarse,
 :mod:`breachflow.hydro.coarse_start`; ``[hydro] resolve`` ``full`` — the warm re-solve over the whole
-domain — or ``region`` — only a region around the changed cells, :mod:`breachflow.hydro.resolve_region` — or
-``coarse`` — the whole domain from the previous state plus a coarse grid's level change,
-:mod:`breachflow.hydro.coarse_resolve`).
+domain — or ``region`` — only a region around the changed cells, :mod:`breachflow.hydro.resolve_region`).
 The first path is the shipped one (``cold:full``). Each run is a fresh child process
 (``time.process_time`` of the child: CPU seconds, not wall, on a shared machine). Printed per path: the
 total CPU time, that of the first solve, of the warm re-solves and of the DEM, the verdict, cycles,
@@ -112,7 +110,7 @@ def resolve_each(scenarios: dict, inp: dict) -> dict:
         out[tag] = {"cpu": cpu, "q": q, "gap": gmean, "gapmax": gmax,
                     "t": float(snap.attrs.get("simulated_time_s", float("nan"))),
                     "converged": int(snap.attrs.get("steady_state", 0)),
-                    "window": str(snap.attrs.get("hydro_region", snap.attrs.get("hydro_resolve", "")))}
+                    "window": str(snap.attrs.get("hydro_region", ""))}
     return out
 
 
@@ -173,7 +171,7 @@ def main(argv) -> int:
     ap = argparse.ArgumentParser(prog="bench verdict")
     ap.add_argument("--resolution", type=float, default=2.0)
     ap.add_argument("--paths", default="cold:full,cold:region",
-                    help="START:RESOLVE per closure run, the shipped path first (START cold|coarse, RESOLVE full|region|coarse)")
+                    help="START:RESOLVE per closure run, the shipped path first (START cold|coarse, RESOLVE full|region)")
     ap.add_argument("--starts", default=None, help="old form: START,... each with the full re-solve")
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--reference-tolerance", type=float, default=None)

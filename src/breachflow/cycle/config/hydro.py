@@ -9,7 +9,7 @@ from ...scenario.config import register_section
 
 #: warm re-solve of the ``swe`` solver: whole domain, or a region around the changed cells
 #: (:mod:`breachflow.hydro.resolve_region`)
-RESOLVE_MODES = ("full", "region", "coarse")
+RESOLVE_MODES = ("full", "region")
 #: deprecated spellings: ``[hydro] window`` is ``nested_box``, ``resolve = "window"`` is ``"region"``
 RENAMED_KEYS = {"window": "nested_box"}
 RENAMED_RESOLVE = {"window": "region"}
@@ -35,14 +35,12 @@ class HydroSection:
     their steady breach discharge (the former 2e-3 1/s and 60 s: 2.71 %; issue 12,
     ``python3 tasks.py bench steady``).
 
-    ``resolve`` (``full`` | ``region`` | ``coarse``; ``region`` formerly ``window``): a warm re-solve of the ``swe`` solver over the
+    ``resolve`` (``full`` | ``region``, formerly ``window``): a warm re-solve of the ``swe`` solver over the
     whole domain, or only in a region around the cells the remap changed, ``resolve_margin`` (default 2 B) beyond them and
     the breach, the rest frozen at the previous steady state, grown when the water level at its edge moves
     by more than ``resolve_edge_level`` (:mod:`breachflow.hydro.resolve_region`); ``resolve_far`` (``frozen`` |
     ``coarse``, :mod:`breachflow.hydro.far_field`) how the domain outside the region follows the pile,
-    ``resolve_far_factor`` the coarsening of ``coarse`` (default 2); ``coarse``: the whole domain, started from
-    the previous steady state plus the level change a grid ``resolve_far_factor`` times coarser gives for the pile
-    (:mod:`breachflow.hydro.coarse_resolve`). ``steady_average`` (default false): the
+    ``resolve_far_factor`` the coarsening of ``coarse`` (default 2). ``steady_average`` (default false): the
     ``swe`` solves (cold, warm, region) also accept the running mean of the breach discharge when its
     batch-means error is within the tolerance (``run_to_steady(average=True)``,
     :mod:`breachflow.swe.steady_mean`; the state is then the time mean). ``refine`` (a length, with

@@ -265,10 +265,6 @@ class _WarmStartSWE:
             self.region = RegionResolver(self.warm, margin=hydro.resolve_margin, edge_level=hydro.resolve_edge_level,
                                          far=hydro.resolve_far,
                                          far_factor=hydro.resolve_far_factor if hydro.resolve_far == "coarse" else None)
-        elif hydro.resolve == "coarse":
-            from ...hydro.coarse_resolve import CoarseCorrectedResolver
-
-            self.region = CoarseCorrectedResolver(self.warm, factor=hydro.resolve_far_factor)
 
     def solve(self, domain, obstacles=None, initial=None):
         if initial is None:
