@@ -35,13 +35,16 @@ class PlacementSection:
             kind = PlacementPlan.KEY_KINDS.get(f.name)
             if f.name == "material":
                 out[f.name] = {"description": "closure material (breachflow.materials): a name such as "
-                                              "\"HMA_1000_3000\", a table {name = ..., parameters}, or a list of them; "
+                                              "\"HMA_1000_3000\", a table {name = ..., parameters}, or a list of them "
+                                              "(a mix: each mass carries its own material's drag coefficient, "
+                                              "friction and rolling resistance); "
                                               "default: spheres of diameter and density",
                                "anyOf": [{"type": "string"}, {"type": "object"},
                                          {"type": "array", "items": {"anyOf": [{"type": "string"}, {"type": "object"}]}}]}
                 continue
             if f.name == "fractions":
-                out[f.name] = {"description": "mass fractions of the tonnage, one per material of the list",
+                out[f.name] = {"description": "mass fractions of the delivered tonnage, one per material of the list "
+                                              "(non-negative, not all zero; default: equal)",
                                "type": "array", "items": {"type": "number", "minimum": 0}}
                 continue
             if kind is None:
