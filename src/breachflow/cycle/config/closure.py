@@ -7,6 +7,7 @@ from dataclasses import dataclass, field
 from ...errors import BreachflowError
 from ...scenario.config import register_section
 from ..criteria import EndCriteria
+from ..losses import LOSS_LIMIT
 from ..placement import POSITION_MODES, PlacementPlan
 from .timeline import TIMELINE_KEYS, TimelineKeys
 
@@ -138,7 +139,7 @@ class ClosureSection:
     remap: str = "porous"
     seed: int = 0
     area: tuple | None = None
-    loss_limit: float = 0.5
+    loss_limit: float = LOSS_LIMIT
     porous_law: str = "ergun"
     pile_sampling: str = "centre"
     timeline: TimelineKeys = field(default_factory=TimelineKeys)
@@ -159,7 +160,8 @@ class ClosureSection:
             area = tuple(float(v) for v in ctx.quantity({"area": val}, "area", "length", dim="area").values)
             if not (area[0] < area[1] and area[2] < area[3]):
                 raise ctx.error(f"area must be [x0, x1, y0, y1] with x0 < x1 and y0 < y1, got {val!r}", "area")
-        loss = ctx.quantity(table, "loss_limit", "dimensionless", default=0.5, default_unit="", positive=True)
+        loss = ctx.quantity(table, "loss_limit", "dimensionless", default=LOSS_LIMIT, default_unit="",
+                            positive=True)
         out = cls(ctx.raw(table, "remap", default="porous"), ctx.raw(table, "seed", types=(int,), default=0),
                   area, float(loss), ctx.raw(table, "porous_law", default="ergun"),
                   ctx.raw(table, "pile_sampling", default="centre"))
