@@ -171,3 +171,41 @@ def test_mix_run_keeps_each_mass_material_and_resumes_identically(tmp_path):
     _same_files(full, resumed, (1, 2))
     np.testing.assert_array_equal(st["dem.state.drag_coefficient"],
                                   resumed.load_restart(2)["dem.state.drag_coefficient"])
+
+
+def test_a_dem_state_saved_before_the_per_particle_coefficients_loads_with_the_run_values():
+    """A restart record without ``state.drag_coefficient`` / ``state.lift_coefficient`` (written before they
+    existed) continues with every particle on the run's drag law, exactly as one saved with them unset."""
+    from breachflow.dem import DemSimulation
+    from breachflow.fluid.forces import FluidForces
+    from breachflow.fluid.field import UniformWater
+
+    def sim_of(state=None):
+        fluid = FluidForces(UniformWater(surface=5.0, u=1.0, v=0.0, bed=0.0), drag_law="report", air=None)
+        if state is not None:
+            return DemSimulation.from_state(state, models=[fluid], sleeping=False)
+        s = DemSimulation(models=[fluid], sleeping=False)
+        s.add_particles([[0.0, 0.0, 2.0], [3.0, 0.0, 2.5]], 0.5, Material(density=2650.0, kn=1e7))
+        return s
+
+    a = sim_of()
+    a.step(20)
+    saved = a.save_state()
+    old = {k: v for k, v in saved.items() if k not in ("state.drag_coefficient", "state.lift_coefficient")}
+    b, c = sim_of(saved), sim_of(old)
+    assert np.isnan(c.state.drag_coefficient).all() and np.isnan(c.state.lift_coefficient).all()
+    b.step(50)
+    c.step(50)
+    np.testing.assert_array_equal(b.state.pos, c.state.pos)
+    np.testing.assert_array_equal(b.state.vel, c.state.vel)
+
+
+def test_bad_per_particle_coefficients_are_refused():
+    from breachflow.dem import DemSimulation
+    from breachflow.errors import InputError
+
+    sim = DemSimulation()
+    with pytest.raises(InputError, match="drag_coefficient must be > 0"):
+        sim.add_particles([[0.0, 0.0, 1.0]], 0.5, drag_coefficient=-1.0)
+    with pytest.raises(InputError, match="lift_coefficient must be >= 0"):
+        sim.add_particles([[0.0, 0.0, 1.0]], 0.5, lift_coefficient=-0.2)

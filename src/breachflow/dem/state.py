@@ -26,7 +26,7 @@ resistance of angular blocks (elastic–plastic rolling spring, :func:`.contact_
 Per-particle fluid parameters (:data:`FLUID_FIELDS`, read by :class:`breachflow.fluid.forces.FluidForces`):
 ``drag_coefficient`` the particle's own Newton-regime drag coefficient (its shape's, e.g. angular rock or a
 cube; used at every Reynolds number, in water and in air) and ``lift_coefficient`` its own lift coefficient
-(replaces the lift term's C_L where the near-bed lift is on). :data:`UNSET` (NaN, the default) means "the
+(replaces the lift term's C_L where the near-bed lift is on). ``UNSET`` (NaN, the default) means "the
 run's": the force model's drag law, the lift term's coefficient. A closure run fills them from each mass's
 material when it is placed (:mod:`breachflow.materials`), so that masses of different materials in one run
 each feel their own drag.
@@ -41,7 +41,7 @@ from ..errors import InputError
 
 #: per-particle material fields (Table 3.1), in the order used by the kernels
 MATERIAL_FIELDS = ("adhesion", "friction", "kn", "ks", "c_cn", "c_cs", "c_cf", "c_gn", "c_gw", "rolling_friction")
-#: per-particle fluid parameters (module docstring); :data:`UNSET` = the run's drag law / lift coefficient
+#: per-particle fluid parameters (module docstring); ``UNSET`` = the run's drag law / lift coefficient
 FLUID_FIELDS = ("drag_coefficient", "lift_coefficient")
 #: the value of a per-particle fluid parameter that the particle does not set (the run's value applies)
 UNSET = float("nan")
@@ -147,9 +147,9 @@ class ParticleState:
     active: np.ndarray
     vel_prev: np.ndarray = field(default=None)
     omega_prev: np.ndarray = field(default=None)
-    #: the particle's own drag coefficient (:data:`UNSET`: the force model's drag law), module docstring
+    #: the particle's own drag coefficient (``UNSET``: the force model's drag law), module docstring
     drag_coefficient: np.ndarray = field(default=None)
-    #: the particle's own lift coefficient (:data:`UNSET`: the lift term's), module docstring
+    #: the particle's own lift coefficient (``UNSET``: the lift term's), module docstring
     lift_coefficient: np.ndarray = field(default=None)
 
     def __post_init__(self):
@@ -185,7 +185,7 @@ class ParticleState:
             lift_coefficient=UNSET) -> np.ndarray:
         """Append spheres; returns their indices. Validates finiteness and positivity. *drag_coefficient* and
         *lift_coefficient* (scalar or (n,)) are the particles' own fluid parameters (module docstring;
-        :data:`UNSET`: the run's)."""
+        ``UNSET``: the run's)."""
         material = material or Material()
         pos = np.atleast_2d(np.asarray(pos, dtype=float))
         if pos.ndim != 2 or pos.shape[1] != 3:

@@ -7,6 +7,7 @@ from dataclasses import dataclass, field
 from ...errors import BreachflowError
 from ...scenario.config import register_section
 from ..criteria import EndCriteria
+from ..losses import LOSS_LIMIT
 from ..placement import POSITION_MODES, PlacementPlan
 from .timeline import TIMELINE_KEYS, TimelineKeys
 
@@ -35,13 +36,16 @@ class PlacementSection:
             kind = PlacementPlan.KEY_KINDS.get(f.name)
             if f.name == "material":
                 out[f.name] = {"description": "closure material (breachflow.materials): a name such as "
-                                              "\"HMA_1000_3000\", a table {name = ..., parameters}, or a list of them; "
+                                              "\"HMA_1000_3000\", a table {name = ..., parameters}, or a list of them "
+                                              "(a mix: each mass carries its own material's drag coefficient, "
+                                              "friction and rolling resistance); "
                                               "default: spheres of diameter and density",
                                "anyOf": [{"type": "string"}, {"type": "object"},
                                          {"type": "array", "items": {"anyOf": [{"type": "string"}, {"type": "object"}]}}]}
                 continue
             if f.name == "fractions":
-                out[f.name] = {"description": "mass fractions of the tonnage, one per material of the list",
+                out[f.name] = {"description": "mass fractions of the delivered tonnage, one per material of the list "
+                                              "(non-negative, not all zero; default: equal)",
                                "type": "array", "items": {"type": "number", "minimum": 0}}
                 continue
             if kind is None:
@@ -135,7 +139,7 @@ class ClosureSection:
     remap: str = "porous"
     seed: int = 0
     area: tuple | None = None
-    loss_limit: float = 0.5
+    loss_limit: float = LOSS_LIMIT
     porous_law: str = "ergun"
     pile_sampling: str = "centre"
     timeline: TimelineKeys = field(default_factory=TimelineKeys)
@@ -156,7 +160,8 @@ class ClosureSection:
             area = tuple(float(v) for v in ctx.quantity({"area": val}, "area", "length", dim="area").values)
             if not (area[0] < area[1] and area[2] < area[3]):
                 raise ctx.error(f"area must be [x0, x1, y0, y1] with x0 < x1 and y0 < y1, got {val!r}", "area")
-        loss = ctx.quantity(table, "loss_limit", "dimensionless", default=0.5, default_unit="", positive=True)
+        loss = ctx.quantity(table, "loss_limit", "dimensionless", default=LOSS_LIMIT, default_unit="",
+                            positive=True)
         out = cls(ctx.raw(table, "remap", default="porous"), ctx.raw(table, "seed", types=(int,), default=0),
                   area, float(loss), ctx.raw(table, "porous_law", default="ergun"),
                   ctx.raw(table, "pile_sampling", default="centre"))
