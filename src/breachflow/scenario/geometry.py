@@ -74,7 +74,7 @@ class BreachGeometry:
 
     ``length`` B along the levee centreline at the crest (m), ``depth`` D below the crest (m; equal to
     the levee height when the breach reaches the ground), ``wall_slope`` m_W (horizontal run per unit
-    rise; 0 is vertical; default :data:`DEFAULT_WALL_SLOPE`, the report's mostly 2V:1H), ``scour_depth`` d_S below ground (m).
+    rise; 0 is vertical; default :data:`~breachflow.scenario.geometry.DEFAULT_WALL_SLOPE`, the report's mostly 2V:1H), ``scour_depth`` d_S below ground (m).
     """
 
     length: float
