@@ -12,7 +12,9 @@ the rest ``l_r = Δy - Σ l_k`` of rock) gets the Forchheimer coefficients of th
 
 exact for flow normal to the layers, since the superficial velocity is the same in every layer of a cell
 and the head losses add. The layers cover the pile's height in the cell up to the flood level (the wetted
-face). The flow is re-solved with the run's solver, warm-started from the last cycle, and the leakage read
+face). The flow is re-solved with the run's solver, warm-started from the last cycle and solved on to its
+steady state (up to the criterion's ``steady_cap``, as at the rock stage's end, :mod:`breachflow.cycle.rock_end`;
+a leakage read from a re-solve still not steady then does not seal the dam), and the leakage read
 from the re-solve; while the criterion is not met the seal is thickened (the leakage over the target, at
 least +25 % a step), up to ``max_seal_thickness`` or the seal material available (``seal_available``).
 
@@ -178,13 +180,16 @@ class SealStep:
     solve_cpu_s: float = 0.0
     flow_model_leakage: float = float("nan")
     series_seepage: float = float("nan")
+    #: whether the re-solve reached its steady state (:func:`~breachflow.cycle.rock_end.is_steady`); a leakage
+    #: read from an unsteady re-solve does not seal the dam
+    steady: bool = True
 
     def as_dict(self) -> dict:
         return {"seal_thickness_m": self.thickness, "tonnage_t": dict(self.tonnage),
                 "seal_tonnage_t": float(sum(self.tonnage.values())), "leakage_m3_s": self.leakage,
                 "net_rise_m_per_day": self.net_rise_per_day, "acceptable": self.acceptable,
                 "solve_cpu_s": self.solve_cpu_s, "flow_model_leakage_m3_s": self.flow_model_leakage,
-                "series_seepage_m3_s": self.series_seepage}
+                "series_seepage_m3_s": self.series_seepage, "steady": self.steady}
 
 
 @dataclass
@@ -241,6 +246,7 @@ def seal_dam(solve, pile, snapshot, criterion, *, breach_x, levee_y, y, x, thick
 
     from .criteria import section_discharge
     from .leakage import SECONDS_PER_DAY, polder_leakage_check
+    from .rock_end import is_steady
 
     if not criterion.seal_layers:
         raise InputError("seal: the polder_leakage criterion has no seal layers ([criteria] polder_leakage.seal)")
@@ -274,9 +280,14 @@ def seal_dam(solve, pile, snapshot, criterion, *, breach_x, levee_y, y, x, thick
             q_series = series_leakage(snap, pile, layers, side, breach_x, criterion.law, columns=block.any(axis=0))
             q = q_flow + q_series
         v = polder_leakage_check(q, criterion.area, pump, criterion.threshold)
-        res.steps.append(SealStep(t, tons, q, v.net_rise_per_day, v.acceptable, _time.process_time() - c0,
-                                  q_flow, q_series))
+        steady = is_steady(snap)
+        res.steps.append(SealStep(t, tons, q, v.net_rise_per_day, v.acceptable and steady, _time.process_time() - c0,
+                                  q_flow, q_series, steady))
         res.snapshot, prev = snap, snap
+        if v.acceptable and not steady:
+            res.verdict = (f"not sealed: the re-solve with {t:.3g} m of seal is not steady (leakage {q:.4g} m3/s "
+                           f"read from an unsettled flow)")
+            break
         if v.acceptable:
             res.sealed = True
             res.verdict = (f"sealed: {t:.3g} m of {criterion.seal_layers[0].name} with "
@@ -337,9 +348,12 @@ def seal_stage(setup, rec, snapshot):
     if obstacle is not None:
         obstacle = obstacle & ~np.asarray(dom.obstacle, bool)  # the pile's emergent cells (the levee is in dom)
 
-    def solve(p, initial, block):
+    def solve(p, initial, block):  # solved on to its steady state, as the rock stage's end (cycle/rock_end.py)
+        from .rock_end import continue_to_steady
+
         obst = obstacle if block is None else (block if obstacle is None else obstacle | block)
-        return setup.solver.solve(dom.with_porous(p), obstacles=obst, initial=initial)
+        once = lambda prev: setup.solver.solve(dom.with_porous(p), obstacles=obst, initial=prev)  # noqa: E731
+        return continue_to_steady(once, once(initial), getattr(crit, "steady_cap", 1800.0))[0]
 
     plan = getattr(crit, "seal_plan", None) or {}
     res = seal_dam(solve, pile, snapshot, crit, breach_x=setup.breach_x, levee_y=setup.levee_y, y=dom.y,
