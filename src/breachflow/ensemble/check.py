@@ -379,7 +379,13 @@ def _open_breach_on(sc, scenario_path, res: float, section: CheckSection) -> Che
             hydro.refine = fine
         c0 = _time.process_time()
         setup = closure_setup(sc)
+        tl = setup.timeline
+        if tl is not None:  # the closure in time: the open breach at the start, as the run on the coarser grid
+            tl.begin()
         snap = setup.solver.solve(setup.domain)
+        if tl is not None:
+            snap = tl.calibrate(snap, lambda prev: setup.solver.solve(setup.domain, initial=prev),
+                                lambda s: section_discharge(s, setup.breach_x, setup.levee_y))
         cpu = _time.process_time() - c0
     finally:
         hydro.resolution, hydro.refine = old

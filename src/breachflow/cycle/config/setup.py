@@ -56,7 +56,7 @@ def closure_setup(scenario, *, overrides: dict | None = None):
         (xc, yc), half = (0.0, 0.0), 0.5 * scene.breach.length
         flood_level = scene.flood_water_elevation
         bottom = scene.ground_elevation + scene.levee.height - scene.breach.depth - scene.breach.scour_depth
-    nested = None
+    nested = coarse = None  # coarse: (domain, solver) of a refine's coarse model
     if hydro.solver == "nested" or hydro.refine is not None:
         from ...hydro.nested import NestedSolver, breach_box
 
@@ -67,7 +67,8 @@ def closure_setup(scenario, *, overrides: dict | None = None):
                 raise InputError("[hydro] refine: a stage hydrograph of the site is not supported with a nested grid")
             Xc, Yc = np.meshgrid(dom.x, dom.y)
             reg_c = (np.abs(Xc - xc) <= half + hydro.monitor_radius) & (np.abs(Yc - yc) <= hydro.monitor_radius + half)
-            regional = [_WarmStartSWE(hydro, reg_c, section=(xc - half, xc + half, yc)).cold.solve(dom)]
+            coarse = (dom, _WarmStartSWE(hydro, reg_c, section=(xc - half, xc + half, yc)))
+            regional = [coarse[1].cold.solve(dom)]
             metadata.update(refine_coarse_resolution=hydro.resolution, refine_resolution=hydro.refine)
         # an ingested field is on the CRS axes: the local grid of a rotated site samples it in its frame
         # (a refine's coarse steady state is already on the site's grid)
@@ -187,7 +188,7 @@ def closure_setup(scenario, *, overrides: dict | None = None):
             item.bind_scenario(scenario)
     timeline = None
     if closure.timeline.method is not None:
-        if not isinstance(solver, (_WarmStartSWE, _StageSolver)):
+        if not isinstance(solver, (_WarmStartSWE, _StageSolver)) and coarse is None:
             raise InputError(f"[closure] method: the closure in time moves the flood-side and polder levels of the "
                              f"embedded flow model; [hydro] solver = {hydro.solver!r} takes its boundaries from "
                              f"the ingested model (use solver = \"swe\")")
@@ -208,9 +209,18 @@ def closure_setup(scenario, *, overrides: dict | None = None):
                                   length=2.0 * half, wall_slope=wall, built=built,
                                   levee=None if built is not None else scene.levee, placement=placement,
                                   terrain=terrain)
-        base = dom.boundaries
-        inner = solver.inner if isinstance(solver, _StageSolver) else solver
-        solver = TimelineSolver(inner, timeline, lambda level, b=base, z=flood_level: shifted_boundaries(b, level - z))
+        if coarse is not None:  # a nested finer grid: its edges follow the coarse model at the timeline's levels
+            from .nested_timeline import NestedTimelineSolver
+
+            base = coarse[0].boundaries
+            solver = NestedTimelineSolver(
+                solver, TimelineSolver(coarse[1], timeline, lambda level, b=base, z=flood_level: shifted_boundaries(b, level - z)),
+                coarse[0], regional[0], spacing=hydro.refine, manning=float(np.mean(coarse[0].manning)),
+                site_level=flood_level)
+        else:
+            base = dom.boundaries
+            inner = solver.inner if isinstance(solver, _StageSolver) else solver
+            solver = TimelineSolver(inner, timeline, lambda level, b=base, z=flood_level: shifted_boundaries(b, level - z))
         metadata["timeline"] = {"method": timeline.method.name, "start_s": timeline.start,
                                 "description": timeline.describe()}
     if isinstance(solver, _StageSolver):

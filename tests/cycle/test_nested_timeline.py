@@ -1,0 +1,49 @@
+"""The closure in time on a nested finer grid ([hydro] refine with [closure] method), as the verdict
+check's finer grid runs it: the nested grid's edges follow the flood stage and the polder level of the
+timeline, not the levels of the coarse model's first solve."""
+from importlib.resources import files
+
+import numpy as np
+import pytest
+
+from breachflow.cycle.config import closure_setup
+from breachflow.cycle.config.nested_timeline import NestedTimelineSolver
+from breachflow.scenario import parse_scenario
+
+
+def _edge_levels(snap):
+    ws, wet = snap.water_surface.values, snap.wet.values.astype(bool)
+    return (float(np.nanmean(np.where(wet[0], ws[0], np.nan))),     # flood side (smallest y)
+            float(np.nanmean(np.where(wet[-1], ws[-1], np.nan))))   # polder side
+
+
+@pytest.fixture(scope="module")
+def refined():
+    text = files("breachflow.data").joinpath("closure_default.toml").read_text()
+    assert 'method = "' in text  # the embedded default is a closure in time
+    text = text.replace('resolution = "1 m"', 'resolution = "2 m"\nrefine = "1 m"')
+    return closure_setup(parse_scenario(text))
+
+
+def test_refined_grid_carries_the_timeline(refined):
+    s = refined
+    assert isinstance(s.solver, NestedTimelineSolver)
+    tl = s.timeline
+    tl.begin()
+    first = s.solver.solve(s.domain)
+    flood0, _ = _edge_levels(first)
+    # [flood] of the default: 3 m at the crest at the breach, falling 0.3 m/h
+    assert flood0 == pytest.approx(3.0, abs=0.02)
+    assert s.solver.coarse_solves == 0
+    # two hours later, the polder filled to 1 m above its ground: 3.0 - 2 x 0.3 = 2.4 m on the flood side
+    tl.time = 7200.0
+    tl.polder_level = tl.ground + 1.0
+    assert tl.flood_level == pytest.approx(2.4, abs=1e-9)
+    later = s.solver.solve(s.domain, initial=first)
+    assert s.solver.coarse_solves == 1
+    flood1, polder1 = _edge_levels(later)
+    assert flood1 == pytest.approx(2.4, abs=0.02)
+    assert polder1 == pytest.approx(tl.ground + 1.0, abs=0.1)
+    # the same levels again: no further coarse solve
+    s.solver.solve(s.domain, initial=later)
+    assert s.solver.coarse_solves == 1
