@@ -48,6 +48,15 @@ def test_shipped_scenarios_validate(schema, path):
     parse_scenario(path.read_text(), path)  # and the parser agrees
 
 
+def _toml_value(value) -> str:
+    """A value as TOML text: tables inline, lists and scalars as JSON (which TOML reads alike)."""
+    if isinstance(value, dict):
+        return "{ " + ", ".join(f"{k} = {_toml_value(v)}" for k, v in value.items()) + " }"
+    if isinstance(value, list):
+        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
+    return json.dumps(value)
+
+
 @pytest.mark.parametrize("section, key, value", [
     ("hydro", "resolutoin", "1 m"),     # a typo of a key
     ("dem", "kn", {"a": 1}),             # a table where a value belongs
@@ -60,8 +69,7 @@ def test_the_schema_refuses_what_the_parser_refuses(schema, section, key, value)
     base[section][key] = value
     with pytest.raises(jsonschema.ValidationError):
         jsonschema.validate(base, schema)
-    toml = "\n".join(f"[{s}]\n" + "\n".join(f"{k} = {json.dumps(v)}" for k, v in t.items()) for s, t in base.items()
-                     if not any(isinstance(v, dict) for v in t.values()))
+    toml = "\n".join(f"[{s}]\n" + "\n".join(f"{k} = {_toml_value(v)}" for k, v in t.items()) for s, t in base.items())
     if not isinstance(value, dict):
         with pytest.raises(BreachflowError):
             parse_scenario(toml)
