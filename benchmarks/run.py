@@ -35,17 +35,18 @@ def listing() -> str:
     names = [n for n in PUBLISHED if (HERE / f"bench_{n}.py").exists()]
     names += [n for n in available() if n not in PUBLISHED]
     dev = available(DEV)
-    pad = max(map(len, names + dev)) + 2
     lines = ["usage: python3 tasks.py bench NAME [ARGS...]   (NAME --help: its options)", "",
              "comparisons (benchmarks/, reported in docs/performance.md and docs/atlas.md):"]
 
-    def row(name: str, path: Path) -> str:
+    def row(name: str, path: Path, pad: int) -> str:
         text = f"  {name:<{pad}}{summary(path)}"
         return text if len(text) <= WIDTH else text[:WIDTH - 1] + "…"
 
-    lines += [row(n, HERE / f"bench_{n}.py") for n in names]
+    pad = max(map(len, names)) + 2  # each section its own column, so a long diagnostic name cuts no comparison
+    lines += [row(n, HERE / f"bench_{n}.py", pad) for n in names]
     lines += ["", "developers' diagnostics and A/B runs (benchmarks/dev/):"]
-    lines += [row(n, DEV / f"bench_{n}.py") for n in dev]
+    pad = max(map(len, dev), default=0) + 2
+    lines += [row(n, DEV / f"bench_{n}.py", pad) for n in dev]
     return "\n".join(lines)
 
 

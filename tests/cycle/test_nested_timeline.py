@@ -20,7 +20,9 @@ def _edge_levels(snap):
 @pytest.fixture(scope="module")
 def refined():
     text = files("breachflow.data").joinpath("closure_default.toml").read_text()
-    assert 'method = "' in text  # the embedded default is a closure in time
+    # the embedded default as a closure in time: a delivery method instead of a free rate
+    assert 'rate = "30 1/hr"\n' in text and "seed = 1\n" in text
+    text = text.replace('rate = "30 1/hr"\n', "").replace("seed = 1\n", 'seed = 1\nmethod = "barge_crane"\n')
     text = text.replace('resolution = "1 m"', 'resolution = "2 m"\nrefine = "1 m"')
     return closure_setup(parse_scenario(text))
 

@@ -15,7 +15,8 @@ breach is solved once more on a nested 1 m grid. Asserted:
 
 The expected values are not numbers this code produced: a closure answer that a user can act on must not
 change with the cell size or the random placement, and a grid-converged flow changes by less than 2 %
-when the cells are halved. About 20 CPU min.
+when the cells are halved. Slow: one closure of the shipped file at 4 m alone takes several CPU minutes
+(docs/closure-timeline.md), and this test runs it for three seeds on three grids.
 """
 import shutil
 from pathlib import Path

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from breachflow.field.snapshot import grid_snapshot
-from breachflow.hydro.nested import breach_window, nested_domain
+from breachflow.hydro.nested import breach_box, nested_domain
 from breachflow.scenario.geometry import BreachGeometry, typical_breach
 from breachflow.swe.domain import breach_domain, breach_terrain, levee_bed
 
@@ -44,8 +44,8 @@ def _scene(wall_slope):
 def test_nested_grid_holds_the_analytic_breach_width_and_floor(coarse, wall_slope):
     scene = _scene(wall_slope)
     regional = _at_rest(breach_domain(scene, coarse))
-    window, dx = breach_window(0.0, 0.0, 61.0, 1.0)
-    dom, (h, _, _) = nested_domain(regional, window, dx, terrain=breach_terrain(scene))
+    box, dx = breach_box(0.0, 0.0, 61.0, 1.0)
+    dom, (h, _, _) = nested_domain(regional, box, dx, terrain=breach_terrain(scene))
     assert dx == 1.0
     X, Y = np.meshgrid(dom.x, dom.y)
     # the bed is the scene's at every open cell (the breach floor at the ground, 30.5 m, exactly)
@@ -67,8 +67,8 @@ def test_without_the_terrain_the_coarse_bed_smears_the_breach():
     """The reason for the terrain: the coarse 4 m bed interpolated does not hold the 61 m opening."""
     scene = typical_breach()
     regional = _at_rest(breach_domain(scene, 4.0))
-    window, dx = breach_window(0.0, 0.0, 61.0, 1.0)
-    dom, _ = nested_domain(regional, window, dx)
+    box, dx = breach_box(0.0, 0.0, 61.0, 1.0)
+    dom, _ = nested_domain(regional, box, dx)
     j = int(np.argmin(np.abs(dom.y)))
     open_floor = (~dom.obstacle[j]) & (dom.bed[j] < 30.5 + 1e-6)
     assert open_floor.sum() * dx != 61.0
@@ -131,5 +131,5 @@ def test_a_site_nested_grid_takes_the_terrain_file_with_the_breach_cut(tmp_path)
     coarse = setup.solver.regional
     from breachflow.hydro.nested import nested_domain
 
-    smeared, _ = nested_domain(coarse, setup.solver.window, 0.5)
+    smeared, _ = nested_domain(coarse, setup.solver.box, 0.5)
     assert not (np.isclose(smeared.bed[j], 2.0, atol=1e-9) & ~smeared.obstacle[j]).sum() == 24

@@ -325,6 +325,8 @@ class NestedSolver:
         if not (self.box[1] > self.box[0] and self.box[3] > self.box[2]):
             raise InputError(f"nested box {w} does not overlap the regional field "
                              f"(x {np.min(bx):g}..{np.max(bx):g}, y {np.min(by):g}..{np.max(by):g})")
+        #: the local grid's terrain source and the edges' leaving rule, kept for a rebuild on a new regional field
+        self.terrain, self.leaving = terrain, leaving
         self.domain, self.initial_state = nested_domain(self.regional, self.box, resolution, manning,
                                                         leaving=leaving, frame=self.frame, terrain=terrain)
         from ..swe.solver import SWEOptions

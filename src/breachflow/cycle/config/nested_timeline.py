@@ -31,7 +31,7 @@ class NestedTimelineSolver:
         #: coarse re-solves done for a change of the timeline's levels
         self.coarse_solves = 0
 
-    def __getattr__(self, name):  # window, source, region, fallback_sampler... of the nested solver
+    def __getattr__(self, name):  # box, source, region, fallback_sampler... of the nested solver
         return getattr(self.__dict__["nested"], name)
 
     def levels(self) -> tuple:
@@ -53,7 +53,8 @@ class NestedTimelineSolver:
         n = self.nested
         n.regional = load_regional(self._regional)
         n.__dict__.pop("_fallback", None)
-        dom, init = nested_domain(n.regional, n.window, self.spacing, self.manning)
+        dom, init = nested_domain(n.regional, n.box, self.spacing, self.manning, leaving=n.leaving, frame=n.frame,
+                                  terrain=n.terrain)
         n.initial_state = init
         from ...swe.domain import _copy_spacing
 
