@@ -33,15 +33,21 @@ def channel_discharge(x, y, hv, open_wet, x_range, y0: float) -> float:
         closed = ~open_wet[:, il] & ~open_wet[:, ir]
     rows = [j0]
     if closed[j0]:
-        lo = j0
-        while lo > 0 and closed[lo - 1]:
-            lo -= 1
-        hi = j0
-        while hi < yy.size - 1 and closed[hi + 1]:
-            hi += 1
+        lo, hi = closed_run(closed, j0)
         rows = range(lo, hi + 1)
     q = [float(np.sum(hv[j, sel & open_wet[j]]) * dx) for j in rows]
     return float(np.median(q))
+
+
+def closed_run(closed, j0: int) -> tuple[int, int]:
+    """First and last row ``(lo, hi)`` of the run of *closed* rows (walled on both sides of the breach) that
+    holds row *j0*."""
+    lo = hi = int(j0)
+    while lo > 0 and closed[lo - 1]:
+        lo -= 1
+    while hi < len(closed) - 1 and closed[hi + 1]:
+        hi += 1
+    return lo, hi
 
 
 def open_wet(ds):
@@ -142,12 +148,7 @@ def control_section(x, y, depth, v, open_wet, x_range, y0: float, gravity: float
     j0 = int(np.argmin(np.abs(yy - y0)))
     if not closed[j0]:
         return float("nan"), float("nan")
-    lo = j0
-    while lo > 0 and closed[lo - 1]:
-        lo -= 1
-    hi = j0
-    while hi < yy.size - 1 and closed[hi + 1]:
-        hi += 1
+    lo, hi = closed_run(closed, j0)
     rows = np.arange(lo, hi + 1)
     if (yy[-1] - yy[0]) * q < 0:  # with the flow
         rows = rows[::-1]
