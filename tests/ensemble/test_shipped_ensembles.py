@@ -102,3 +102,13 @@ def test_the_small_example_runs_end_to_end_without_warnings(tmp_path):
         assert (status == STATUS_OK).all(), status
         p = np.asarray(ds["closure_probability"].values, float)
         assert p.shape == (2,) and np.all((p >= 0) & (p <= 1)), p
+
+
+@pytest.mark.parametrize("path", sorted((ROOT / "examples" / "ensembles").glob("*.toml")), ids=lambda p: p.name)
+def test_every_member_of_every_shipped_ensemble_passes_the_check_before_running(path, tmp_path):
+    """What `breachflow ensemble FILE` checks first (scenario, runner checks such as the seal's filter rules)
+    accepts every member of every shipped ensemble: a user running the README's command gets a run, not a
+    refusal."""
+    _, _, _, tasks = plan(path, out=tmp_path / "out")
+    assert tasks
+    check_members(tasks)  # raises InputError naming each refused member
