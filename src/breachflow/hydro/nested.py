@@ -319,6 +319,8 @@ class NestedSolver:
         # the box is clipped to the regional field's bounding box (grid coordinates; outside it there is
         # nothing to nest in) by whole cells, so that its lattice (e.g. breach ends on cell faces) is kept
         r = float(resolution)
+        #: the local grid's cell size (m), kept for a rebuild on a new regional field
+        self.spacing = r
         cut = lambda lo, hi, sign: (np.ceil(max(sign * (hi - lo), 0.0) / r - 1e-9) * r)
         self.box = (w[0] + cut(w[0], float(np.min(bx)), 1), w[1] - cut(float(np.max(bx)), w[1], 1),
                        w[2] + cut(w[2], float(np.min(by)), 1), w[3] - cut(float(np.max(by)), w[3], 1))

@@ -17,11 +17,10 @@ class NestedTimelineSolver:
     *regional*) whose regional field follows the timeline *coarse*
     (:class:`~breachflow.cycle.timeline.TimelineSolver` of the coarse model) on *coarse_domain*."""
 
-    def __init__(self, nested, coarse, coarse_domain, regional, *, spacing: float, manning: float,
-                 site_level: float):
+    def __init__(self, nested, coarse, coarse_domain, regional, *, manning: float, site_level: float):
         self.nested, self.coarse, self.coarse_domain = nested, coarse, coarse_domain
         self.timeline = coarse.timeline
-        self.spacing, self.manning = float(spacing), float(manning)
+        self.manning = float(manning)
         self._regional = regional
         #: the (flood level, tailwater) the regional field was solved at; the first one has the site's level
         #: and a free-draining polder
@@ -53,7 +52,9 @@ class NestedTimelineSolver:
         n = self.nested
         n.regional = load_regional(self._regional)
         n.__dict__.pop("_fallback", None)
-        dom, init = nested_domain(n.regional, n.box, self.spacing, self.manning, leaving=n.leaving, frame=n.frame,
+        # the nested grid's own cell size: the breach's ends lie on its cell faces, so it is the refine
+        # length only when that divides the breach length
+        dom, init = nested_domain(n.regional, n.box, n.spacing, self.manning, leaving=n.leaving, frame=n.frame,
                                   terrain=n.terrain)
         n.initial_state = init
         from ...swe.domain import _copy_spacing

@@ -215,7 +215,7 @@ def closure_setup(scenario, *, overrides: dict | None = None):
             base = coarse[0].boundaries
             solver = NestedTimelineSolver(
                 solver, TimelineSolver(coarse[1], timeline, lambda level, b=base, z=flood_level: shifted_boundaries(b, level - z)),
-                coarse[0], regional[0], spacing=hydro.refine, manning=float(np.mean(coarse[0].manning)),
+                coarse[0], regional[0], manning=float(np.mean(coarse[0].manning)),
                 site_level=flood_level)
         else:
             base = dom.boundaries
