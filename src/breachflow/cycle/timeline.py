@@ -335,6 +335,18 @@ class Timeline:
                 f"{self.stage.source}; polder {self.polder.area / 1e4:,.0f} ha, pumps {self.polder.pump_capacity:g} m³/s")
 
 
+def with_tailwater(boundaries: dict, tail: float | None) -> dict:
+    """*boundaries* with every free-outflow edge turned into the prescribed polder level *tail* (m); unchanged
+    while the polder is (nearly) dry (*tail* None). The protected side of a flow model then stands at the
+    polder's level, as the polder balance has it, instead of draining freely."""
+    from ..swe.domain import BoundaryCondition
+
+    if tail is None:
+        return boundaries
+    return {side: [BoundaryCondition.water_level(tail, start=bc.start, stop=bc.stop) if bc.kind == "outflow" else bc
+                   for bc in lst] for side, lst in boundaries.items()}
+
+
 class TimelineSolver:
     """A flow solver whose boundaries follow the timeline: before each solve, the flood-side level is the
     flood stage at the current operation time and the protected side the polder level (a prescribed
@@ -350,18 +362,8 @@ class TimelineSolver:
         return getattr(self.__dict__["inner"], name)
 
     def boundaries(self):
-        from ..swe.domain import BoundaryCondition
-
         tl = self.timeline
-        bcs = self.boundaries_at(tl.flood_level)
-        tail = tl.tailwater
-        if tail is None:
-            return bcs
-        out = {}
-        for side, lst in bcs.items():
-            out[side] = [BoundaryCondition.water_level(tail, start=bc.start, stop=bc.stop)
-                         if bc.kind == "outflow" else bc for bc in lst]
-        return out
+        return with_tailwater(self.boundaries_at(tl.flood_level), tl.tailwater)
 
     def solve(self, domain, obstacles=None, initial=None):
         from dataclasses import replace
