@@ -122,3 +122,19 @@ def test_seepage_fraction_and_the_closure_statement():
     assert dict(res.table_rows())["closure achieved"] == "yes: " + res.statement
     res.final_seepage = 0.0
     assert res.statement == "closed" and dict(res.table_rows())["closure achieved"] == "yes"
+
+
+def test_a_sealed_closure_states_the_sealed_leakage_not_the_rock_seepage():
+    # a rock dam with 408.9 m3/s of seepage, then sealed: what is left is the sealed dam's leakage (0.67 m3/s,
+    # 0.67 x 86400 / 4.9e7 m2 = 0.118 cm/day), not "to be sealed"
+    plan = {"seal": {"sealed": True, "seal_thickness_m": 0.292, "seal_tonnage_t": 396.2},
+            "leakage_end": {"breach_discharge_m3_s": 0.668, "polder_rise_m_per_day": 0.668 * 86400 / 4.9e7}}
+    res = ClosureResult(run_dir=None, reports=[], closed=True, governing="overflow_discharge+polder_leakage",
+                        cycles=12, masses=720, tonnage=8908.0, operation_time=33496.0, closure_window=None,
+                        feasible=True, wall_time=1.0, peak_speed=6.0, final_discharge=408.9, final_seepage=408.9,
+                        open_breach_discharge=1576.8, plan=plan)
+    assert res.statement == ("closed and sealed (0.29 m of seal, 396 t): leakage 0.67 m³/s through the dam, "
+                             "a polder rise of 0.12 cm/day")
+    assert "to be sealed" not in dict(res.table_rows())["closure achieved"]
+    plan["seal"]["sealed"] = False  # a seal that did not meet the criterion leaves the rock stage's statement
+    assert res.statement.endswith("to be sealed with finer fill")

@@ -65,9 +65,17 @@ class ClosureResult:
     @property
     def statement(self) -> str:
         """The outcome in one phrase: for a porous pile, "closed (overflow stopped); seepage X m³/s ... to be
-        sealed with finer fill" — a rock-fill dam leaks, and the sealing must take that seepage."""
+        sealed with finer fill" — a rock-fill dam leaks, and the sealing must take that seepage; after a seal
+        stage, the sealed dam's leakage and the polder rise it causes."""
         if not self.closed:
             return "not closed"
+        seal = (self.plan or {}).get("seal") or {}
+        if seal.get("sealed"):  # the rock dam's seepage was sealed: what is left is the sealed dam's leakage
+            end = self.plan.get("leakage_end", {})
+            rise = end.get("polder_rise_m_per_day")
+            rise = f", a polder rise of {100 * rise:.2g} cm/day" if rise is not None else ""
+            return (f"closed and sealed ({seal['seal_thickness_m']:.2f} m of seal, {seal['seal_tonnage_t']:,.0f} t): "
+                    f"leakage {abs(end.get('breach_discharge_m3_s', float('nan'))):.2f} m³/s through the dam{rise}")
         seep = abs(self.final_seepage)
         if not seep > 0:
             return "closed"

@@ -36,7 +36,11 @@ def closure_reason(rundir) -> str:
     met = [f"{k} {v['value']:.3g}{_unit(v['units'])} (threshold {v['threshold']:.3g}{_unit(v['units'])})"
            for k, v in crit.items() if v.get("satisfied")]
     q = f"breach discharge {summ.get('breach_discharge', float('nan')):.2f} m³/s"
-    if summ.get("seepage_discharge", 0.0):  # a porous pile: what passes is seepage, left to the sealing
+    seal = man.get("metadata", {}).get("seal") or {}
+    if seal.get("sealed"):  # the seal stage after the rock: the sealed dam's leakage
+        q += (f" through the rock; sealed with {seal.get('seal_thickness_m', float('nan')):.2f} m of finer fill: "
+              f"{abs(seal.get('leakage_m3_s', float('nan'))):.2f} m³/s left")
+    elif summ.get("seepage_discharge", 0.0):  # a porous pile: what passes is seepage, left to the sealing
         q += f" (seepage {abs(summ['seepage_discharge']):.2f} m³/s through the pile, to be sealed with finer fill)"
     if summ.get("closed"):
         return f"closed at cycle {last['cycle']}: {', '.join(met) or summ.get('governing', '')} met; {q}"
