@@ -46,7 +46,11 @@ class NestedTimelineSolver:
         lv = self.levels()
         if lv == self._levels:
             return
-        self._regional = self.coarse.solve(self.coarse_domain, initial=self._regional)
+        # once the polder holds water the coarse model starts over from its level (a cold start: the timeline
+        # fills the polder's dry cells to it), as a uniform grid does; a warm start from the free-draining
+        # field would spend its re-solve time filling the polder and hand on a transient
+        cold = self._levels[1] is None and lv[1] is not None
+        self._regional = self.coarse.solve(self.coarse_domain, initial=None if cold else self._regional)
         self.coarse_solves += 1
         self._levels = lv
         n = self.nested
