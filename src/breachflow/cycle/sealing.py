@@ -15,8 +15,8 @@ and the head losses add. The layers cover the pile's height in the cell up to th
 face). The flow is re-solved with the run's solver, warm-started from the last cycle and solved on to its
 steady state (up to the criterion's ``steady_cap``, as at the rock stage's end, :mod:`breachflow.cycle.rock_end`;
 a leakage read from a re-solve still not steady then does not seal the dam), and the leakage read
-from the re-solve; while the criterion is not met the seal is thickened (the leakage over the target, at
-least +25 % a step), up to ``max_seal_thickness`` or the seal material available (``seal_available``).
+from the re-solve; while the criterion is not met the seal is thickened (by the leakage over the target, at
+least by the factor ``seal_growth``, default 1.25, a step), up to ``max_seal_thickness`` or the seal material available (``seal_available``).
 
 How the leakage is read (``seal_leakage``):
 
@@ -245,7 +245,7 @@ def seal_dam(solve, pile, snapshot, criterion, *, breach_x, levee_y, y, x, thick
     import time as _time
 
     from .criteria import section_discharge
-    from .leakage import SECONDS_PER_DAY, polder_leakage_check
+    from .leakage import SEAL_GROWTH, SECONDS_PER_DAY, polder_leakage_check
     from .rock_end import is_steady
 
     if not criterion.seal_layers:
@@ -300,7 +300,7 @@ def seal_dam(solve, pile, snapshot, criterion, *, breach_x, levee_y, y, x, thick
             break
         # the seal's share of the resistance grows with its thickness: scale by the leakage over the target
         ratio = abs(q) / target if target > 0 else 4.0
-        t = min(t_max, t * max(1.25, min(ratio * 1.1, 8.0)))
+        t = min(t_max, t * max(getattr(criterion, "seal_growth", SEAL_GROWTH), min(ratio * 1.1, 8.0)))
     else:
         res.verdict = f"not sealed after {max_steps} re-solves (last {res.last.thickness:.3g} m)"
     if not res.verdict:

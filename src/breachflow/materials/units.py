@@ -34,6 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError
+from ..scenario.stone import DUMPED_POROSITY
 from . import MATERIALS
 from .rock import ganser_newton_cd
 
@@ -152,7 +153,7 @@ class SphereMaterial:
     friction: float | None = None
     rolling_friction: float | None = None
     shape: str = "sphere"
-    porosity: float = 0.40
+    porosity: float = DUMPED_POROSITY
 
     @property
     def density(self) -> float:
