@@ -192,9 +192,9 @@ class PolderLeakage(Criterion):
         "face_slope": ("dimensionless", "slope of the dam's upstream face (H per V) the seal covers; default "
                                         "[placement] side_slope"),
         "retention_limit": ("dimensionless", "filter rule: largest D15 of a layer / D85 of the finer layer "
-                                             "upstream of it (Terzaghi; default 5)"),
+                                             "upstream of it (Terzaghi)"),
         "permeability_limit": ("dimensionless", "filter rule: smallest D15 of a layer / D15 of the finer layer "
-                                                "upstream of it (Terzaghi; default 5)"),
+                                                "upstream of it (Terzaghi)"),
         "law": ("string", "Forchheimer coefficients of the layers: ergun | van_gent"),
         "seal_method": ("string", "delivery method of the seal material"),
         "seal_capacity": ("kg/s", "delivery capacity of the seal material (e.g. \"300 t/hr\")"),
@@ -260,15 +260,15 @@ class PolderLeakage(Criterion):
             self.pump_capacity = pol[1] if pol is not None else 0.0
         if self.area is None:
             self._use_fallback()
-        if self.seal_layers:
+        plan = None
+        try:
+            plan = scenario["placement"].plan if scenario is not None and "placement" in scenario else None
+        except Exception:  # noqa: BLE001 - no placement section: the run's default spheres
             plan = None
-            try:
-                plan = scenario["placement"].plan if scenario is not None and "placement" in scenario else None
-            except Exception:  # noqa: BLE001 - no placement section: the run's default spheres
-                plan = None
+        if self.face_slope is None and plan is not None:
+            self.face_slope = plan.dam_side_slope
+        if self.seal_layers:
             self.bind_rock(_rock_grading(plan))
-            if self.face_slope is None and plan is not None:
-                self.face_slope = plan.dam_side_slope
 
     def _use_fallback(self):
         if self._fallback is None:
