@@ -24,11 +24,36 @@ _POS_ATTRS = (
 )
 
 
-def particles_dataset(state, *, placed_cycle, particle_id=None, resting=None, grid_mapping: str | None = None) -> xr.Dataset:
+#: per-particle coefficients each mass carries from its material (name in the state → variable attributes);
+#: NaN where the mass takes the run's value (the drag law, the lift term, the ``[fluid]`` apparent mass)
+_COEFFICIENT_ATTRS = {
+    "drag_coefficient": {"long_name": "particle drag coefficient (Newton regime) of its material's shape",
+                         "units": "1", "comment": "NaN: the run's drag law ([fluid] drag_law)"},
+    "lift_coefficient": {"long_name": "particle lift coefficient of its material", "units": "1",
+                         "comment": "NaN: the run's lift term"},
+    "added_mass_coefficient": {"long_name": "particle apparent (added) mass coefficient xi of its material",
+                               "units": "1", "comment": "NaN: the run's [fluid] xi"},
+    "friction": {"long_name": "particle Coulomb friction coefficient", "units": "1"},
+    "rolling_friction": {"long_name": "particle rolling resistance coefficient", "units": "1"},
+}
+
+
+def _flag_word(name: str) -> str:
+    """A material name as one blank-free word of ``flag_meanings`` (CF §3.5)."""
+    import re
+
+    return re.sub(r"[^A-Za-z0-9_.+-]", "_", str(name)) or "unnamed"
+
+
+def particles_dataset(state, *, placed_cycle, particle_id=None, resting=None, grid_mapping: str | None = None,
+                      material=None, material_names=None) -> xr.Dataset:
     """Particle states (positions, velocities, sizes, masses) along dim ``particle``.
 
     *state* is a :class:`breachflow.dem.state.ParticleState`; ``placed_cycle`` the cycle ``<g>`` in
-    which each particle was released; ``resting`` whether it counts as resting at equilibrium.
+    which each particle was released; ``resting`` whether it counts as resting at equilibrium. The
+    coefficients each mass carries (drag, lift, apparent mass, friction, rolling resistance) are written per
+    particle; with *material* (each particle's index into *material_names*) also ``particle_material``, a
+    flag variable naming each mass's material (``flag_values`` / ``flag_meanings``).
     """
     n = state.n
     pid = np.arange(n, dtype="i4") if particle_id is None else np.asarray(particle_id, dtype="i4")
@@ -50,6 +75,15 @@ def particles_dataset(state, *, placed_cycle, particle_id=None, resting=None, gr
     ds["particle_active"] = ("particle", state.active.astype("i1"),
                              {"long_name": "particle inside the domain", "units": "1",
                               "flag_values": np.array([0, 1], "i1"), "flag_meanings": "left_domain inside"})
+    for name, attrs in _COEFFICIENT_ATTRS.items():
+        vals = getattr(state, name, None)
+        if vals is not None:
+            ds[f"particle_{name}"] = ("particle", np.asarray(vals, float)[:n].copy(), dict(attrs))
+    if material is not None:
+        names = [_flag_word(m) for m in (material_names or ["sphere"])]
+        ds["particle_material"] = ("particle", np.asarray(material).astype("i1"),
+                                   {"long_name": "closure material of the particle", "units": "1",
+                                    "flag_values": np.arange(len(names), dtype="i1"), "flag_meanings": " ".join(names)})
     if resting is not None:
         ds["particle_resting"] = ("particle", np.asarray(resting).astype("i1"),
                                   {"long_name": "particle at rest (remapped as an obstruction)", "units": "1",
