@@ -620,7 +620,8 @@ class ClosureRun:
         units = self.setup.placement.unit_parameters()
         part = particles_dataset(st, placed_cycle=placed_cycle, resting=resting,
                                  grid_mapping="crs" if "crs" in grid else None, material=material_index,
-                                 material_names=[u["name"] for u in units] if units else ["sphere"])
+                                 material_names=[u["name"] for u in units] if units else ["sphere"],
+                                 run_drag_coefficient=getattr(self.setup.dem.drag_law, "value", None))
         # the run's capacity (masses inserted otherwise, as the cycle benchmark's pile, can exceed it)
         part = pad_particles(part, max(self.setup.criteria.max_cycles * self.setup.placement.batch, st.n))
         ds = xr.merge([grid, part], combine_attrs="override")

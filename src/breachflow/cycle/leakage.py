@@ -179,7 +179,7 @@ class PolderLeakage(Criterion):
             raise InputError(f"criteria.polder_leakage.seal_steps must be >= 1, got {seal_steps!r}")
 
     #: the keys of ``[criteria] polder_leakage = { ... }``: unit kind (or TOML type) and meaning; the defaults are
-    #: those of :meth:`__init__` (:meth:`option_schema`)
+    #: those of ``__init__`` (:meth:`option_schema`)
     KEYS = {
         "threshold": ("speed", "allowed net polder rise (e.g. \"1 cm/day\")"),
         "area": ("area", "polder area; default [polder] area"),
@@ -209,7 +209,7 @@ class PolderLeakage(Criterion):
 
     @classmethod
     def option_schema(cls) -> dict:
-        """JSON-schema properties of the keyword table, defaults from :meth:`__init__`'s signature."""
+        """JSON-schema properties of the keyword table, defaults from the signature of ``__init__``."""
         import inspect
 
         from ..scenario.reference import quantity_schema

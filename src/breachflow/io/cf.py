@@ -28,7 +28,7 @@ _POS_ATTRS = (
 #: NaN where the mass takes the run's value (the drag law, the lift term, the ``[fluid]`` apparent mass)
 _COEFFICIENT_ATTRS = {
     "drag_coefficient": {"long_name": "particle drag coefficient (Newton regime) of its material's shape",
-                         "units": "1", "comment": "NaN: the run's drag law ([fluid] drag_law)"},
+                         "units": "1", "comment": "NaN: the run's drag law ([fluid] drag_law), where it is not a constant C_D"},
     "lift_coefficient": {"long_name": "particle lift coefficient of its material", "units": "1",
                          "comment": "NaN: the run's lift term"},
     "added_mass_coefficient": {"long_name": "particle apparent (added) mass coefficient xi of its material",
@@ -46,14 +46,16 @@ def _flag_word(name: str) -> str:
 
 
 def particles_dataset(state, *, placed_cycle, particle_id=None, resting=None, grid_mapping: str | None = None,
-                      material=None, material_names=None) -> xr.Dataset:
+                      material=None, material_names=None, run_drag_coefficient=None) -> xr.Dataset:
     """Particle states (positions, velocities, sizes, masses) along dim ``particle``.
 
     *state* is a :class:`breachflow.dem.state.ParticleState`; ``placed_cycle`` the cycle ``<g>`` in
     which each particle was released; ``resting`` whether it counts as resting at equilibrium. The
     coefficients each mass carries (drag, lift, apparent mass, friction, rolling resistance) are written per
     particle; with *material* (each particle's index into *material_names*) also ``particle_material``, a
-    flag variable naming each mass's material (``flag_values`` / ``flag_meanings``).
+    flag variable naming each mass's material (``flag_values`` / ``flag_meanings``). With
+    *run_drag_coefficient* (the run's drag law is a constant C_D) a mass without its own drag coefficient is
+    written with that value, the one it moved with.
     """
     n = state.n
     pid = np.arange(n, dtype="i4") if particle_id is None else np.asarray(particle_id, dtype="i4")
@@ -78,7 +80,10 @@ def particles_dataset(state, *, placed_cycle, particle_id=None, resting=None, gr
     for name, attrs in _COEFFICIENT_ATTRS.items():
         vals = getattr(state, name, None)
         if vals is not None:
-            ds[f"particle_{name}"] = ("particle", np.asarray(vals, float)[:n].copy(), dict(attrs))
+            vals = np.asarray(vals, float)[:n].copy()
+            if name == "drag_coefficient" and run_drag_coefficient is not None:
+                vals[np.isnan(vals)] = float(run_drag_coefficient)
+            ds[f"particle_{name}"] = ("particle", vals, dict(attrs))
     if material is not None:
         names = [_flag_word(m) for m in (material_names or ["sphere"])]
         ds["particle_material"] = ("particle", np.asarray(material).astype("i1"),
