@@ -81,8 +81,8 @@ class DemSettings:
     #: erosion; None: smooth terrain, centre-height flow
     bed: object = None
     #: per closure material of the placement (the index a release carries): the ``friction``,
-    #: ``rolling_friction``, ``drag_coefficient`` and ``lift_coefficient`` its masses carry (None: the run's drag
-    #: law / lift term); empty: every mass takes ``material`` and ``drag_law``
+    #: ``rolling_friction``, ``drag_coefficient``, ``lift_coefficient`` and ``added_mass_coefficient`` its masses
+    #: carry (None: the run's drag law / lift term / ``xi``); empty: every mass takes ``material`` and ``drag_law``
     units: tuple = ()
 
     def __post_init__(self):
@@ -621,7 +621,8 @@ class ClosureRun:
         part = particles_dataset(st, placed_cycle=placed_cycle, resting=resting,
                                  grid_mapping="crs" if "crs" in grid else None, material=material_index,
                                  material_names=[u["name"] for u in units] if units else ["sphere"],
-                                 run_drag_coefficient=getattr(self.setup.dem.drag_law, "value", None))
+                                 run_drag_coefficient=getattr(self.setup.dem.drag_law, "value", None),
+                                 run_added_mass_coefficient=self.setup.dem.xi)
         # the run's capacity (masses inserted otherwise, as the cycle benchmark's pile, can exceed it)
         part = pad_particles(part, max(self.setup.criteria.max_cycles * self.setup.placement.batch, st.n))
         ds = xr.merge([grid, part], combine_attrs="override")
