@@ -51,3 +51,34 @@ def test_mix_cycle_files_name_each_mass_material_and_its_coefficients(tmp_path):
     with xr.open_dataset(run.cycle_path(2)) as ds:
         idx = np.asarray(ds["particle_material"].values).astype(int).ravel()
         assert {0, 1} <= set(idx.tolist())
+
+
+def _run(tmp_path, name, material: str, fractions=None):
+    """A two-cycle run of *material* (TOML text of the value: a name, a table, a list)."""
+    ch = {"placement.diameter": None, "criteria.max_cycles": 2}
+    if fractions is not None:
+        ch["placement.fractions"] = fractions
+    text = scenario_with(CI_CLOSURE, ch).replace("[placement]\n", f"[placement]\nmaterial = {material}\n", 1)
+    setup = closure_setup(parse_scenario(text))
+    ClosureRun(setup, tmp_path / name, text).run()
+    return RunDirectory(tmp_path / name), setup
+
+
+def test_a_material_stating_the_run_xi_is_bit_identical_and_a_mix_writes_each_mass_xi(tmp_path):
+    plain, setup = _run(tmp_path, "plain", '"HMA_6000_10000"')
+    xi = setup.dem.xi  # the run's [fluid] xi
+    same, _ = _run(tmp_path, "same", f'{{ name = "HMA_6000_10000", added_mass_coefficient = {xi!r} }}')
+    for g in (1, 2):
+        with xr.open_dataset(plain.cycle_path(g)) as a, xr.open_dataset(same.cycle_path(g)) as b:
+            assert set(a.variables) == set(b.variables)
+            for v in a.variables:
+                np.testing.assert_array_equal(a[v].values, b[v].values, err_msg=v)
+            placed = np.asarray(a["particle_placed_cycle"].values).ravel() > 0
+            np.testing.assert_array_equal(np.asarray(a["particle_added_mass_coefficient"].values).ravel()[placed], xi)
+    mix, _ = _run(tmp_path, "mix", '["HMA_6000_10000", { name = "big_bag", added_mass_coefficient = 1.0 }]', [0.5, 0.5])
+    with xr.open_dataset(mix.cycle_path(2)) as ds:
+        idx = np.asarray(ds["particle_material"].values).astype(int).ravel()
+        xis = np.asarray(ds["particle_added_mass_coefficient"].values).ravel()
+        assert {0, 1} <= set(idx.tolist())
+        np.testing.assert_array_equal(xis[idx == 0], xi)
+        np.testing.assert_array_equal(xis[idx == 1], 1.0)

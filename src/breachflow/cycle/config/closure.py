@@ -80,7 +80,8 @@ class PlacementSection:
 
     @classmethod
     def from_table(cls, table, ctx):
-        ctx.check_keys(table, PlacementPlan.__dataclass_fields__)  # a misspelt key is named at its own line
+        # a misspelt key is named at its own line; ``material`` may be a table ({name = ..., parameters})
+        ctx.check_keys(table, PlacementPlan.__dataclass_fields__, subtables=("material",))
         if "rate" in table:
             import warnings
 
