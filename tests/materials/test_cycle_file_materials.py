@@ -3,6 +3,7 @@ the bags from the rock: checked against the materials' own values (breachflow.ma
 from pathlib import Path
 
 import numpy as np
+import pytest
 import xarray as xr
 
 from breachflow.cycle.config import closure_setup
@@ -51,6 +52,15 @@ def test_mix_cycle_files_name_each_mass_material_and_its_coefficients(tmp_path):
     with xr.open_dataset(run.cycle_path(2)) as ds:
         idx = np.asarray(ds["particle_material"].values).astype(int).ravel()
         assert {0, 1} <= set(idx.tolist())
+        rho = np.asarray(ds["particle_density"].values, float).ravel()
+        mass = np.asarray(ds["particle_mass"].values, float).ravel()
+    # the closure plan's tonnage per material reads the names: the masses of each material's density
+    from breachflow.cycle.plan import _materials
+
+    rows = {r["material"]: r for r in _materials(run, 2)}
+    assert set(rows) == set(names)
+    for m in mats:
+        assert rows[m.name]["placed_t"] == pytest.approx(mass[rho == m.density].sum() / 1000.0, rel=1e-12)
 
 
 def _run(tmp_path, name, material: str, fractions=None):
