@@ -151,3 +151,14 @@ def test_keys_in_a_scenario_reach_the_criterion_and_the_plan():
         warnings.simplefilter("ignore", BreachflowWarning)
         crit.bind_scenario(s)
     assert crit.face_slope == 2.0  # the seal's upstream face follows the dam's side slopes
+
+
+def test_the_reference_lists_every_key_of_the_criterion_table():
+    import inspect
+
+    params = set(inspect.signature(PolderLeakage.__init__).parameters) - {"self"}
+    assert set(PolderLeakage.KEYS) == params
+    schema = PolderLeakage.option_schema()
+    assert schema["fallback_fraction"]["default"] == FALLBACK_SEEPAGE_FRACTION
+    assert schema["retention_limit"]["default"] == schema["permeability_limit"]["default"] == 5.0
+    assert schema["seal_growth"]["default"] == 1.25
