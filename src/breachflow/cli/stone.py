@@ -12,8 +12,8 @@ def register(app: typer.Typer) -> None:
         breach_length: str = typer.Option(..., help="breach length (bottom width), e.g. '12 m'"),
         breach_depth: str = typer.Option(None, help="height of the dam to build (default: depth)"),
         density: str = typer.Option("2650 kg/m^3", help="rock density"),
-        porosity: float = typer.Option(0.4, help="porosity of the dumped pile"),
-        side_slope: float = typer.Option(1.5, help="pile side slopes, H per V (1V:1.5H)"),
+        porosity: float = typer.Option(None, help="porosity of the dumped pile (default 0.40, as [placement] porosity)"),
+        side_slope: float = typer.Option(None, help="pile side slopes, H per V (default 1.5: 1V:1.5H, as [placement] side_slope)"),
         crest_width: str = typer.Option(None, help="crest width (default max(3 D, 1 m))"),
         wall_slope: float = typer.Option(None, help="breach wall slope, H per V (0 = vertical; default the breach's default, 1V:0.5H as [breach] wall_slope)"),
         theta_c: float = typer.Option(0.047, help="critical Shields parameter"),
@@ -24,9 +24,11 @@ def register(app: typer.Typer) -> None:
         from ..scenario.stone import stone_size
         from ._common import console
 
-        walls = {} if wall_slope is None else {"wall_slope": wall_slope}  # stone_size's default otherwise
+        # stone_size's defaults where an option is not given
+        walls = {k: v for k, v in (("wall_slope", wall_slope), ("porosity", porosity), ("side_slope", side_slope))
+                 if v is not None}
         e = stone_size(velocity, depth, breach_length, breach_depth=breach_depth, density=density,
-                       porosity=porosity, side_slope=side_slope, crest_width=crest_width, theta_c=theta_c, **walls)
+                       crest_width=crest_width, theta_c=theta_c, **walls)
         t = Table(title=f"stone size for U = {e.velocity:.2f} m/s, h = {e.depth:.2f} m")
         t.add_column("quantity")
         t.add_column("value", justify="right")

@@ -49,10 +49,11 @@ from ..dem.wall_contacts import candidates_hold, plane_candidates
 
 @numba.njit(cache=True, error_model="numpy")
 def _inverse_masses(idx, mass, radius, phi, xi, rho_w, rho_a, inv_m):
-    """``inv_m[i] = 1/(m_i + apparent mass)`` of particles ``idx[k]`` with submerged fractions ``phi[k]``."""
+    """``inv_m[i] = 1/(m_i + apparent mass)`` of particles ``idx[k]`` with submerged fractions ``phi[k]``; *xi*
+    (N,) each particle's apparent-mass coefficient."""
     for k in range(idx.shape[0]):
         i = idx[k]
-        inv_m[i] = 1.0 / (mass[i] + apparent_mass(xi, radius[i], phi[k], rho_w, rho_a))
+        inv_m[i] = 1.0 / (mass[i] + apparent_mass(xi[i], radius[i], phi[k], rho_w, rho_a))
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -88,7 +89,7 @@ def fluid_verlet_steps(nmax, t, idx, pos, vel, omega, vel_prev, omega_prev, forc
     the position of the height field among the boundaries (-1: none), *hf* its ``(x0, y0, hx, hy, bed,
     props, hist, rhist)``; *fluid_on* whether there is a fluid model, *field* its fused field arguments
     (``FluidForces._fused``), *fluid* ``(wind, rho_w, nu_w, rho_a, nu_a, with_air, gravity, law, params,
-    own drag coefficients, own lift coefficients, xi, time_step, torque, rho_a_added)``; *fm*, *tm* the model force/torque rows (``sim._fm``/``_tm``);
+    own drag coefficients, own lift coefficients, apparent-mass coefficients (N,), time_step, torque, rho_a_added)``; *fm*, *tm* the model force/torque rows (``sim._fm``/``_tm``);
     *inv_m* receives the inverse masses with the apparent mass (``sim._inv_m_added``, or ``sim._inv_m``
     without fluid, then untouched).
     """
@@ -265,14 +266,14 @@ def run(sim, nmax: int, e_tol: float = -1.0, crit: int = 0, consecutive: int = 1
         inv_m = sim._inv_m_added
         air = model.air if model.air is not None else model.water
         fluid = (model.wind, model.water.rho, model.water.nu, air.rho, air.nu, model.air is not None, model.gravity,
-                 model.drag_law.law_id, model.drag_law.params, *model.own_coefficients(s), model.xi,
+                 model.drag_law.law_id, model.drag_law.params, *model.own_coefficients(s), model.apparent_coefficients(s),
                  model.time_step or 0.0, model.torque,
                  0.0 if model.air is None else model.air.rho)
         field = model._fused
     else:
         inv_m = sim._inv_m
-        fluid = (np.zeros(3), 1.0, 1.0, 1.0, 1.0, False, 0.0, 0, np.zeros(1), np.zeros(1), np.zeros(1), 0.0, 0.0,
-                 False, 0.0)
+        fluid = (np.zeros(3), 1.0, 1.0, 1.0, 1.0, False, 0.0, 0, np.zeros(1), np.zeros(1), np.zeros(1), np.zeros(1),
+                 0.0, False, 0.0)
         field = _NO_FIELD
     integ, w, dt = sim.integrator, sim.work, sim._dt
     nl, sl = sim.pairs, sim.sleepers

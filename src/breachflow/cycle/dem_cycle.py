@@ -128,8 +128,8 @@ class CycleDem:
         """Insert masses, one call per distinct density and material (no per-particle Python work for big piles).
 
         *material* (n,): each mass's index into the run's closure materials (``DemSettings.units``, the
-        placement's mix); its masses carry that material's friction, rolling resistance, drag and lift
-        coefficients (docs: *Materials and the seal*). None (spheres): the run's ``[dem]`` material and drag law."""
+        placement's mix); its masses carry that material's friction, rolling resistance, drag, lift and
+        apparent-mass coefficients (docs: *Materials and the seal*). None (spheres): the run's ``[dem]`` material and drag law."""
         idx = np.zeros(len(radius), int)
         units = self.setup.dem.units
         which = np.zeros(len(radius), int) if material is None or not units else np.asarray(material, int)
@@ -142,7 +142,8 @@ class CycleDem:
                 if material is not None and units:
                     u = units[int(m)]
                     mat = replace(mat, friction=u["friction"], rolling_friction=u["rolling_friction"])
-                    own = {k: (UNSET if u[k] is None else u[k]) for k in ("drag_coefficient", "lift_coefficient")}
+                    own = {k: (UNSET if u.get(k) is None else u[k])
+                           for k in ("drag_coefficient", "lift_coefficient", "added_mass_coefficient")}
                 idx[sel] = sim.add_particles(pos[sel], radius[sel], mat, vel=None if vel is None else vel[sel],
                                              omega=None if omega is None else omega[sel], **own)
         return idx

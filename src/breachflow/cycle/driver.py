@@ -81,8 +81,8 @@ class DemSettings:
     #: erosion; None: smooth terrain, centre-height flow
     bed: object = None
     #: per closure material of the placement (the index a release carries): the ``friction``,
-    #: ``rolling_friction``, ``drag_coefficient`` and ``lift_coefficient`` its masses carry (None: the run's drag
-    #: law / lift term); empty: every mass takes ``material`` and ``drag_law``
+    #: ``rolling_friction``, ``drag_coefficient``, ``lift_coefficient`` and ``added_mass_coefficient`` its masses
+    #: carry (None: the run's drag law / lift term / ``xi``); empty: every mass takes ``material`` and ``drag_law``
     units: tuple = ()
 
     def __post_init__(self):
@@ -250,7 +250,8 @@ class ClosureRun:
 
     # ------------------------------------------------------------------ restart record
     def _initial_record(self) -> dict:
-        return {"placed_cycle": np.zeros(0, np.int32), "resting": np.zeros(0, bool)}
+        return {"placed_cycle": np.zeros(0, np.int32), "resting": np.zeros(0, bool),
+                "material_index": np.zeros(0, np.int8)}
 
     # ------------------------------------------------------------------ main loop
     def run(self) -> list[CycleReport]:
@@ -376,6 +377,7 @@ class ClosureRun:
         rel = s.placement.release(g, s.seed, surface_at, pile=sill)
         new_ids = self.dem.add(sim, rel.pos, rel.radius, rel.density, material=rel.material)
         placed_cycle = np.concatenate([rec["placed_cycle"], np.full(len(new_ids), g, np.int32)])
+        material_index = _material_index(rec, placed_cycle.size, new_ids, rel.material)
         if s.timeline is not None:  # the operation time after delivering every mass placed so far
             s.timeline.advance(float(sim.state.mass[:sim.state.n].sum()))
         # 3. settle in the frozen field, recording the moving masses
@@ -432,7 +434,7 @@ class ClosureRun:
                 hydro = hydro[:-1] + f"; region {new_snapshot.attrs['hydro_region']})"
         t_solve, c_solve = _time.perf_counter() - t_solve, _time.process_time() - c_solve
         new_rec = {"dem." + k: v for k, v in sim.save_state().items()}
-        new_rec.update(placed_cycle=placed_cycle, resting=resting.copy())
+        new_rec.update(placed_cycle=placed_cycle, resting=resting.copy(), material_index=material_index)
         if pile is not None:
             new_rec["pile_height"] = pile.height.copy()
         # 5. stability re-run (criterion 5) only when asked for
@@ -502,7 +504,7 @@ class ClosureRun:
             for k, v in bed_info.items():
                 setattr(rep, k, v)
         t_out = _time.perf_counter()
-        field_ds = self._field_dataset(new_snapshot, st, placed_cycle, resting, rep)
+        field_ds = self._field_dataset(new_snapshot, st, placed_cycle, resting, rep, material_index)
         if scour_map is not None:
             field_ds["scour_depth"] = scour_map.expand_dims("cycle").assign_coords(cycle=field_ds["cycle"])
         field_ds = validate(field_ds, "closure_cycle")
@@ -613,10 +615,14 @@ class ClosureRun:
         dx = abs(x[1] - x[0]) if x.size > 1 else 1.0
         return seepage_in_section(snapshot, s.breach_x, s.levee_y, float(np.sum((q_seep[j] * frac_y)[sel]) * dx))
 
-    def _field_dataset(self, snapshot, st, placed_cycle, resting, rep) -> xr.Dataset:
+    def _field_dataset(self, snapshot, st, placed_cycle, resting, rep, material_index=None) -> xr.Dataset:
         grid = self._grid_only(snapshot)
+        units = self.setup.placement.unit_parameters()
         part = particles_dataset(st, placed_cycle=placed_cycle, resting=resting,
-                                 grid_mapping="crs" if "crs" in grid else None)
+                                 grid_mapping="crs" if "crs" in grid else None, material=material_index,
+                                 material_names=[u["name"] for u in units] if units else ["sphere"],
+                                 run_drag_coefficient=getattr(self.setup.dem.drag_law, "value", None),
+                                 run_added_mass_coefficient=self.setup.dem.xi)
         # the run's capacity (masses inserted otherwise, as the cycle benchmark's pile, can exceed it)
         part = pad_particles(part, max(self.setup.criteria.max_cycles * self.setup.placement.batch, st.n))
         ds = xr.merge([grid, part], combine_attrs="override")
@@ -657,3 +663,13 @@ def _summary(rep: CycleReport) -> dict:
     d["criteria"] = {r["name"]: {"value": r["value"], "threshold": r["threshold"], "units": r["units"],
                                  "satisfied": r["satisfied"]} for r in d["criteria"]}
     return d
+
+
+def _material_index(rec, n, new_ids, material) -> np.ndarray:
+    """Each DEM slot's index into the placement's materials (``particle_material`` of the cycle files): the
+    record's, then *material* (None: spheres, 0) at the slots *new_ids* of this cycle's masses. A record written
+    before the index was kept gives -1 (unknown) to its masses."""
+    old = np.asarray(rec.get("material_index", np.full(len(rec["placed_cycle"]), -1)), np.int8)
+    out = np.concatenate([old, np.full(n - old.size, -1, np.int8)])
+    out[np.asarray(new_ids, int)] = 0 if material is None else np.asarray(material, np.int8)
+    return out

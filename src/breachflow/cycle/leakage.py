@@ -40,8 +40,12 @@ SECONDS_PER_DAY = 86400.0
 #: allowed net polder rise of the default criterion (m/day): a choice to state, not a standard — set it for
 #: the polder at hand (``[criteria] polder_leakage = "… cm/day"``)
 DEFAULT_ALLOWED_RISE = 0.01
-#: the old criterion the fallback uses when the polder is unknown (seepage / open-breach discharge)
+#: the old criterion the fallback uses when the polder is unknown (seepage / open-breach discharge); the
+#: default of the key ``fallback_fraction``
 FALLBACK_SEEPAGE_FRACTION = 0.3
+#: the smallest factor by which a seal re-solved in the flow model is thickened between two re-solves while
+#: the polder does not take the leakage (:func:`breachflow.cycle.sealing.seal_dam`); the key ``seal_growth``
+SEAL_GROWTH = 1.25
 
 
 @dataclass(frozen=True)
@@ -105,9 +109,13 @@ class PolderLeakage(Criterion):
     description = "net polder rise per day from the leakage through the dam (pumping deducted)"
 
     def __init__(self, threshold=f"{DEFAULT_ALLOWED_RISE} m/day", area=None, pump_capacity=None, seal=None,
-                 filter_thickness="0.5 m", max_seal_thickness="2 m", face_slope=1.5, law="ergun",
+                 filter_thickness="0.5 m", max_seal_thickness="2 m", face_slope=None, law="ergun",
                  seal_method=None, seal_capacity=None, seal_available=None, seal_steps=6,
-                 seal_leakage="series", seal_compare=False, rock_end="emergent", steady_cap=None):
+                 seal_leakage="series", seal_compare=False, rock_end="emergent", steady_cap=None,
+                 fallback_fraction=FALLBACK_SEEPAGE_FRACTION, retention_limit=None, permeability_limit=None,
+                 seal_growth=SEAL_GROWTH):
+        from ..materials.seal import PERMEABILITY_LIMIT, RETENTION_LIMIT
+
         self.threshold = to_si(threshold, name="criteria.polder_leakage", kind="speed",
                                nonnegative=True) * SECONDS_PER_DAY
         self.area = None if area is None else to_si(area, name="criteria.polder_leakage.area", kind="area",
@@ -115,12 +123,30 @@ class PolderLeakage(Criterion):
         self.pump_capacity = None if pump_capacity is None else to_si(
             pump_capacity, name="criteria.polder_leakage.pump_capacity", kind="discharge", nonnegative=True)
         self._fallback = None
+        # the fallback without a polder, the filter rules between the layers and the seal's thickening: keys
+        # with their defaults stated once (FALLBACK_SEEPAGE_FRACTION, materials.seal, SEAL_GROWTH)
+        self.fallback_fraction = to_si(fallback_fraction, name="criteria.polder_leakage.fallback_fraction",
+                                       kind="dimensionless", default_unit="", positive=True)
+        self.retention_limit = to_si(RETENTION_LIMIT if retention_limit is None else retention_limit,
+                                     name="criteria.polder_leakage.retention_limit", kind="dimensionless",
+                                     default_unit="", positive=True)
+        self.permeability_limit = to_si(PERMEABILITY_LIMIT if permeability_limit is None else permeability_limit,
+                                        name="criteria.polder_leakage.permeability_limit", kind="dimensionless",
+                                        default_unit="", positive=True)
+        self.seal_growth = to_si(seal_growth, name="criteria.polder_leakage.seal_growth", kind="dimensionless",
+                                 default_unit="")
+        if not self.seal_growth > 1.0:
+            raise InputError(f"criteria.polder_leakage.seal_growth must be > 1 (the seal grows between re-solves), "
+                             f"got {seal_growth!r}")
         self.seal_layers = None if seal is None else [_grading(g) for g in (seal if isinstance(seal, list) else [seal])]
         self.filter_thickness = to_si(filter_thickness, name="criteria.polder_leakage.filter_thickness",
                                       kind="length", positive=True)
         self.max_seal_thickness = to_si(max_seal_thickness, name="criteria.polder_leakage.max_seal_thickness",
                                         kind="length", positive=True)
-        self.face_slope = float(face_slope)
+        # the upstream face's slope (H per V): the dam's side slopes ([placement] side_slope) unless given here
+        self.face_slope = None if face_slope is None else to_si(
+            face_slope, name="criteria.polder_leakage.face_slope", kind="dimensionless", default_unit="",
+            nonnegative=True)
         self.law = law
         self.rock = None
         self.seal_plan = None
@@ -152,6 +178,66 @@ class PolderLeakage(Criterion):
         if self.seal_steps < 1:
             raise InputError(f"criteria.polder_leakage.seal_steps must be >= 1, got {seal_steps!r}")
 
+    #: the keys of ``[criteria] polder_leakage = { ... }``: unit kind (or TOML type) and meaning; the defaults are
+    #: those of ``__init__`` (:meth:`option_schema`)
+    KEYS = {
+        "threshold": ("speed", "allowed net polder rise (e.g. \"1 cm/day\")"),
+        "area": ("area", "polder area; default [polder] area"),
+        "pump_capacity": ("discharge", "pump capacity; default [polder] pump_capacity, else 0"),
+        "fallback_fraction": ("dimensionless", "without a polder area: the closure is judged by seepage through "
+                                               "the pile below this fraction of the open breach's discharge"),
+        "seal": ("array", "seal layers, finest first: names or tables {name, d15, d50, d85, porosity, density}"),
+        "filter_thickness": ("length", "thickness of each filter layer between the seal and the rock"),
+        "max_seal_thickness": ("length", "thickest seal allowed"),
+        "face_slope": ("dimensionless", "slope of the dam's upstream face (H per V) the seal covers; default "
+                                        "[placement] side_slope"),
+        "retention_limit": ("dimensionless", "filter rule: largest D15 of a layer / D85 of the finer layer "
+                                             "upstream of it (Terzaghi)"),
+        "permeability_limit": ("dimensionless", "filter rule: smallest D15 of a layer / D15 of the finer layer "
+                                                "upstream of it (Terzaghi)"),
+        "law": ("string", "Forchheimer coefficients of the layers: ergun | van_gent"),
+        "seal_method": ("string", "delivery method of the seal material"),
+        "seal_capacity": ("kg/s", "delivery capacity of the seal material (e.g. \"300 t/hr\")"),
+        "seal_available": ("mass", "seal material available"),
+        "seal_steps": ("integer", "re-solves allowed to thicken the seal"),
+        "seal_growth": ("dimensionless", "smallest factor by which the seal is thickened between re-solves (> 1)"),
+        "seal_leakage": ("string", "how the leakage after the seal is read: series | flow_model"),
+        "seal_compare": ("boolean", "also re-solve the seal with the flow through it left to the flow model"),
+        "rock_end": ("string", "when the rock stage may end (breachflow.cycle.rock_end)"),
+        "steady_cap": ("time", "simulated time a judging re-solve may take"),
+    }
+
+    @classmethod
+    def option_schema(cls) -> dict:
+        """JSON-schema properties of the keyword table, defaults from the signature of ``__init__``."""
+        import inspect
+
+        from ..scenario.reference import quantity_schema
+        from ..units import SI_UNITS
+
+        sig = inspect.signature(cls.__init__).parameters
+        defaults = {"retention_limit": "RETENTION_LIMIT", "permeability_limit": "PERMEABILITY_LIMIT"}
+        out = {}
+        for key, (kind, text) in cls.KEYS.items():
+            default = sig[key].default
+            if key in defaults:
+                from ..materials import seal as _seal
+
+                default = getattr(_seal, defaults[key])
+            if kind in ("array", "string", "integer", "boolean"):
+                spec = {"type": kind}
+            else:
+                spec = quantity_schema(kind, default_unit="" if kind == "dimensionless" else None, sweep=False)
+                if default is not None and kind == "dimensionless":
+                    default = float(default)
+                elif default is not None:
+                    default = str(default) if isinstance(default, str) else f"{default:g} {SI_UNITS.get(kind, kind)}"
+            if default is not None:
+                spec["default"] = default
+            spec["description"] = text
+            out[key] = spec
+        return out
+
     def bind_rock(self, rock) -> None:
         """The dam's rock grading (:class:`~breachflow.materials.seal.Grading`); checks the filter rules from the
         seal through its filters to the rock (:func:`~breachflow.materials.seal.check_filter`)."""
@@ -160,7 +246,7 @@ class PolderLeakage(Criterion):
         self.rock = rock
         if self.seal_layers:
             try:
-                check_filter([*self.seal_layers, rock])
+                check_filter([*self.seal_layers, rock], self.retention_limit, self.permeability_limit)
             except InputError as exc:
                 raise InputError(f"[criteria] polder_leakage {exc}") from None
 
@@ -174,19 +260,22 @@ class PolderLeakage(Criterion):
             self.pump_capacity = pol[1] if pol is not None else 0.0
         if self.area is None:
             self._use_fallback()
-        if self.seal_layers:
+        plan = None
+        try:
+            plan = scenario["placement"].plan if scenario is not None and "placement" in scenario else None
+        except Exception:  # noqa: BLE001 - no placement section: the run's default spheres
             plan = None
-            try:
-                plan = scenario["placement"].plan if scenario is not None and "placement" in scenario else None
-            except Exception:  # noqa: BLE001 - no placement section: the run's default spheres
-                plan = None
+        if self.face_slope is None and plan is not None:
+            self.face_slope = plan.dam_side_slope
+        if self.seal_layers:
             self.bind_rock(_rock_grading(plan))
 
     def _use_fallback(self):
         if self._fallback is None:
-            self._fallback = SeepageFraction(FALLBACK_SEEPAGE_FRACTION)
+            self._fallback = SeepageFraction(self.fallback_fraction)
             warnings.warn(f"[criteria] polder_leakage: no polder area ([polder] area); the closure is judged by "
-                          f"seepage_fraction < {FALLBACK_SEEPAGE_FRACTION:g} of the open breach's discharge instead",
+                          f"seepage_fraction < {self.fallback_fraction:g} (fallback_fraction) of the open breach's "
+                          f"discharge instead",
                           BreachflowWarning, stacklevel=3)
 
     @property
@@ -216,7 +305,8 @@ class PolderLeakage(Criterion):
             return None
         head, height, length, width = geom
         filters = tuple((g, self.filter_thickness) for g in self.seal_layers[1:])
-        design = SealDesign(self.seal_layers[0], self.max_seal_thickness, self.rock, filters, self.law)
+        design = SealDesign(self.seal_layers[0], self.max_seal_thickness, self.rock, filters, self.law,
+                            self.retention_limit, self.permeability_limit)
         if length <= self.max_seal_thickness + self.filter_thickness * len(filters):
             return None
         t = required_thickness(design, qs, target - qo, head, height, length,
@@ -225,11 +315,16 @@ class PolderLeakage(Criterion):
             return None
         design = replace(design, thickness=max(t, 1e-3))
         q_after = qo + qs * design.reduction(head, height, length)
-        face = width * height * math.hypot(1.0, self.face_slope)
+        face = width * height * math.hypot(1.0, self._face_slope())
         plan = {"seal_thickness": t, "filter_thickness": self.filter_thickness, "face_area": face,
                 "tonnage": design.tonnage(face), "leakage_before": v.leakage, "leakage_after": q_after,
                 "head": head, "height": height, "flow_path": length}
         return SECONDS_PER_DAY * max(q_after - (self.pump_capacity or 0.0), 0.0) / self.area, plan
+
+    def _face_slope(self) -> float:
+        from ..scenario.stone import DEFAULT_SIDE_SLOPE
+
+        return DEFAULT_SIDE_SLOPE if self.face_slope is None else self.face_slope
 
     def evaluate(self, ctx) -> CriterionResult:
         if self.area is None:
@@ -297,13 +392,19 @@ def _rock_grading(plan):
     from ..materials.rock import GradedRock
     from ..materials.seal import Grading
 
+    from dataclasses import replace
+
+    from ..scenario.stone import DUMPED_POROSITY
+
     mix = getattr(plan, "mix", None)
     if mix is not None and isinstance(mix.materials[0], GradedRock):
-        return Grading.from_rock(mix.materials[0])
+        g = Grading.from_rock(mix.materials[0])
+        return g if plan.porosity is None else replace(g, porosity=float(plan.porosity))
     d = (0.75, 0.75) if plan is None else plan.diameter
     k = (math.pi / 6.0) ** (1.0 / 3.0)
     lo, hi = k * d[0], k * d[1]
-    return Grading("rock dam", lo, 0.5 * (lo + hi), hi, porosity=0.4)
+    return Grading("rock dam", lo, 0.5 * (lo + hi), hi,
+                   porosity=DUMPED_POROSITY if plan is None else plan.pile_porosity)
 
 
 def dam_geometry(ctx, porosity):

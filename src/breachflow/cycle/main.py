@@ -232,7 +232,8 @@ def peak_gap_speed(manifest, key: str = "gap_mean_speed", *, open_breach: bool =
 
 def _estimate(setup, manifest):
     """The stone-size estimate for the run's breach: the initial solve's peak speed, the water depth
-    and length of the breach, rock of the placement's mean density, porosity 0.4, slopes 1V:1.5H."""
+    and length of the breach, rock of the placement's mean density, the pile's porosity and side slopes
+    (``[placement] porosity`` and ``side_slope``, :attr:`~breachflow.cycle.placement.PlacementPlan.pile_porosity`)."""
     from ..errors import BreachflowError
     from ..scenario.stone import stone_size
 
@@ -243,6 +244,7 @@ def _estimate(setup, manifest):
         rho = float(np.mean(np.atleast_1d(setup.placement.density)))
         if not (u > 0 and depth > 0 and length > 0):
             return None
-        return stone_size(u, depth, length, density=rho)
+        return stone_size(u, depth, length, density=rho, porosity=setup.placement.pile_porosity,
+                          side_slope=setup.placement.dam_side_slope)
     except (KeyError, BreachflowError):
         return None

@@ -67,10 +67,18 @@ class PlacementPlan:
     material: object = None
     #: mass fractions of the delivered tonnage, one per material of a list (default: equal)
     fractions: tuple | None = None
+    #: porosity of the dumped pile (-): the rock dam's pores in the seal's flow path and the pre-run estimate's
+    #: tonnage; None: the material's (tonnage-weighted for a mix; spheres
+    #: :data:`~breachflow.scenario.stone.DUMPED_POROSITY`)
+    porosity: float | None = None
+    #: side slopes of the dumped dam, H per V (the pre-run estimate's dam and the seal's upstream face); None:
+    #: :data:`~breachflow.scenario.stone.DEFAULT_SIDE_SLOPE`
+    side_slope: float | None = None
 
     #: unit kind of each quantity key of ``[placement]`` (``from_config`` converts with these)
     KEY_KINDS = {"diameter": "length", "density": "density", "start": "length", "stop": "length",
-                 "zone": "length", "points": "length", "release_height": "length", "rate": "1/s"}
+                 "zone": "length", "points": "length", "release_height": "length", "rate": "1/s",
+                 "porosity": "dimensionless", "side_slope": "dimensionless"}
 
     def __post_init__(self):
         self._mix = None
@@ -111,6 +119,30 @@ class PlacementPlan:
             raise InputError("placement.release_height must be >= 0")
         if not self.rate > 0:
             raise InputError(f"placement.rate must be > 0 masses per hour, got {self.rate}")
+        if self.porosity is not None and not 0.0 < self.porosity < 1.0:
+            raise InputError(f"placement.porosity must be in (0, 1), got {self.porosity!r}")
+        if self.side_slope is not None and not self.side_slope >= 0.0:
+            raise InputError(f"placement.side_slope must be >= 0 (H per V), got {self.side_slope!r}")
+
+    @property
+    def pile_porosity(self) -> float:
+        """Porosity of the dumped pile: ``porosity`` if given, else the material's (tonnage-weighted over a mix),
+        else :data:`~breachflow.scenario.stone.DUMPED_POROSITY` (spheres)."""
+        from ..scenario.stone import DUMPED_POROSITY
+
+        if self.porosity is not None:
+            return float(self.porosity)
+        if self._mix is not None:
+            return float(np.dot(self._mix.fractions, [m.porosity for m in self._mix.materials]))
+        return DUMPED_POROSITY
+
+    @property
+    def dam_side_slope(self) -> float:
+        """Side slopes of the dumped dam (H per V): ``side_slope`` if given, else
+        :data:`~breachflow.scenario.stone.DEFAULT_SIDE_SLOPE`."""
+        from ..scenario.stone import DEFAULT_SIDE_SLOPE
+
+        return DEFAULT_SIDE_SLOPE if self.side_slope is None else float(self.side_slope)
 
     @classmethod
     def from_config(cls, cfg: dict) -> "PlacementPlan":
@@ -151,6 +183,12 @@ class PlacementPlan:
                                           nonnegative=True)
         if "rate" in cfg:
             cfg["rate"] = to_si(cfg["rate"], name="placement.rate", kind=kinds["rate"], positive=True)
+        if "porosity" in cfg:
+            cfg["porosity"] = to_si(cfg["porosity"], name="placement.porosity", kind="dimensionless",
+                                    default_unit="", positive=True)
+        if "side_slope" in cfg:
+            cfg["side_slope"] = to_si(cfg["side_slope"], name="placement.side_slope", kind="dimensionless",
+                                      default_unit="", nonnegative=True)
         return cls(**cfg)
 
     def check_inside(self, x_range, y_range) -> None:

@@ -40,7 +40,13 @@ def _materials(rundir, last_cycle: int) -> list[dict]:
                 rho = np.asarray(ds["particle_density"].values, float).ravel()
                 mass = 4.0 / 3.0 * np.pi * r ** 3 * rho
             if "particle_material" in ds:
-                names = np.asarray(ds["particle_material"].values).ravel().astype(str)
+                da = ds["particle_material"]
+                names = np.asarray(da.values).ravel()
+                if "flag_meanings" in da.attrs:  # a flag variable: each value's material name
+                    words = dict(zip(np.asarray(da.attrs["flag_values"]).ravel().tolist(),
+                                     str(da.attrs["flag_meanings"]).split()))
+                    names = np.array([words.get(int(v), "") for v in names])
+                names = names.astype(str)
             else:
                 rho = np.asarray(ds["particle_density"].values, float).ravel()
                 names = np.array([f"density {v:.0f} kg/m3" if np.isfinite(v) else "" for v in rho])

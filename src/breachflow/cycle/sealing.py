@@ -15,8 +15,8 @@ and the head losses add. The layers cover the pile's height in the cell up to th
 face). The flow is re-solved with the run's solver, warm-started from the last cycle and solved on to its
 steady state (up to the criterion's ``steady_cap``, as at the rock stage's end, :mod:`breachflow.cycle.rock_end`;
 a leakage read from a re-solve still not steady then does not seal the dam), and the leakage read
-from the re-solve; while the criterion is not met the seal is thickened (the leakage over the target, at
-least +25 % a step), up to ``max_seal_thickness`` or the seal material available (``seal_available``).
+from the re-solve; while the criterion is not met the seal is thickened (by the leakage over the target, at
+least by the factor ``seal_growth``, default 1.25, a step), up to ``max_seal_thickness`` or the seal material available (``seal_available``).
 
 How the leakage is read (``seal_leakage``):
 
@@ -235,6 +235,14 @@ def seal_delivery(tonnes: float, method, start: float, wind=None) -> tuple[float
     return work, DeliveryClock(method, float(start), wind).time_after(work)
 
 
+def next_thickness(t: float, leakage: float, target: float, t_max: float, growth: float) -> float:
+    """The seal's next thickness (m) after a re-solve with *t* m let *leakage* (m³/s) through against the
+    *target* (m³/s): the seal's share of the resistance grows with its thickness, so scale by 1.1 x the leakage
+    over the target, at least by *growth* (``seal_growth``) and at most by 8, up to *t_max*."""
+    ratio = abs(leakage) / target if target > 0 else 4.0
+    return min(t_max, t * max(growth, min(ratio * 1.1, 8.0)))
+
+
 def seal_dam(solve, pile, snapshot, criterion, *, breach_x, levee_y, y, x, thickness0: float | None = None,
              max_steps: int = 6, available_t: float | None = None, height_cap=None, flood_level=None, bed=None,
              compare_flow_model: bool = False, obstacle=None):
@@ -245,7 +253,7 @@ def seal_dam(solve, pile, snapshot, criterion, *, breach_x, levee_y, y, x, thick
     import time as _time
 
     from .criteria import section_discharge
-    from .leakage import SECONDS_PER_DAY, polder_leakage_check
+    from .leakage import SEAL_GROWTH, SECONDS_PER_DAY, polder_leakage_check
     from .rock_end import is_steady
 
     if not criterion.seal_layers:
@@ -298,9 +306,7 @@ def seal_dam(solve, pile, snapshot, criterion, *, breach_x, levee_y, y, x, thick
             res.verdict = (f"not sealed: at max_seal_thickness {t_max:g} m the leakage is {q:.4g} m3/s, net polder "
                            f"rise {v.net_rise_per_day:.3g} m/day above {criterion.threshold:.3g} m/day")
             break
-        # the seal's share of the resistance grows with its thickness: scale by the leakage over the target
-        ratio = abs(q) / target if target > 0 else 4.0
-        t = min(t_max, t * max(1.25, min(ratio * 1.1, 8.0)))
+        t = next_thickness(t, q, target, t_max, getattr(criterion, "seal_growth", SEAL_GROWTH))
     else:
         res.verdict = f"not sealed after {max_steps} re-solves (last {res.last.thickness:.3g} m)"
     if not res.verdict:

@@ -177,12 +177,12 @@ class DemSimulation:
         self.pairs.invalidate()
 
     def add_particles(self, pos, radius, material: Material | None = None, vel=None, omega=None, *,
-                      drag_coefficient=UNSET, lift_coefficient=UNSET) -> np.ndarray:
+                      drag_coefficient=UNSET, lift_coefficient=UNSET, added_mass_coefficient=UNSET) -> np.ndarray:
         """Insert spheres (SI); returns their indices. They start awake. *drag_coefficient*,
-        *lift_coefficient*: the particles' own fluid parameters (:class:`~.state.ParticleState`; unset: the
-        force model's)."""
+        *lift_coefficient*, *added_mass_coefficient*: the particles' own fluid parameters
+        (:class:`~.state.ParticleState`; unset: the force model's)."""
         idx = self.state.add(pos, radius, material, vel=vel, omega=omega, drag_coefficient=drag_coefficient,
-                             lift_coefficient=lift_coefficient)
+                             lift_coefficient=lift_coefficient, added_mass_coefficient=added_mass_coefficient)
         self._on_added(idx)
         return idx
 

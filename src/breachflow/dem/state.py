@@ -27,7 +27,8 @@ Per-particle fluid parameters (:data:`FLUID_FIELDS`, read by :class:`breachflow.
 ``drag_coefficient`` the particle's own Newton-regime drag coefficient (its shape's, e.g. angular rock or a
 cube; used at every Reynolds number, in water and in air) and ``lift_coefficient`` its own lift coefficient
 (replaces the lift term's C_L where the near-bed lift is on). ``UNSET`` (NaN, the default) means "the
-run's": the force model's drag law, the lift term's coefficient. A closure run fills them from each mass's
+run's": the force model's drag law, the lift term's coefficient. ``added_mass_coefficient`` is the particle's
+own apparent-mass coefficient xi (its material's; UNSET: the force model's ``xi``, ``[fluid] xi``). A closure run fills them from each mass's
 material when it is placed (:mod:`breachflow.materials`), so that masses of different materials in one run
 each feel their own drag.
 """
@@ -42,7 +43,7 @@ from ..errors import InputError
 #: per-particle material fields (Table 3.1), in the order used by the kernels
 MATERIAL_FIELDS = ("adhesion", "friction", "kn", "ks", "c_cn", "c_cs", "c_cf", "c_gn", "c_gw", "rolling_friction")
 #: per-particle fluid parameters (module docstring); ``UNSET`` = the run's drag law / lift coefficient
-FLUID_FIELDS = ("drag_coefficient", "lift_coefficient")
+FLUID_FIELDS = ("drag_coefficient", "lift_coefficient", "added_mass_coefficient")
 #: the value of a per-particle fluid parameter that the particle does not set (the run's value applies)
 UNSET = float("nan")
 
@@ -151,6 +152,8 @@ class ParticleState:
     drag_coefficient: np.ndarray = field(default=None)
     #: the particle's own lift coefficient (``UNSET``: the lift term's), module docstring
     lift_coefficient: np.ndarray = field(default=None)
+    #: the particle's own apparent (added) mass coefficient xi (``UNSET``: the force model's ``xi``)
+    added_mass_coefficient: np.ndarray = field(default=None)
 
     def __post_init__(self):
         if self.vel_prev is None:
@@ -182,10 +185,10 @@ class ParticleState:
         return s
 
     def add(self, pos, radius, material: Material | None = None, vel=None, omega=None, drag_coefficient=UNSET,
-            lift_coefficient=UNSET) -> np.ndarray:
-        """Append spheres; returns their indices. Validates finiteness and positivity. *drag_coefficient* and
-        *lift_coefficient* (scalar or (n,)) are the particles' own fluid parameters (module docstring;
-        ``UNSET``: the run's)."""
+            lift_coefficient=UNSET, added_mass_coefficient=UNSET) -> np.ndarray:
+        """Append spheres; returns their indices. Validates finiteness and positivity. *drag_coefficient*,
+        *lift_coefficient* and *added_mass_coefficient* (scalar or (n,)) are the particles' own fluid parameters
+        (module docstring; ``UNSET``: the run's)."""
         material = material or Material()
         pos = np.atleast_2d(np.asarray(pos, dtype=float))
         if pos.ndim != 2 or pos.shape[1] != 3:
@@ -200,7 +203,8 @@ class ParticleState:
         if np.any(radius <= 0):
             raise InputError("particle radius must be > 0")
         fluid = {}
-        for name, v in (("drag_coefficient", drag_coefficient), ("lift_coefficient", lift_coefficient)):
+        for name, v in (("drag_coefficient", drag_coefficient), ("lift_coefficient", lift_coefficient),
+                        ("added_mass_coefficient", added_mass_coefficient)):
             a = np.broadcast_to(np.asarray(UNSET if v is None else v, dtype=float), (n,)).copy()
             ok = np.isnan(a) | (np.isfinite(a) & ((a > 0) if name == "drag_coefficient" else (a >= 0)))
             if not ok.all():

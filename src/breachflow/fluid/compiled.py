@@ -73,7 +73,8 @@ def apparent_mass(xi, a, phi, rho_w, rho_a):
 @numba.njit(cache=True)
 def grid_added_masses(rows, pos, radius, method, bed, depth, u, v, x0, y0, dx, dy, smax, outside_air,
                       profile, k_s, bedp, rho_w, rho_a, xi, out):
-    """Apparent mass ``xi (rho_W V_sub + rho_A (V - V_sub))`` of particles *rows* at *pos* into ``out[k]``.
+    """Apparent mass ``xi (rho_W V_sub + rho_A (V - V_sub))`` of particles *rows* at *pos* into ``out[k]``; *xi*
+    (N,) each particle's apparent-mass coefficient.
 
     Returns -1, or (``outside_air`` False) the position ``k`` in *rows* of the first particle outside the
     field (nothing is meaningful in *out* then). *profile*, *k_s*, *bedp* are not used (the apparent mass does not
@@ -88,7 +89,7 @@ def grid_added_masses(rows, pos, radius, method, bed, depth, u, v, x0, y0, dx, d
             if not outside_air:
                 return k
             phi = 0.0
-        out[k] = apparent_mass(xi, radius[i], phi, rho_w, rho_a)
+        out[k] = apparent_mass(xi[i], radius[i], phi, rho_w, rho_a)
     return -1
 
 
@@ -109,7 +110,8 @@ def grid_fluid_forces(idx, pos, vel, omega, state_pos, awake, radius, method, be
     (*bedp*, :mod:`~breachflow.fluid.nearbed`) the near-bed velocity and the lift instead. ``time_step`` 0 means the
     default horizon of the convective term, ``0.125 max(s_max, 1e-3) / max |v_h|``. *cds*, *cls* (N,): each
     particle's own drag and lift coefficients (NaN: the law *law*/*params*, the lift term's;
-    :class:`~breachflow.dem.state.ParticleState`). Returns -1 on success.
+    :class:`~breachflow.dem.state.ParticleState`); *xi* (N,) each particle's apparent-mass coefficient. Returns
+    -1 on success.
     """
     return grid_fluid_forces_phi(idx, pos, vel, omega, state_pos, awake, radius, method, bed, depth, u, v, x0, y0,
                                  dx, dy, smax, outside_air, profile, k_s, bedp, wind, rho_w, nu_w, rho_a, nu_a, with_air,
@@ -133,6 +135,7 @@ def grid_fluid_forces_phi(idx, pos, vel, omega, state_pos, awake, radius, method
     ins_ = np.empty(n, np.bool_)
     vmax = 0.0
     any_wet = False
+    any_xi = False
     for k in range(n):
         i = idx[k]
         if awake[i]:
@@ -158,11 +161,13 @@ def grid_fluid_forces_phi(idx, pos, vel, omega, state_pos, awake, radius, method
             sv[k] = 0.0
         if phi[k] > 0.0:
             any_wet = True
+            if xi[i] > 0.0:
+                any_xi = True
         sp = math.hypot(pv[k, 0], pv[k, 1])
         if sp > vmax:
             vmax = sp
     horizon = 0.0
-    if any_wet and xi > 0.0 and vmax > 0.0:
+    if any_wet and any_xi and vmax > 0.0:
         horizon = time_step if time_step > 0.0 else 0.125 * max(smax, 1e-3) / vmax
     rho_air = rho_a if with_air else 0.0
     for k in range(n):
@@ -205,7 +210,7 @@ def grid_fluid_forces_phi(idx, pos, vel, omega, state_pos, awake, radius, method
             if not (ins1 and ins_[k]):
                 u1 = su[k]
                 v1 = sv[k]
-            mass_f = xi * rho_w * f * 4.0 / 3.0 * math.pi * a ** 3
+            mass_f = xi[i] * rho_w * f * 4.0 / 3.0 * math.pi * a ** 3
             fx += mass_f * (u1 - su[k]) / horizon
             fy += mass_f * (v1 - sv[k]) / horizon
         force[i, 0] += fx

@@ -273,12 +273,28 @@ class FluidForces:
             out.append(np.full(n, np.nan) if a is None or a.shape[0] != n else a)
         return out[0], out[1]
 
+    def apparent_coefficients(self, state) -> np.ndarray:
+        """(N,) each particle's apparent-mass coefficient: its own (``ParticleState.added_mass_coefficient``, its
+        material's) where set, else the model's ``xi``."""
+        n = state.radius.shape[0]
+        own = getattr(state, "added_mass_coefficient", None)
+        if own is None or own.shape[0] != n:
+            return np.full(n, self.xi)
+        return np.where(np.isnan(own), self.xi, own)
+
+    def _xi_on(self, state) -> bool:
+        """Whether any particle has an apparent mass (the model's ``xi`` > 0 or a particle's own)."""
+        own = getattr(state, "added_mass_coefficient", None)
+        return self.xi > 0.0 or (own is not None and bool(np.any(own > 0.0)))
+
     # -- ForceModel protocol --------------------------------------------------------------------------
     def added_mass(self, state, pos=None, idx=None) -> np.ndarray | None:
-        """Apparent mass ``xi (rho_W V_sub + rho_A (V - V_sub))`` (kg) per particle at ``state.pos`` (or *pos*);
-        with *idx*, only for the particles *idx* (an array of ``len(idx)``)."""
-        if self.xi == 0.0:
+        """Apparent mass ``xi (rho_W V_sub + rho_A (V - V_sub))`` (kg) per particle at ``state.pos`` (or *pos*),
+        ``xi`` each particle's own or the model's (:meth:`apparent_coefficients`); with *idx*, only for the
+        particles *idx* (an array of ``len(idx)``)."""
+        if not self._xi_on(state):
             return None
+        xis = self.apparent_coefficients(state)
         pos = state.pos if pos is None else pos
         rows = self._indices(state) if idx is None else np.asarray(idx)
         m = np.empty(rows.size)
@@ -287,13 +303,14 @@ class FluidForces:
 
             rows = np.ascontiguousarray(rows, dtype=np.int64)
             k = grid_added_masses(rows, pos, state.radius, *self._fused, self.water.rho,
-                                  0.0 if self.air is None else self.air.rho, self.xi, m)
+                                  0.0 if self.air is None else self.air.rho, xis, m)
             if k >= 0 and not self._has_fallback():
                 self._outside_error(pos, k, rows)
         if rows.size and (self._fused is None or k >= 0):
             rad = state.radius[rows]
             phi = self.submerged_fraction(pos[rows], rad)
-            K.added_masses(rad, phi, self.water.rho, 0.0 if self.air is None else self.air.rho, self.xi, m)
+            K.added_masses(rad, phi, self.water.rho, 0.0 if self.air is None else self.air.rho,
+                           np.ascontiguousarray(xis[rows]), m)
         if idx is not None:
             return m
         out = np.zeros(state.radius.shape[0])
@@ -317,7 +334,8 @@ class FluidForces:
             air = self.air if self.air is not None else self.water
             k = grid_fluid_forces(ids, pos, vel, omega, state.pos, awake, state.radius, *self._fused, self.wind,
                                   self.water.rho, self.water.nu, air.rho, air.nu, self.air is not None, self.gravity,
-                                  self.drag_law.law_id, self.drag_law.params, *self.own_coefficients(state), self.xi,
+                                  self.drag_law.law_id, self.drag_law.params, *self.own_coefficients(state),
+                                  self.apparent_coefficients(state),
                                   self.time_step or 0.0,
                                   self.torque, force, torque)
             if k < 0:
@@ -345,8 +363,9 @@ class FluidForces:
         if wet.any():
             if self.basset is not None:
                 self._basset(idx, w, rad, phi, u, v, t, f)
-            if self.xi > 0.0 and not self.field.uniform:
-                self._convective(p, w, rad, phi, u, v, inside, f)
+            if self._xi_on(state) and not self.field.uniform:
+                self._convective(p, w, rad, phi, u, v, inside, f,
+                                 np.ascontiguousarray(self.apparent_coefficients(state)[idx]))
             if self.torque:
                 self._torque(p, w, om, rad, phi, u, v, tq, cds)
         force[idx] += f
@@ -388,7 +407,7 @@ class FluidForces:
         hist = self.basset.integral(idx, self._relative(w, u, v), t)
         f -= (basset_coefficient(rad, self.water.rho, self.water.mu) * phi)[:, None] * hist
 
-    def _convective(self, p, w, rad, phi, u, v, inside, f):
+    def _convective(self, p, w, rad, phi, u, v, inside, f, xis):
         speed_h = np.hypot(w[:, 0], w[:, 1])
         vmax = float(speed_h.max())
         if vmax == 0.0:
@@ -404,7 +423,7 @@ class FluidForces:
             su, sv = self._profiled(ahead, np.asarray(s1.surface, float), np.asarray(s1.bed, float), su, sv)
         u1 = np.where(ok, su, u)
         v1 = np.where(ok, sv, v)
-        K.convective_added_mass(rad, phi, u, v, u1, v1, horizon, self.water.rho, self.xi, f)
+        K.convective_added_mass(rad, phi, u, v, u1, v1, horizon, self.water.rho, xis, f)
 
     def _torque(self, p, w, om, rad, phi, u, v, tq, cds):
         law, params = self.drag_law.law_id, self.drag_law.params

@@ -94,10 +94,11 @@ def submerged_fractions(pos, radius, surface, bed, inside, phi):
 
 @numba.njit(cache=True)
 def added_masses(radius, phi, rho_w, rho_a, xi, out):
-    """Added (apparent) mass ``xi (rho_W V_sub + rho_A (V - V_sub))`` per particle (docs/theory.md, *Fluid forces on a mass*)."""
+    """Added (apparent) mass ``xi (rho_W V_sub + rho_A (V - V_sub))`` per particle (docs/theory.md, *Fluid forces on a mass*);
+    *xi* (N,): each particle's apparent-mass coefficient."""
     for i in range(radius.shape[0]):
         vol = 4.0 / 3.0 * math.pi * radius[i] ** 3
-        out[i] = xi * vol * (phi[i] * rho_w + (1.0 - phi[i]) * rho_a)
+        out[i] = xi[i] * vol * (phi[i] * rho_w + (1.0 - phi[i]) * rho_a)
 
 
 @numba.njit(cache=True)
@@ -146,10 +147,11 @@ def convective_added_mass(radius, phi, u0, v0, u1, v1, horizon, rho_w, xi, force
     ``+xi rho_W V_sub du/dt`` along the particle path; with the field frozen within a cycle the latter is
     ``(v . grad) u``, taken as the difference of the fluid velocity at the predicted position
     ``x_pred = x + v dt`` and at ``x``.  The water has no vertical velocity in the depth-averaged field.
+    *xi* (N,): each particle's apparent-mass coefficient.
     """
     for i in range(radius.shape[0]):
         if phi[i] > 0.0:
-            mass_f = xi * rho_w * phi[i] * 4.0 / 3.0 * math.pi * radius[i] ** 3
+            mass_f = xi[i] * rho_w * phi[i] * 4.0 / 3.0 * math.pi * radius[i] ** 3
             force[i, 0] += mass_f * (u1[i] - u0[i]) / horizon
             force[i, 1] += mass_f * (v1[i] - v0[i]) / horizon
 

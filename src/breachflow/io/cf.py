@@ -24,11 +24,41 @@ _POS_ATTRS = (
 )
 
 
-def particles_dataset(state, *, placed_cycle, particle_id=None, resting=None, grid_mapping: str | None = None) -> xr.Dataset:
+#: per-particle coefficients each mass carries from its material (name in the state → variable attributes);
+#: NaN where the mass takes the run's drag law (not a constant) or lift term; the apparent-mass coefficient is
+#: its material's or the run's ``[fluid] xi``
+_COEFFICIENT_ATTRS = {
+    "drag_coefficient": {"long_name": "particle drag coefficient (Newton regime) of its material's shape",
+                         "units": "1", "comment": "NaN: the run's drag law ([fluid] drag_law), where it is not a constant C_D"},
+    "lift_coefficient": {"long_name": "particle lift coefficient of its material", "units": "1",
+                         "comment": "NaN: the run's lift term"},
+    "added_mass_coefficient": {"long_name": "particle apparent (added) mass coefficient xi (its material's or [fluid] xi)",
+                               "units": "1"},
+    "friction": {"long_name": "particle Coulomb friction coefficient", "units": "1"},
+    "rolling_friction": {"long_name": "particle rolling resistance coefficient", "units": "1"},
+}
+
+
+def _flag_word(name: str) -> str:
+    """A material name as one blank-free word of ``flag_meanings`` (CF §3.5)."""
+    import re
+
+    return re.sub(r"[^A-Za-z0-9_.+-]", "_", str(name)) or "unnamed"
+
+
+def particles_dataset(state, *, placed_cycle, particle_id=None, resting=None, grid_mapping: str | None = None,
+                      material=None, material_names=None, run_drag_coefficient=None,
+                      run_added_mass_coefficient=None) -> xr.Dataset:
     """Particle states (positions, velocities, sizes, masses) along dim ``particle``.
 
     *state* is a :class:`breachflow.dem.state.ParticleState`; ``placed_cycle`` the cycle ``<g>`` in
-    which each particle was released; ``resting`` whether it counts as resting at equilibrium.
+    which each particle was released; ``resting`` whether it counts as resting at equilibrium. The
+    coefficients each mass carries (drag, lift, apparent mass, friction, rolling resistance) are written per
+    particle; with *material* (each particle's index into *material_names*) also ``particle_material``, a
+    flag variable naming each mass's material (``flag_values`` / ``flag_meanings``). With
+    *run_drag_coefficient* (the run's drag law is a constant C_D) a mass without its own drag coefficient is
+    written with that value, the one it moved with; likewise *run_added_mass_coefficient* (the run's xi) for a
+    mass without its own apparent-mass coefficient.
     """
     n = state.n
     pid = np.arange(n, dtype="i4") if particle_id is None else np.asarray(particle_id, dtype="i4")
@@ -50,6 +80,19 @@ def particles_dataset(state, *, placed_cycle, particle_id=None, resting=None, gr
     ds["particle_active"] = ("particle", state.active.astype("i1"),
                              {"long_name": "particle inside the domain", "units": "1",
                               "flag_values": np.array([0, 1], "i1"), "flag_meanings": "left_domain inside"})
+    for name, attrs in _COEFFICIENT_ATTRS.items():
+        vals = getattr(state, name, None)
+        if vals is not None:
+            vals = np.asarray(vals, float)[:n].copy()
+            run = {"drag_coefficient": run_drag_coefficient, "added_mass_coefficient": run_added_mass_coefficient}
+            if run.get(name) is not None:
+                vals[np.isnan(vals)] = float(run[name])
+            ds[f"particle_{name}"] = ("particle", vals, dict(attrs))
+    if material is not None:
+        names = [_flag_word(m) for m in (material_names or ["sphere"])]
+        ds["particle_material"] = ("particle", np.asarray(material).astype("i1"),
+                                   {"long_name": "closure material of the particle", "units": "1",
+                                    "flag_values": np.arange(len(names), dtype="i1"), "flag_meanings": " ".join(names)})
     if resting is not None:
         ds["particle_resting"] = ("particle", np.asarray(resting).astype("i1"),
                                   {"long_name": "particle at rest (remapped as an obstruction)", "units": "1",

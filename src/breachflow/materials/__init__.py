@@ -10,6 +10,7 @@ forces read — plain fields, so that any force model can use them:
 ``rolling_friction``   rolling resistance mu_r of the volume-equivalent sphere (-), shape's resistance to roll/tip
 ``shape``              ``"sphere"``, ``"angular"``, ``"cube"``, ``"bag"``, ``"block"``
 ``porosity``           porosity of a dumped layer of the units (-)
+``added_mass_coefficient``  optional: the unit's apparent (added) mass coefficient xi (None or absent: ``[fluid] xi``)
 
 The DEM body is always the volume-equivalent sphere, diameter ``(6 M / (pi rho))^(1/3)``; the nominal
 diameter of a unit is ``D_n = (M / rho)^(1/3)`` (the side of the cube of equal volume, EN 13383's size).
@@ -102,6 +103,10 @@ class MaterialMix:
             raise InputError(f"material fractions {fractions!r} must be one non-negative number per material "
                              f"({len(self.materials)}), not all zero")
         self.fractions = f / f.sum()
+        for m in self.materials:
+            xi = getattr(m, "added_mass_coefficient", None)
+            if xi is not None and not (isinstance(xi, (int, float)) and np.isfinite(xi) and xi >= 0):
+                raise InputError(f"material {m.name}: added_mass_coefficient must be a number >= 0, got {xi!r}")
 
     @property
     def name(self) -> str:
@@ -146,9 +151,11 @@ class MaterialMix:
     def unit_parameters(self) -> list[dict]:
         """Per material of the mix (in order, the index :meth:`sample` returns): what each of its masses
         carries in the DEM and the fluid forces — ``name``, ``friction``, ``rolling_friction``,
-        ``drag_coefficient``, ``lift_coefficient`` (None: the run's ``[dem]`` value, drag law, lift term)."""
+        ``drag_coefficient``, ``lift_coefficient``, ``added_mass_coefficient`` (None: the run's ``[dem]`` value,
+        drag law, lift term, ``[fluid] xi``)."""
         return [{"name": m.name, "friction": m.friction, "rolling_friction": m.rolling_friction,
-                 "drag_coefficient": m.drag_coefficient, "lift_coefficient": m.lift_coefficient}
+                 "drag_coefficient": m.drag_coefficient, "lift_coefficient": m.lift_coefficient,
+                 "added_mass_coefficient": getattr(m, "added_mass_coefficient", None)}
                 for m in self.materials]
 
 

@@ -97,6 +97,7 @@ class GradedRock:
     sphericity: float = ROCK_SPHERICITY
     drag_coefficient: float | None = None
     lift_coefficient: float | None = None
+    added_mass_coefficient: float | None = None
     friction: float = ROCK_FRICTION
     rolling_friction: float = ROCK_ROLLING_FRICTION
     porosity: float = ROCK_POROSITY

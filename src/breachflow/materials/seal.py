@@ -125,11 +125,14 @@ class SealDesign:
     rock: Grading
     filters: tuple = ()
     law: str = "ergun"
+    retention_limit: float = RETENTION_LIMIT
+    permeability_limit: float = PERMEABILITY_LIMIT
 
     def __post_init__(self):
         if not self.thickness > 0:
             raise InputError(f"seal: thickness must be > 0 m, got {self.thickness}")
-        check_filter([self.grading, *[g for g, _ in self.filters], self.rock])
+        check_filter([self.grading, *[g for g, _ in self.filters], self.rock], self.retention_limit,
+                     self.permeability_limit)
 
     def layers(self, rock_length: float):
         """The series ``[(length, a, b)]``: seal, filters, then the rock over *rock_length* (m)."""

@@ -34,6 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError
+from ..scenario.stone import DUMPED_POROSITY
 from . import MATERIALS
 from .rock import ganser_newton_cd
 
@@ -59,6 +60,7 @@ class UnitMaterial:
     porosity: float = 0.40
     lift_coefficient: float | None = None
     strength: float | None = None  # unconfined compressive strength (Pa), where known
+    added_mass_coefficient: float | None = None
 
     def __post_init__(self):
         if not (0 < self.mass_min <= self.mass_max) or not math.isfinite(self.mass_max):
@@ -78,21 +80,22 @@ class UnitMaterial:
 
 @MATERIALS.register("big_bag")
 def big_bag(mass_min=1000.0, mass_max=10000.0, grain_density=2650.0, fill_porosity=0.40, sphericity=0.9,
-            friction=0.5, rolling_friction=BLOCK_TIPPING_MU_R) -> UnitMaterial:
+            friction=0.5, rolling_friction=BLOCK_TIPPING_MU_R, added_mass_coefficient=None) -> UnitMaterial:
     """Sand-filled geotextile bags of ``mass_min``–``mass_max`` kg (module docstring)."""
     n = float(fill_porosity)
     if not 0 < n < 1:
         raise InputError(f"big_bag: fill_porosity must be in (0, 1), got {fill_porosity!r}")
     rho = (1 - n) * float(grain_density) + n * RHO_W
     return UnitMaterial("big_bag", rho, float(mass_min), float(mass_max), ganser_newton_cd(sphericity),
-                        float(friction), float(rolling_friction), "bag", porosity=0.40)
+                        float(friction), float(rolling_friction), "bag", porosity=0.40,
+                        added_mass_coefficient=added_mass_coefficient)
 
 
 @MATERIALS.register("concrete_cube")
-def concrete_cube(mass=2500.0, density=2400.0, friction=0.6) -> UnitMaterial:
+def concrete_cube(mass=2500.0, density=2400.0, friction=0.6, added_mass_coefficient=None) -> UnitMaterial:
     """Concrete cubes of *mass* kg (default 2.5 t, the Delta Works' blocks) at *density* kg/m³."""
     return UnitMaterial("concrete_cube", float(density), float(mass), float(mass), CUBE_FACE_CD, float(friction),
-                        BLOCK_TIPPING_MU_R, "cube", porosity=0.45)
+                        BLOCK_TIPPING_MU_R, "cube", porosity=0.45, added_mass_coefficient=added_mass_coefficient)
 
 
 #: soil group → (cement content low, high (mass fraction of dry soil), 7-day soaked strength low, high (Pa))
@@ -127,7 +130,7 @@ def stabilized_soil_properties(soil: str, cement_content: float, dry_density: fl
 
 @MATERIALS.register("stabilized_soil")
 def stabilized_soil(soil="granular", cement_content=0.06, dry_density=1800.0, size=2.0,
-                    soil_particle_density=2650.0, friction=0.6) -> UnitMaterial:
+                    soil_particle_density=2650.0, friction=0.6, added_mass_coefficient=None) -> UnitMaterial:
     """Soil–cement blocks of side *size* (m) from a *soil* group and *cement_content* (module docstring)."""
     rho, q, _ = stabilized_soil_properties(soil, cement_content, dry_density, soil_particle_density)
     a = float(size)
@@ -135,7 +138,7 @@ def stabilized_soil(soil="granular", cement_content=0.06, dry_density=1800.0, si
         raise InputError(f"stabilized_soil: size must be > 0 m, got {size!r}")
     m = rho * a ** 3
     return UnitMaterial("stabilized_soil", rho, m, m, CUBE_FACE_CD, float(friction), BLOCK_TIPPING_MU_R, "block",
-                        porosity=0.45, strength=q)
+                        porosity=0.45, strength=q, added_mass_coefficient=added_mass_coefficient)
 
 
 @dataclass
@@ -149,10 +152,11 @@ class SphereMaterial:
     name: str = "sphere"
     drag_coefficient: float | None = None
     lift_coefficient: float | None = None
+    added_mass_coefficient: float | None = None
     friction: float | None = None
     rolling_friction: float | None = None
     shape: str = "sphere"
-    porosity: float = 0.40
+    porosity: float = DUMPED_POROSITY
 
     @property
     def density(self) -> float:

@@ -159,6 +159,11 @@ def markdown(schema: dict) -> str:
                 typ = " or ".join(typ) if isinstance(typ, list) else typ
             lines.append(f"| `{key}` | {typ} | {_cell(p.get('x-kind'))} | {_cell(p.get('x-si-unit'))} | "
                          f"{_cell(p.get('default'))} | {_cell(p.get('x-constraint') or ('required' if p.get('x-required') else ''))} |")
+            for alt in p.get("anyOf", []):  # the keys of a keyword table (e.g. a criterion's), as key.sub
+                for sub, q in alt.get("properties", {}).items():
+                    styp = ("quantity" + (" or number" if "x-default-unit" in q else "")) if "anyOf" in q else q.get("type", "")
+                    lines.append(f"| `{key}.{sub}` | {styp} | {_cell(q.get('x-kind'))} | {_cell(q.get('x-si-unit'))} | "
+                                 f"{_cell(q.get('default'))} | {_cell(q.get('description'))} |")
         lines.append("")
     return "\n".join(lines)
 

@@ -28,6 +28,12 @@ import numpy as np
 
 from ..errors import InputError
 from ..units import to_si
+
+#: porosity of a dumped pile of equal spheres / rock fill where neither the material nor ``[placement]
+#: porosity`` states it (random loose packing of spheres is 0.40–0.42; dumped rock 0.35–0.40, Rock Manual §3.5)
+DUMPED_POROSITY = 0.40
+#: side slopes of a dumped dam, H per V (1V:1.5H), where ``[placement] side_slope`` does not state them
+DEFAULT_SIDE_SLOPE = 1.5
 from .geometry import DEFAULT_WALL_SLOPE
 
 G = 9.80665
@@ -123,8 +129,8 @@ def fill_volume(breach_length, height, crest_width, side_slope, wall_slope=DEFAU
     return (b * B * H + b * mw * H ** 2 + m * B * H ** 2 + (2.0 / 3.0) * m * mw * H ** 3)
 
 
-def stone_size(velocity, depth, breach_length, *, breach_depth=None, density="2650 kg/m^3", porosity=0.4,
-               side_slope=1.5, crest_width=None, wall_slope=DEFAULT_WALL_SLOPE, theta_c=0.047, water_density="1000 kg/m^3",
+def stone_size(velocity, depth, breach_length, *, breach_depth=None, density="2650 kg/m^3",
+               porosity=DUMPED_POROSITY, side_slope=DEFAULT_SIDE_SLOPE, crest_width=None, wall_slope=DEFAULT_WALL_SLOPE, theta_c=0.047, water_density="1000 kg/m^3",
                safety="exposed") -> StoneEstimate:
     """Izbash/Shields stone size and the rock to fill the breach cross-section.
 

@@ -56,6 +56,17 @@ class PlacementSection:
                     out[f.name]["enum"] = list(POSITION_MODES)
                 continue
             unit = SI_UNITS.get(kind, kind)
+            if f.name in ("porosity", "side_slope"):
+                from ...scenario.stone import DEFAULT_SIDE_SLOPE, DUMPED_POROSITY
+
+                out[f.name] = quantity_schema(kind, default_unit="", positive=f.name == "porosity",
+                                              nonnegative=f.name == "side_slope", sweep=False)
+                out[f.name]["description"] = (
+                    "porosity of the dumped pile (the seal's flow path through the dam, the pre-run estimate's "
+                    f"tonnage); default: the material's, spheres {DUMPED_POROSITY:g}" if f.name == "porosity" else
+                    "side slopes of the dumped dam, H per V (the pre-run estimate's dam, the seal's upstream "
+                    f"face); default {DEFAULT_SIDE_SLOPE:g}")
+                continue
             if f.name == "rate":
                 default = f"{default * 3600:g} 1/hr"
             elif isinstance(default, tuple):
@@ -69,7 +80,8 @@ class PlacementSection:
 
     @classmethod
     def from_table(cls, table, ctx):
-        ctx.check_keys(table, PlacementPlan.__dataclass_fields__)  # a misspelt key is named at its own line
+        # a misspelt key is named at its own line; ``material`` may be a table ({name = ..., parameters})
+        ctx.check_keys(table, PlacementPlan.__dataclass_fields__, subtables=("material",))
         if "rate" in table:
             import warnings
 
@@ -106,7 +118,11 @@ class CriteriaSection:
             c = registry.get(name)
             spec = quantity_schema(c.kind, default_unit="" if c.kind == "dimensionless" else None, nonnegative=True,
                                    sweep=False)
-            spec["anyOf"].append({"type": "object", "description": "keyword arguments of the criterion"})
+            opts = {"type": "object", "description": "keyword arguments of the criterion"}
+            if hasattr(c, "option_schema"):  # a criterion that describes its keyword table
+                opts["properties"] = c.option_schema()
+                opts["additionalProperties"] = False
+            spec["anyOf"].append(opts)
             spec["description"] = f"threshold ({c.compare} it counts as met; unit {c.units}) {c.description}".strip()
             out[name] = spec
         return out
