@@ -107,12 +107,20 @@ def run_member(out: Path, method: str, start_h: float, capacity_factor: float, m
         scen.write_text(member_text(method, start_h, capacity_factor=capacity_factor, max_cycles=max_cycles,
                                     scenario=scenario, resolution=resolution))
         run_closure(scen, run_dir, overwrite=True, plots=False)
-    plan = json.loads(plan_path.read_text())
+    return member_row(method, start_h, json.loads(plan_path.read_text()))
+
+
+def member_row(method: str, start_h: float, plan: dict) -> dict:
+    """One member's row from its closure plan. ``window_h`` is the window of the breach left open (the same
+    for every method at one start: the chart's deadline); ``run_balance_h`` is when the polder met the flood
+    during this member's own closure, which makes the member miss its window (``fits``) when it comes first."""
     w = plan["window"]
+    hours = lambda s: None if s is None else s / 3600.0
     return {"method": method, "start_h": start_h, "closed": plan["closed"], "fits": w["fits"],
             "placed_t": plan["placed_t"], "finish_h": plan["finish_s"] / 3600.0,
-            "duration_h": plan["duration_s"] / 3600.0, "window_h": None if w["window_s"] is None else w["window_s"] / 3600.0,
-            "report_window_h": None if w["report_closure_window_s"] is None else w["report_closure_window_s"] / 3600.0,
+            "duration_h": plan["duration_s"] / 3600.0, "window_h": hours(w["open_breach_window_s"]),
+            "run_balance_h": hours(w["balance_time_s"]),
+            "report_window_h": hours(w["report_closure_window_s"]),
             "leakage_m3_s": plan["leakage_end"]["breach_discharge_m3_s"], "verdict": plan["verdict"]}
 
 
@@ -138,9 +146,10 @@ def figure(rows, path: Path) -> Path:
             if not r["fits"]:
                 ax[0].plot(r["start_h"], r["placed_t"], "o", mfc="white", color=line.get_color())
                 ax[1].plot(r["start_h"], r["finish_h"], "o", mfc="white", color=line.get_color())
-    windows = [r["window_h"] for r in rows if r["window_h"] is not None]
-    if windows:  # reached in a run: the breach balance or the inundation limit of the simulated polder
-        ax[1].axhline(min(windows), color="red", lw=0.8, ls="--", label="end of the window (simulated polder)")
+    windows = sorted({(r["start_h"], r["window_h"]) for r in rows if r["window_h"] is not None})
+    if windows:  # the breach left open from the breach on: balance or inundation limit, per start
+        ax[1].plot([s for s, _ in windows], [w for _, w in windows], color="red", lw=0.8, ls="--",
+                   label="end of the window (breach left open)")
     report = [r["report_window_h"] for r in rows if r.get("report_window_h") is not None]
     if report:
         ax[1].axhline(report[0], color="grey", lw=0.8, ls=":", label="report's linear closure window")

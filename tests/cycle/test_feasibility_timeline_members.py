@@ -25,3 +25,21 @@ def test_members_on_the_typical_breach(method, positions):
     assert d["hydro"]["resolution"] == "8 m" and d["criteria"]["max_cycles"] == 30
     assert d["polder"]["area"] == "4900 ha"  # the rest from the file
     parse_scenario(text)
+
+
+def test_the_window_of_a_start_does_not_depend_on_the_method():
+    # two members at one start: the same breach left open (81.19 h), but the slow method's own closure let the
+    # polder meet the flood at 54.15 h, before it finished; it misses its window, the window stays the open one
+    from closure_feasibility_timeline import member_row
+
+    def plan(balance_s, finish_s, fits):
+        return {"closed": True, "placed_t": 1000.0, "finish_s": finish_s, "duration_s": finish_s - 48 * 3600.0,
+                "window": {"open_breach_window_s": 292267.9, "balance_time_s": balance_s, "window_s": None,
+                           "report_closure_window_s": None, "fits": fits},
+                "leakage_end": {"breach_discharge_m3_s": 1.0}, "verdict": ""}
+
+    fast = member_row("split_barge", 48.0, plan(None, 50 * 3600.0, True))
+    slow = member_row("end_dumping", 48.0, plan(194958.6, 70 * 3600.0, False))
+    assert fast["window_h"] == slow["window_h"] == pytest.approx(292267.9 / 3600.0)
+    assert slow["run_balance_h"] == pytest.approx(54.155, abs=1e-3) and fast["run_balance_h"] is None
+    assert fast["fits"] and not slow["fits"]
