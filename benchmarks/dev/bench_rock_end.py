@@ -6,9 +6,9 @@
 Each run is a closure of the scenario (default ``examples/typical_breach.toml``) in a child process, as
 ``breachflow run`` would run it, with the rock stage's end set two ways (:mod:`breachflow.cycle.rock_end`):
 
-* ``new`` (the default): a cycle whose pile crest is below the flood in a gap column keeps its ``t_max``
+* ``new``: a cycle whose pile crest is below the flood in a gap column keeps its ``t_max``
   re-solve (``CONTINUE_SUBMERGED = False``): the dam cannot hold, so its flow is not solved on to steady;
-* ``old``: every cycle that the criteria call closed is solved on to its steady state (up to ``steady_cap``)
+* ``old`` (the default): every cycle that the criteria call closed is solved on to its steady state (up to ``steady_cap``)
   before the crest is judged (``CONTINUE_SUBMERGED = True``).
 
 Each item of ``--resolutions`` is ``RES[+FINE]`` (cell size in m, optionally a nested fine grid at the
@@ -43,6 +43,8 @@ rock_end.CONTINUE_SUBMERGED = path == "old"
 spent = {"rock_end": 0.0, "rock_end_solves": 0}
 inner = rock_end.continue_to_steady
 def timed(solve, snapshot, cap=rock_end.STEADY_CAP):
+    if sys._getframe(1).f_globals.get("__name__") != "breachflow.cycle.driver":  # the seal's: in its own CPU
+        return inner(solve, snapshot, cap)
     c0 = time.process_time()
     r = inner(solve, snapshot, cap)
     spent["rock_end"] += time.process_time() - c0

@@ -128,22 +128,23 @@ def test_a_resolve_cut_off_before_steady_is_not_held():
     assert "NOT steady" in end.statement()
 
 
-def test_the_same_resolve_continued_to_steady_holds_and_a_submerged_crest_does_not(monkeypatch):
+def test_the_same_resolve_continued_to_steady_holds_and_a_submerged_crest_does_not():
     (snap, ctx, closed, _, _, end), _ = _judge_on_swe(10.0, t_max=2.0, cap=3000.0)
     assert end.steady and end.held and closed and snap.attrs["steady_state"] == 1
     assert end.resolves > 3 and end.simulated_s <= 3000.0 + 2.0
-    # the crest 0.5 m under the flood (3 m), its re-solve continued all the same: steady, the overflow
-    # criterion met, still not held
-    monkeypatch.setattr(rock_end, "CONTINUE_SUBMERGED", True)
+    # the crest 0.5 m under the flood (3 m): steady, the overflow criterion met, still not held
     (snap, ctx, closed, _, _, end), _ = _judge_on_swe(2.5, t_max=2.0, cap=3000.0)
     assert end.steady and not end.held and not closed and end.submerged == end.columns == 2
 
 
 @pytest.mark.parametrize("cut", [2.0, 5.0, 50.0])
-def test_a_submerged_crest_is_judged_on_the_cut_resolve_without_continuing_it(cut):
-    """The crest 0.5 m under the flood cannot hold whatever the flow: the re-solve cut at *cut* s is not
-    continued (one solve, its simulated time), the dam is not held, and the reason is the crest, not the
-    unsteady flow; the state is the cut solve's own (the criteria are not judged again)."""
+def test_a_submerged_crest_is_judged_on_the_cut_resolve_without_continuing_it(cut, monkeypatch):
+    """With ``CONTINUE_SUBMERGED`` off, the crest 0.5 m under the flood cannot hold whatever the flow: the
+    re-solve cut at *cut* s is not continued (one solve, its simulated time), the dam is not held, and the
+    reason is the crest, not the unsteady flow; the state is the cut solve's own (the criteria are not judged
+    again)."""
+    assert rock_end.CONTINUE_SUBMERGED  # the default continues every judged re-solve
+    monkeypatch.setattr(rock_end, "CONTINUE_SUBMERGED", False)
     (snap, ctx, closed, _, _, end), crit = _judge_on_swe(2.5, t_max=cut, cap=3000.0)
     assert not end.held and not closed and not end.emergent and end.submerged == end.columns == 2
     assert end.resolves == 1 and end.simulated_s == pytest.approx(cut) and crit.evaluated == 0
