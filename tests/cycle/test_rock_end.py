@@ -11,6 +11,7 @@ import pytest
 from breachflow.cycle.criteria import CriterionResult, CycleContext
 from breachflow.cycle.driver import ClosureRun
 from breachflow.cycle.leakage import PolderLeakage
+from breachflow.cycle import rock_end
 from breachflow.cycle.rock_end import continue_to_steady, gap_crests, judge
 from breachflow.errors import InputError
 from breachflow.swe.domain import BoundaryCondition as BC, uniform_grid
@@ -134,6 +135,25 @@ def test_the_same_resolve_continued_to_steady_holds_and_a_submerged_crest_does_n
     # the crest 0.5 m under the flood (3 m): steady, the overflow criterion met, still not held
     (snap, ctx, closed, _, _, end), _ = _judge_on_swe(2.5, t_max=2.0, cap=3000.0)
     assert end.steady and not end.held and not closed and end.submerged == end.columns == 2
+
+
+@pytest.mark.parametrize("cut", [2.0, 5.0, 50.0])
+def test_a_submerged_crest_is_judged_on_the_cut_resolve_without_continuing_it(cut, monkeypatch):
+    """With ``CONTINUE_SUBMERGED`` off, the crest 0.5 m under the flood cannot hold whatever the flow: the
+    re-solve cut at *cut* s is not continued (one solve, its simulated time), the dam is not held, and the
+    reason is the crest, not the unsteady flow; the state is the cut solve's own (the criteria are not judged
+    again)."""
+    assert rock_end.CONTINUE_SUBMERGED  # the default continues every judged re-solve
+    monkeypatch.setattr(rock_end, "CONTINUE_SUBMERGED", False)
+    (snap, ctx, closed, _, _, end), crit = _judge_on_swe(2.5, t_max=cut, cap=3000.0)
+    assert not end.held and not closed and not end.emergent and end.submerged == end.columns == 2
+    assert end.resolves == 1 and end.simulated_s == pytest.approx(cut) and crit.evaluated == 0
+    assert snap.attrs["simulated_time_s"] == pytest.approx(cut) and not end.steady
+    assert "2 of 2 gap columns have their crest below the flood level 3.00 m" in end.reason()
+    assert "not steady" not in end.reason() and "NOT steady" in end.statement()
+    # an emergent crest on the same cut solve is continued as before
+    (snap, ctx, closed, _, _, end), crit = _judge_on_swe(10.0, t_max=cut, cap=3000.0)
+    assert end.resolves > 1 and end.steady and end.held
 
 
 @pytest.mark.parametrize("t_max, sealed", [(2.0, False), (3000.0, True)])

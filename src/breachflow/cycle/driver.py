@@ -575,22 +575,26 @@ class ClosureRun:
         level across the gap (or, with ``rock_end = "overflow"``, the overflow criterion is met)."""
         from dataclasses import replace as _replace
 
-        from .rock_end import continue_to_steady, gap_crests, judge
+        from . import rock_end as R
         from .sealing import seal_criterion
 
         s = self.setup
         crit = seal_criterion(s)
         if crit is None:
             return snapshot, ctx, closed, results, governing, None
-        snapshot, steady, sim_t, n = continue_to_steady(
-            lambda prev: s.solver.solve(solve_domain, obstacles=obstacle, initial=prev), snapshot, crit.steady_cap)
+        flood = float(ctx.flood_level)
+        _, crests = R.gap_crests(s.domain.x, s.domain.y, s.domain.bed, pile.height, s.breach_x, s.levee_y, flood)
+        if crit.rock_end == "emergent" and not R.CONTINUE_SUBMERGED and not (crests >= flood).all():
+            # a crest below the flood cannot hold whatever the flow: the re-solve is not continued
+            steady, sim_t, n = R.is_steady(snapshot), R.simulated_time(snapshot), 1
+        else:
+            snapshot, steady, sim_t, n = R.continue_to_steady(
+                lambda prev: s.solver.solve(solve_domain, obstacles=obstacle, initial=prev), snapshot, crit.steady_cap)
         if n > 1:  # the criteria judged again on the continued solve
             ctx = _replace(ctx, snapshot=snapshot, seepage_discharge=self._seepage(snapshot, pile))
             closed, results, governing = s.criteria.evaluate(ctx)
-        flood = float(ctx.flood_level)
-        _, crests = gap_crests(s.domain.x, s.domain.y, s.domain.bed, pile.height, s.breach_x, s.levee_y, flood)
         over = next((r.satisfied for r in results if r.name == "overflow_discharge"), False)
-        end = judge(crit.rock_end, steady, sim_t, n, crests, flood, over)
+        end = R.judge(crit.rock_end, steady, sim_t, n, crests, flood, over)
         if not end.held:
             closed, governing = False, ""
         return snapshot, ctx, closed, results, governing, end

@@ -15,6 +15,14 @@ its rock stage ("the dam held") only when both hold on the cycle's re-solve:
    no seal on the upstream face stops. With ``rock_end = "overflow"`` the overflow criterion met on the
    steady re-solve is accepted instead of an emergent crest (the dam may then hold with a crest awash).
 
+With ``rock_end = "emergent"`` the crest is known before the flow is: it is the pile's, not the solve's. A
+cycle whose crest stands below the flood in some gap column cannot hold whatever the re-solve gives; with
+:data:`CONTINUE_SUBMERGED` False its re-solve is not continued to the steady state and the cycle keeps the flow
+of its ``t_max`` re-solve, as every earlier cycle of the rock stage does. It is True (continued) by default:
+on the typical breach the next cycle's masses, dropped into the less settled flow, left the crest awash one
+cycle longer (one more cycle of rock, and a dearer seal), which took back most of the saving
+(docs/performance.md, *The rock stage's end*).
+
 The outcome of every judged cycle (steady or not, the simulated time, the lowest and highest crest, the
 columns below the flood) is written to the cycle's summary (``rock_end``) and stated in the closure plan.
 """
@@ -26,6 +34,9 @@ import numpy as np
 
 #: simulated time (s) a judging re-solve may run in all before it is recorded "not steady"
 STEADY_CAP = 1800.0
+#: continue the judging re-solve to its steady state also when the crest is below the flood in a gap column
+#: (``rock_end = "emergent"``: the dam cannot hold then, the continued solve only refines the flow it is left in)
+CONTINUE_SUBMERGED = True
 #: the rules: ``emergent`` (steady and the crest above the flood in every gap column) or ``overflow``
 #: (steady and the overflow criterion met; the crest may be awash)
 ROCK_END_RULES = ("emergent", "overflow")
@@ -52,7 +63,7 @@ class RockEnd:
         """Why the dam did not hold ("" when it held)."""
         if self.held:
             return ""
-        if not self.steady:
+        if not self.steady and (self.rule != "emergent" or self.emergent):
             return (f"re-solve not steady after {self.simulated_s:,.0f} s of simulated time "
                     f"({self.resolves} solves); the rock stage goes on")
         return (f"{self.submerged} of {self.columns} gap columns have their crest below the flood level "
