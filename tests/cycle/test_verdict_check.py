@@ -109,3 +109,16 @@ def test_check_section_defaults():
     c = sc["check"]
     assert (c.enabled, c.seeds, c.refine, c.grid, c.refine_seeds, c.tolerance, c.workers) == (
         True, 5, True, "uniform", 1, 0.02, 1)
+
+
+def test_the_summary_says_which_grid_differences_are_judged():
+    # discharge +0.5 % and control speed +0.3 % are judged; the levee line's speeds (+10 %, +9.1 %) are not
+    runs = [run("1 m", 1, 1, True, u=10.0, own=True), run("0.5 m", 0.5, 1, True, q=1809.0, u=11.0)]
+    runs[0].control_speed, runs[1].control_speed = 6.0, 6.018
+    r = judge(runs, 0.02)
+    assert r.robust
+    rows = dict(r.rows())
+    assert rows["  grid difference of the open breach's breach discharge"] == "+0.50 % (tolerance 2 %)"
+    assert rows["  grid difference of the open breach's control speed"] == "+0.30 % (tolerance 2 %)"
+    for k, v in (("gap mean speed", "+10.00 %"), ("gap max speed", "+9.09 %")):
+        assert rows[f"  grid difference of the open breach's {k}"].startswith(f"{v} (reported, not judged")

@@ -151,8 +151,11 @@ class CheckResult:
             out.append((f"  {who}{' (this run)' if r.own else ''}",
                         f"{what}{extra}; open breach {r.discharge:,.0f} m³/s, control speed {r.control_speed:.2f} m/s, "
                         f"gap speed {r.gap_mean_speed:.2f} mean / {r.gap_max_speed:.2f} max m/s"))
+        judged = judged_flow(self.flow_difference)
         for k, v in self.flow_difference.items():
-            out.append((f"  grid difference of the open breach's {k}", f"{100 * v:+.2f} % (tolerance {100 * self.tolerance:g} %)"))
+            note = (f"tolerance {100 * self.tolerance:g} %" if k in judged
+                    else "reported, not judged: the speed past the control section does not converge")
+            out.append((f"  grid difference of the open breach's {k}", f"{100 * v:+.2f} % ({note})"))
         return out
 
     def summary(self) -> dict:
@@ -406,6 +409,13 @@ def bed_model(sc) -> str:
     return sec.settings.describe()
 
 
+def judged_flow(flow_difference: dict) -> set:
+    """The grid differences the verdict judges: the breach discharge and the control section's speed (it
+    converges with the discharge), else the levee line's mean speed (runs recorded without a control
+    section); the speeds past the control are reported, not judged (docs/verdict-check.md)."""
+    return {"breach discharge", "control speed" if "control speed" in flow_difference else "gap mean speed"}
+
+
 def judge(runs: list[CheckRun], tolerance: float, *, bed: str = "") -> CheckResult:
     """Read the runs: P(closure), tonnage range, grid differences of the open breach, the statement (which
     ends with the bed model *bed* the runs used, when given)."""
@@ -437,9 +447,7 @@ def judge(runs: list[CheckRun], tolerance: float, *, bed: str = "") -> CheckResu
         by_grid.setdefault(r.label, []).append(r)
     words = {g: _grid_words(rs) for g, rs in by_grid.items()}
     failed = [r for r in runs if r.error]
-    # the gap speed judged: the control section's (it converges with the discharge), else the levee line's mean
-    # (runs recorded without a control section); the speeds past the control are reported, not judged
-    judged = {"breach discharge", "control speed" if "control speed" in out.flow_difference else "gap mean speed"}
+    judged = judged_flow(out.flow_difference)
     flow_off = {k: v for k, v in out.flow_difference.items() if k in judged and abs(v) > tolerance}
     grid_note = ""
     if flow_off:
