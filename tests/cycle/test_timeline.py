@@ -1,6 +1,7 @@
 """The closure in time: delivery clock, flood stage, polder balance (independent integrations), the
 report's Table 2.5 through the time-coupled path, the [closure] / [polder] keys and the cycle variables."""
 import warnings
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -242,14 +243,17 @@ def test_solver_sets_flood_and_polder_levels_on_the_boundaries():
     tl = Timeline(stage=FloodStage(lambda t: 5.0 - 0.1 * t / HOUR), polder=Polder(area=1e6, initial_level=1.0),
                   method=delivery_method("split_barge"))
     solver = TimelineSolver(object(), tl, lambda level: shifted_boundaries(base, level - 5.0))
+    dom = SimpleNamespace(y=np.linspace(-300.0, 500.0, 81), bed=np.full((81, 5), 0.5))
     tl.time = 10 * HOUR  # flood at 4.0 m, polder dry: free drainage
-    b = solver.boundaries()
+    b = solver.boundaries(dom)
     assert b["north"][0].kind == "outflow"
     assert b["south"][0].values("level", np.array([0.0, 100.0]), np.array([0.0]))[0].tolist() == pytest.approx([4.0, 3.0])
     assert float(b["west"][1].level) == pytest.approx(4.0)
     tl.polder_level = 2.5  # polder water 1.5 m deep: the protected side is the polder level
-    b = solver.boundaries()
+    b = solver.boundaries(dom)
     assert b["north"][0].kind == "level" and float(b["north"][0].level) == 2.5
+    # absorbing, with the quarter-wave period of the 800 m span at the 2 m polder depth over the lowest bed
+    assert b["north"][0].absorbing == pytest.approx(4.0 * 800.0 / (9.81 * 2.0) ** 0.5, rel=1e-12)
     assert b["west"][0].kind == "level" and b["west"][1].start == -10.0 and float(b["west"][1].level) == pytest.approx(4.0)
 
 

@@ -136,6 +136,56 @@ def face_cells(pile, side, x_range, x, level, bed, obstacle=None) -> np.ndarray:
     return touch & (cols & (crest >= level))[None, :]
 
 
+def flood_connected(bed, barrier, side: int, flood_level: float) -> np.ndarray:
+    """Mask of the cells the flood side's water reaches: cells below *flood_level* that are not a *barrier*
+    (levee, emergent pile, sealed face), 4-connected (the flow model's faces) to the flood-side edge row
+    (row 0 when *side* is -1, the last row otherwise)."""
+    from scipy import ndimage
+
+    passable = (np.asarray(bed, float) < flood_level) & ~np.asarray(barrier, bool)
+    lab, _ = ndimage.label(passable)
+    edge = lab[0] if side < 0 else lab[-1]
+    return np.isin(lab, np.unique(edge[edge > 0]))
+
+
+def separates(pile, bed, barrier, side: int, flood_level: float) -> bool:
+    """Whether the *barrier* (the sealed faces with the levee and the pile's emergent cells) cuts every path
+    of the flood's water to the protected side: no flood-connected cell lies beyond the pile's downstream
+    row."""
+    rows = np.flatnonzero((np.asarray(pile.height) > 0).any(axis=1))
+    if rows.size == 0:
+        return False
+    reach = flood_connected(bed, barrier, side, flood_level)
+    beyond = reach[rows.max() + 1:] if side < 0 else reach[:rows.min()]
+    return not bool(beyond.any())
+
+
+def still_water(snapshot, bed, barrier, side: int, flood_level: float, tailwater: float | None):
+    """The steady state of the flow model behind a seal that :func:`separates` the two sides: water at rest at
+    the *flood_level* in every flood-connected cell, at the polder's *tailwater* (m; None while the polder is
+    dry) elsewhere, dry where the bed stands higher. A grid snapshot on the grid of *snapshot* (its obstacles,
+    CRS and attributes kept, the derived fields of water at rest), marked steady: it is the model's exact
+    steady state, reached without a re-solve."""
+    from ..field.derived import derived_fields
+    from ..field.snapshot import grid_snapshot
+
+    bed = np.asarray(bed, float)
+    reach = flood_connected(bed, barrier, side, flood_level)
+    low = bed if tailwater is None else np.maximum(bed, tailwater)
+    depth = np.maximum(np.where(reach, flood_level, low) - bed, 0.0)
+    zero = np.zeros_like(depth)
+    manning = np.asarray(snapshot["manning_n"].values, float) if "manning_n" in snapshot else np.full_like(depth, 0.03)
+    extra = {k: (("y", "x"), a, attrs) for k, (a, attrs) in derived_fields(bed, depth, zero, zero, manning).items()}
+    obstacle = np.asarray(snapshot["obstacle"].values) if "obstacle" in snapshot else None
+    out = grid_snapshot(snapshot["x"].values, snapshot["y"].values, bed, depth, zero, zero, obstacle=obstacle,
+                        source="breachflow: water at rest behind a sealed dam", extra=extra)
+    if "crs" in snapshot:
+        out["crs"] = snapshot["crs"]
+    out.attrs.update({k: v for k, v in snapshot.attrs.items() if k not in out.attrs})
+    out.attrs.update(steady_state=1, simulated_time_s=0.0, seal_reading="still water")
+    return out
+
+
 def series_leakage(snapshot, pile, layers, side, x_range, law="ergun", columns=None) -> float:
     """Seepage (m³/s) through the sealed pile by the 1-D model of layers in series
     (:func:`~breachflow.materials.seal.series_unit_discharge`) column by column, with the head and the
@@ -183,13 +233,17 @@ class SealStep:
     #: whether the re-solve reached its steady state (:func:`~breachflow.cycle.rock_end.is_steady`); a leakage
     #: read from an unsteady re-solve does not seal the dam
     steady: bool = True
+    #: how the levels on both sides were found: "re-solved" (the flow model) or "still water"
+    #: (:func:`still_water`, the seal separates the sides)
+    reading: str = "re-solved"
 
     def as_dict(self) -> dict:
         return {"seal_thickness_m": self.thickness, "tonnage_t": dict(self.tonnage),
                 "seal_tonnage_t": float(sum(self.tonnage.values())), "leakage_m3_s": self.leakage,
                 "net_rise_m_per_day": self.net_rise_per_day, "acceptable": self.acceptable,
                 "solve_cpu_s": self.solve_cpu_s, "flow_model_leakage_m3_s": self.flow_model_leakage,
-                "series_seepage_m3_s": self.series_seepage, "steady": self.steady}
+                "series_seepage_m3_s": self.series_seepage, "steady": self.steady,
+                "reading": self.reading}
 
 
 @dataclass
@@ -245,10 +299,13 @@ def next_thickness(t: float, leakage: float, target: float, t_max: float, growth
 
 def seal_dam(solve, pile, snapshot, criterion, *, breach_x, levee_y, y, x, thickness0: float | None = None,
              max_steps: int = 6, available_t: float | None = None, height_cap=None, flood_level=None, bed=None,
-             compare_flow_model: bool = False, obstacle=None):
+             compare_flow_model: bool = False, obstacle=None, tailwater: float | None = None):
     """Place the seal of *criterion* (:class:`~breachflow.cycle.leakage.PolderLeakage` with ``seal_layers``)
     in *pile*, re-solve with ``solve(porous_pile, initial_snapshot, extra_obstacles) -> snapshot`` and thicken until the
     polder takes the leakage, the thickness reaches ``max_seal_thickness`` or the tonnage *available_t*.
+    With the ``series`` reading, a seal that :func:`separates` the flood side from the polder needs no re-solve:
+    the model's steady state is then water at rest (:func:`still_water`: the *flood_level* before the dam, the
+    polder's *tailwater* behind it) and the leakage the series seepage under that head.
     Returns a :class:`SealResult` (delivery fields left for the caller)."""
     import time as _time
 
@@ -267,6 +324,11 @@ def seal_dam(solve, pile, snapshot, criterion, *, breach_x, levee_y, y, x, thick
     q0 = section_discharge(snapshot, breach_x, levee_y)
     block = (face_cells(pile, side, breach_x, x, flood_level, bed, obstacle) if criterion.seal_leakage == "series"
              else None)
+    still = None
+    if block is not None and flood_level is not None and bed is not None:
+        barrier = block if obstacle is None else (np.asarray(obstacle, bool) | block)
+        if separates(pile, bed, barrier, side, flood_level):
+            still = still_water(snapshot, bed, barrier, side, flood_level, tailwater)
     prev = snapshot
     for _ in range(max_steps):
         layers = [(criterion.seal_layers[0], t)] + [(g, criterion.filter_thickness) for g in criterion.seal_layers[1:]]
@@ -282,15 +344,19 @@ def seal_dam(solve, pile, snapshot, criterion, *, breach_x, levee_y, y, x, thick
             snap = solve(sealed, prev, None)
             q_flow = q = section_discharge(snap, breach_x, levee_y)
             q_series = float("nan")
-        else:  # the emergent sealed faces closed in the flow model, their seepage by layers in series
-            snap = solve(sealed, prev, block)
-            q_flow = section_discharge(snap, breach_x, levee_y)
+        else:  # the emergent sealed faces closed in the flow model, their seepage by layers in series; water at
+            # rest on both sides when the seal separates them (no re-solve)
+            if still is not None:
+                snap, q_flow = still, 0.0
+            else:
+                snap = solve(sealed, prev, block)
+                q_flow = section_discharge(snap, breach_x, levee_y)
             q_series = series_leakage(snap, pile, layers, side, breach_x, criterion.law, columns=block.any(axis=0))
             q = q_flow + q_series
         v = polder_leakage_check(q, criterion.area, pump, criterion.threshold)
         steady = is_steady(snap)
         res.steps.append(SealStep(t, tons, q, v.net_rise_per_day, v.acceptable and steady, _time.process_time() - c0,
-                                  q_flow, q_series, steady))
+                                  q_flow, q_series, steady, "still water" if still is not None else "re-solved"))
         res.snapshot, prev = snap, snap
         if v.acceptable and not steady:
             res.verdict = (f"not sealed: the re-solve with {t:.3g} m of seal is not steady (leakage {q:.4g} m3/s "
@@ -366,7 +432,8 @@ def seal_stage(setup, rec, snapshot):
                    x=dom.x, thickness0=plan.get("seal_thickness"), max_steps=crit.seal_steps,
                    available_t=crit.seal_available, height_cap=np.maximum(flood - np.asarray(dom.bed, float), 0.0),
                    flood_level=flood, bed=np.asarray(dom.bed, float), compare_flow_model=crit.seal_compare,
-                   obstacle=None if obstacle is None else obstacle | np.asarray(dom.obstacle, bool))
+                   obstacle=np.asarray(dom.obstacle, bool) if obstacle is None else obstacle | np.asarray(dom.obstacle, bool),
+                   tailwater=None if tl is None else tl.tailwater)
     # delivery: the seal's own method after the rock
     if crit.seal_method is not None:
         method = delivery_method(crit.seal_method)

@@ -26,6 +26,8 @@ through the breach stops, and the level stays with the flood's.
 """
 from __future__ import annotations
 
+import math
+
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -335,16 +337,30 @@ class Timeline:
                 f"{self.stage.source}; polder {self.polder.area / 1e4:,.0f} ha, pumps {self.polder.pump_capacity:g} m³/s")
 
 
-def with_tailwater(boundaries: dict, tail: float | None) -> dict:
+def tailwater_relaxation(domain, tail: float | None) -> float | None:
+    """Relaxation time (s) of the absorbing polder level: ``4 L / sqrt(g h)``, the quarter-wave period of the
+    domain's span ``L`` across the levee (m) at the depth ``h`` of the polder water over the lowest bed, as the
+    flood side's (:func:`~breachflow.swe.domain.breach_domain`). None while the polder is dry (*tail* None)."""
+    if tail is None:
+        return None
+    y = np.asarray(domain.y, float)
+    span = max(float(y.max() - y.min()), 1.0)
+    depth = max(float(tail) - float(np.nanmin(domain.bed)), 1e-3)
+    return 4.0 * span / math.sqrt(9.81 * depth)
+
+
+def with_tailwater(boundaries: dict, tail: float | None, relaxation: float | None = None) -> dict:
     """*boundaries* with every free-outflow edge turned into the prescribed polder level *tail* (m); unchanged
     while the polder is (nearly) dry (*tail* None). The protected side of a flow model then stands at the
-    polder's level, as the polder balance has it, instead of draining freely."""
+    polder's level, as the polder balance has it, instead of draining freely. The level is absorbing with
+    *relaxation* (s; :func:`tailwater_relaxation`): an exactly imposed level reflects every wave, and the basin
+    between it, the levee and the side walls would ring for hours (:class:`~breachflow.swe.domain.BoundaryCondition`)."""
     from ..swe.domain import BoundaryCondition
 
     if tail is None:
         return boundaries
-    return {side: [BoundaryCondition.water_level(tail, start=bc.start, stop=bc.stop) if bc.kind == "outflow" else bc
-                   for bc in lst] for side, lst in boundaries.items()}
+    return {side: [BoundaryCondition.water_level(tail, start=bc.start, stop=bc.stop, absorbing=relaxation)
+                   if bc.kind == "outflow" else bc for bc in lst] for side, lst in boundaries.items()}
 
 
 class TimelineSolver:
@@ -361,16 +377,17 @@ class TimelineSolver:
     def __getattr__(self, name):  # window, cold, warm... of the wrapped solver
         return getattr(self.__dict__["inner"], name)
 
-    def boundaries(self):
+    def boundaries(self, domain):
         tl = self.timeline
-        return with_tailwater(self.boundaries_at(tl.flood_level), tl.tailwater)
+        tail = tl.tailwater
+        return with_tailwater(self.boundaries_at(tl.flood_level), tail, tailwater_relaxation(domain, tail))
 
     def solve(self, domain, obstacles=None, initial=None):
         from dataclasses import replace
 
         from ..swe.domain import _copy_spacing
 
-        d = replace(domain, boundaries=self.boundaries())
+        d = replace(domain, boundaries=self.boundaries(domain))
         tail = self.timeline.tailwater
         if initial is None and tail is not None and domain.initial_surface is not None:
             # a cold start with the polder already filled: its dry cells start at the polder level, not empty

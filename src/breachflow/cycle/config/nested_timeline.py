@@ -70,13 +70,15 @@ class NestedTimelineSolver:
     def solve(self, domain=None, obstacles=None, initial=None):
         from ...swe.domain import _copy_spacing
 
-        from ..timeline import with_tailwater
+        from ..timeline import tailwater_relaxation, with_tailwater
 
         self._follow()
         domain = self.nested.domain if domain is None else domain
         # the edges of the coarse state; where water leaves them towards a filled polder, the polder's level
         # (as on a uniform grid under the timeline), not a free outflow that would let the gap flow run
         # supercritical into an empty polder
-        d = replace(domain, boundaries=with_tailwater(self.nested.domain.boundaries, self.timeline.tailwater))
+        tail = self.timeline.tailwater
+        d = replace(domain, boundaries=with_tailwater(self.nested.domain.boundaries, tail,
+                                                      tailwater_relaxation(domain, tail)))
         _copy_spacing(domain, d)
         return self.nested.solve(d, obstacles=obstacles, initial=initial)
