@@ -24,7 +24,10 @@ How the leakage is read (``seal_leakage``):
   level are closed in the re-solve, which gives the overflow and the flow around the dam and the water
   levels on both sides with the dam sealed; the seepage through each sealed column is the 1-D flow through
   the layers in series under the head between the open cells before and after the pile
-  (:func:`series_leakage`). Leakage = re-solved breach discharge + that seepage.
+  (:func:`series_leakage`). Leakage = re-solved breach discharge + that seepage. When the closed faces cut
+  every path of the flood's water to the polder (:func:`separates`), the re-solve's steady state is known:
+  water at rest at the flood level before the dam and the polder level behind it (:func:`still_water`), and
+  the leakage is read from it without a re-solve.
 * ``"flow_model"``: the breach discharge of the re-solve with the seal in the pile cells. The depth-averaged
   solver's numerical flux across a steep drop of the water level adds flow that the seal's resistance
   does not stop: through a strip sealed with 5 cm gravel it over-states the 1-D flow by 16 %, 8 % and 4 %
