@@ -125,7 +125,7 @@ def section_discharge(ds, x_range, y: float, sign: float = 1.0) -> float:
     breach channel's rows of ``Σ h v Δx`` over the open wet cells
     (:func:`breachflow.swe.section.channel_discharge`, also the ``swe`` solver's steady-state monitor).
     Every breach discharge a closure run reports, judges or integrates into the polder is this one."""
-    return float(sign) * snapshot_discharge(ds, x_range, y)
+    return float(sign) * snapshot_discharge(ds, x_range, y) + 0.0  # + 0.0: no "-0.00" for a dry breach
 
 
 def row_discharge(ds, x_range, y: float) -> float:
@@ -150,7 +150,7 @@ def seepage_in_section(ds, x_range, y: float, seepage_row: float, sign: float = 
     the result like :func:`section_discharge` with the same *sign*."""
     q_row = row_discharge(ds, x_range, y)
     if seepage_row == 0.0 or abs(q_row) < 1e-12:
-        return float(sign) * float(seepage_row)
+        return float(sign) * float(seepage_row) + 0.0
     share = min(abs(seepage_row / q_row), 1.0)
     return float(sign) * float(np.copysign(share * abs(snapshot_discharge(ds, x_range, y)), seepage_row))
 
