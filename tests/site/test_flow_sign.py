@@ -146,3 +146,58 @@ def test_a_run_reports_the_same_positive_discharge_and_calibrates_its_weir_both_
 
 def cf_ok(q):
     return q.size >= 1 and np.all(np.isfinite(q)) and np.all(q > 0)
+
+
+def _seal_case(flip: bool):
+    """A 4 x 12 strip of 1 m cells: walls in the outer columns, a rock pile (stones of 1 m, porosity 0.4, 6 m
+    high) across the two open columns in rows 4-7, the flood at 5 m on the low-y side and the polder at 4 m
+    on the other (bed 0), 3 m³/s through the breach in the flow model towards the polder; *flip*: the same
+    mirrored north-south (the flood on the high-y side)."""
+    import types
+
+    import xarray as xr
+
+    from breachflow.materials.seal import Grading
+    from breachflow.swe.porous import PorousPile
+
+    ny, nx = 12, 4
+    y, x = np.arange(ny) + 0.5, np.arange(nx) + 0.5
+    height = np.zeros((ny, nx))
+    height[4:8, 1:3] = 6.0
+    eta = np.where(y[:, None] < 6.0, 5.0, 4.0) * np.ones((ny, nx))
+    wall = np.zeros((ny, nx), bool)
+    wall[:, [0, 3]] = True
+    hv = np.where(wall, 0.0, 1.5)  # 1.5 m²/s in each of the 2 open columns: 3 m³/s towards +y
+    if flip:
+        height, eta, wall, hv = height[::-1], eta[::-1], wall[::-1], -hv[::-1]
+    depth = np.where(wall, 0.0, eta)
+    ds = xr.Dataset({"water_surface": (("y", "x"), eta), "depth": (("y", "x"), depth),
+                     "v": (("y", "x"), np.where(depth > 0, hv / np.where(depth > 0, depth, 1.0), 0.0)),
+                     "u": (("y", "x"), np.zeros((ny, nx))), "obstacle": (("y", "x"), wall)},
+                    coords={"x": x, "y": y}, attrs={"steady_state": 1})
+    pile = PorousPile.build(height, np.full(height.shape, 0.4), np.full(height.shape, 1.0))
+    crit = types.SimpleNamespace(seal_layers=[Grading("sand", 0.004, 0.005, 0.006, porosity=0.35)],
+                                 max_seal_thickness=1.0, pump_capacity=0.0, threshold=1e6, area=1e6,
+                                 seal_leakage="series", law="ergun", filter_thickness=0.1, seal_growth=2.0)
+    return ds, pile, crit, y, x, wall
+
+
+@pytest.mark.parametrize("flip", [False, True])
+def test_seal_leakage_adds_the_flow_models_discharge_and_the_seepage_the_same_way_round(flip):
+    from breachflow.cycle.sealing import seal_dam
+
+    ds, pile, crit, y, x, wall = _seal_case(flip)
+    res = seal_dam(lambda p, initial, block: ds, pile, ds, crit, breach_x=(0.9, 3.1), levee_y=6.0, y=y, x=x,
+                   flood_level=5.0, bed=np.zeros(ds["depth"].shape), obstacle=wall,
+                   flow_sign=-1.0 if flip else 1.0)
+    step = res.steps[0]
+    # by hand: the seal starts at a quarter of max_seal_thickness (0.25 m of sand), the rock takes the rest of
+    # the 4 m pile; per column q = h 2H / (A + sqrt(A^2 + 4 B H)), H = 1 m, h = 5 m (Ergun 1952, written out)
+    nu, g = 1.0e-6, 9.81
+    ergun = lambda n, d: (150 * nu * (1 - n) ** 2 / (g * n ** 3 * d ** 2), 1.75 * (1 - n) / (g * n ** 3 * d))
+    (a_s, b_s), (a_r, b_r) = ergun(0.35, 0.005), ergun(0.4, 1.0)
+    A, B = 0.25 * a_s + 3.75 * a_r, 0.25 * b_s + 3.75 * b_r
+    q_series = 2 * (5.0 * 2 * 1.0 / (A + np.sqrt(A * A + 4 * B * 1.0)))
+    assert step.flow_model_leakage == pytest.approx(3.0, rel=1e-12)
+    assert step.series_seepage == pytest.approx(q_series, rel=1e-9)
+    assert step.leakage == pytest.approx(3.0 + q_series, rel=1e-9)
