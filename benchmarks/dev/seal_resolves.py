@@ -50,7 +50,7 @@ def main(argv=None) -> None:
         total, n, c0 = rock_end.simulated_time(snapshot), 1, time.process_time()
 
         def show():
-            q = section_discharge(snapshot, s.breach_x, s.levee_y)
+            q = section_discharge(snapshot, s.breach_x, s.levee_y, s.flow_sign)
             print(f"  solve {n:2d}: {total:6.0f} s simulated, breach section {q:+9.4f} m3/s, "
                   f"steady {rock_end.is_steady(snapshot)}, {time.process_time() - c0:6.1f} CPU s", flush=True)
 

@@ -71,6 +71,8 @@ class CycleContext:
     area: tuple | None = None
     #: breach discharge of the open breach, before the first mass (m³/s; NaN when unknown)
     open_breach_discharge: float = float("nan")
+    #: +1 when the polder is at +y of the grid, -1 when the flood is (:func:`flow_sign`)
+    flow_sign: float = 1.0
 
 
 @dataclass(frozen=True)
@@ -109,11 +111,21 @@ def _speed(ds):
     return np.hypot(np.asarray(ds["u"].values, float), np.asarray(ds["v"].values, float))
 
 
-def section_discharge(ds, x_range, y: float) -> float:
-    """Discharge (m³/s) through the breach between ``x_range``, positive towards the protected side: the
-    median over the breach channel's rows of ``Σ h v Δx`` over the open wet cells
-    (:func:`breachflow.swe.section.channel_discharge`, also the ``swe`` solver's steady-state monitor)."""
-    return snapshot_discharge(ds, x_range, y)
+def flow_sign(flood_sign: float) -> float:
+    """The sign that turns a discharge counted towards +y of the grid into one counted from the flood side
+    into the polder: ``+1`` when the flood is on the low-y side of the levee (*flood_sign* ``-1``, the scene
+    and every site whose flood lies at smaller grid y), ``-1`` when it is on the high-y side (*flood_sign*
+    ``+1``: which side that is depends on the direction the levee line was digitised in)."""
+    return -1.0 if float(flood_sign) > 0 else 1.0
+
+
+def section_discharge(ds, x_range, y: float, sign: float = 1.0) -> float:
+    """Discharge (m³/s) through the breach between ``x_range``, positive from the flood side into the polder:
+    *sign* (:func:`flow_sign`, ``ClosureSetup.flow_sign``; +1: the polder at +y) times the median over the
+    breach channel's rows of ``Σ h v Δx`` over the open wet cells
+    (:func:`breachflow.swe.section.channel_discharge`, also the ``swe`` solver's steady-state monitor).
+    Every breach discharge a closure run reports, judges or integrates into the polder is this one."""
+    return float(sign) * snapshot_discharge(ds, x_range, y) + 0.0  # + 0.0: no "-0.00" for a dry breach
 
 
 def row_discharge(ds, x_range, y: float) -> float:
@@ -127,19 +139,20 @@ def row_discharge(ds, x_range, y: float) -> float:
     return float(np.sum(hv) * dx)
 
 
-def seepage_in_section(ds, x_range, y: float, seepage_row: float) -> float:
+def seepage_in_section(ds, x_range, y: float, seepage_row: float, sign: float = 1.0) -> float:
     """The seepage through a porous pile as a part of the breach discharge (:func:`section_discharge`).
 
     The split into seepage and overflow is made per cell in the levee row through the pile
     (*seepage_row*, m³/s, of that row's :func:`row_discharge`); the breach discharge is the median over the
     channel's rows, a few % apart from the levee row's. Both must be in one section, or a closed pile
     shows an "overflow" of that difference (the default scene: 0.84 of 24 m³/s, against the 0.5 m³/s
-    limit): the levee row's seepage share times the breach discharge."""
+    limit): the levee row's seepage share times the breach discharge. *seepage_row* is counted towards +y,
+    the result like :func:`section_discharge` with the same *sign*."""
     q_row = row_discharge(ds, x_range, y)
     if seepage_row == 0.0 or abs(q_row) < 1e-12:
-        return float(seepage_row)
+        return float(sign) * float(seepage_row) + 0.0
     share = min(abs(seepage_row / q_row), 1.0)
-    return float(np.copysign(share * abs(section_discharge(ds, x_range, y)), seepage_row))
+    return float(sign) * float(np.copysign(share * abs(snapshot_discharge(ds, x_range, y)), seepage_row))
 
 
 def gap_section_speeds(ds, x_range, y: float) -> tuple[float, float]:
@@ -284,7 +297,7 @@ class BreachDischarge(Criterion):
     description = "discharge through the breach section"
 
     def value(self, ctx):
-        return abs(section_discharge(ctx.snapshot, ctx.breach_x, ctx.levee_y))
+        return abs(section_discharge(ctx.snapshot, ctx.breach_x, ctx.levee_y, ctx.flow_sign))
 
 
 @criteria.register("head_gradient")
@@ -420,5 +433,5 @@ class OverflowDischarge(Criterion):
     description = "breach discharge over the crest"
 
     def value(self, ctx):
-        return max(abs(section_discharge(ctx.snapshot, ctx.breach_x, ctx.levee_y)) - abs(ctx.seepage_discharge), 0.0)
+        return max(abs(section_discharge(ctx.snapshot, ctx.breach_x, ctx.levee_y, ctx.flow_sign)) - abs(ctx.seepage_discharge), 0.0)
 

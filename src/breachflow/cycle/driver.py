@@ -137,6 +137,9 @@ class ClosureSetup:
     #: the closure in time (:class:`~breachflow.cycle.timeline.Timeline`, ``[closure] method``): operation
     #: time from the tonnes delivered, flood stage and polder level per cycle (None: ``[placement] rate``)
     timeline: object = None
+    #: +1 when the polder is at +y of the grid, -1 when the flood is: every breach discharge the run reports
+    #: counts from the flood side into the polder (:func:`~breachflow.cycle.criteria.flow_sign`)
+    flow_sign: float = 1.0
 
 
 @dataclass
@@ -292,13 +295,13 @@ class ClosureRun:
             snapshot = s.solver.solve(s.domain)
             if s.timeline is not None:  # the pre-start weir calibrated on this open breach at the start
                 snapshot = s.timeline.calibrate(snapshot, lambda prev: s.solver.solve(s.domain, initial=prev),
-                                                lambda snap: section_discharge(snap, s.breach_x, s.levee_y))
+                                                lambda snap: section_discharge(snap, s.breach_x, s.levee_y, s.flow_sign))
             self.initial_solve_time = _time.perf_counter() - t0
             initial_solve_cpu = _time.process_time() - c0
             from .criteria import DischargeProxy, MaxSpeed
 
-            ctx0 = CycleContext(cycle=0, snapshot=snapshot, breach_x=s.breach_x, levee_y=s.levee_y)
-            self._q_open = section_discharge(snapshot, s.breach_x, s.levee_y)
+            ctx0 = CycleContext(cycle=0, snapshot=snapshot, breach_x=s.breach_x, levee_y=s.levee_y, flow_sign=s.flow_sign)
+            self._q_open = section_discharge(snapshot, s.breach_x, s.levee_y, s.flow_sign)
             gmax, gmean = gap_section_speeds(snapshot, s.breach_x, s.levee_y)
             yc, vc = control_speed(snapshot, s.breach_x, s.levee_y)
             if s.timeline is not None:
@@ -448,7 +451,7 @@ class ClosureRun:
                            flood_level=s.flood_level if s.timeline is None else s.timeline.flood_level,
                            bottom=s.bottom, stability_displacement=stab,
                            seepage_discharge=self._seepage(new_snapshot, pile), area=s.area,
-                           open_breach_discharge=self._q_open)
+                           open_breach_discharge=self._q_open, flow_sign=s.flow_sign)
         closed, results, governing = s.criteria.evaluate(ctx)
         rock_end = None
         if closed and pile is not None:  # a sealed rock dam: the rock stage ends on a steady solve (cycle/rock_end.py)
@@ -458,7 +461,7 @@ class ClosureRun:
 
         max_speed = MaxSpeed("0 m/s", region="domain").value(ctx)
         proxy = DischargeProxy("0 m^3/s").value(ctx)
-        q_breach = section_discharge(new_snapshot, s.breach_x, s.levee_y)
+        q_breach = section_discharge(new_snapshot, s.breach_x, s.levee_y, s.flow_sign)
         if s.timeline is not None:
             s.timeline.record(q_breach)
         gap_max, gap_mean = gap_section_speeds(new_snapshot, s.breach_x, s.levee_y)
@@ -617,7 +620,8 @@ class ClosureRun:
         sel = (x >= s.breach_x[0]) & (x <= s.breach_x[1])
         frac_y = np.where(speed[j] > 0, v[j] / np.where(speed[j] > 0, speed[j], 1.0), 0.0)
         dx = abs(x[1] - x[0]) if x.size > 1 else 1.0
-        return seepage_in_section(snapshot, s.breach_x, s.levee_y, float(np.sum((q_seep[j] * frac_y)[sel]) * dx))
+        return seepage_in_section(snapshot, s.breach_x, s.levee_y, float(np.sum((q_seep[j] * frac_y)[sel]) * dx),
+                                  s.flow_sign)
 
     def _field_dataset(self, snapshot, st, placed_cycle, resting, rep, material_index=None) -> xr.Dataset:
         grid = self._grid_only(snapshot)

@@ -283,7 +283,7 @@ class PolderLeakage(Criterion):
         return self._fallback is not None
 
     def verdict(self, ctx) -> LeakageVerdict:
-        q = section_discharge(ctx.snapshot, ctx.breach_x, ctx.levee_y)
+        q = section_discharge(ctx.snapshot, ctx.breach_x, ctx.levee_y, ctx.flow_sign)
         return polder_leakage_check(q, self.area, self.pump_capacity or 0.0, self.threshold)
 
     def value(self, ctx):

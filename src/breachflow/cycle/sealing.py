@@ -302,14 +302,16 @@ def next_thickness(t: float, leakage: float, target: float, t_max: float, growth
 
 def seal_dam(solve, pile, snapshot, criterion, *, breach_x, levee_y, y, x, thickness0: float | None = None,
              max_steps: int = 6, available_t: float | None = None, height_cap=None, flood_level=None, bed=None,
-             compare_flow_model: bool = False, obstacle=None, tailwater: float | None = None):
+             compare_flow_model: bool = False, obstacle=None, tailwater: float | None = None,
+             flow_sign: float = 1.0):
     """Place the seal of *criterion* (:class:`~breachflow.cycle.leakage.PolderLeakage` with ``seal_layers``)
     in *pile*, re-solve with ``solve(porous_pile, initial_snapshot, extra_obstacles) -> snapshot`` and thicken until the
     polder takes the leakage, the thickness reaches ``max_seal_thickness`` or the tonnage *available_t*.
     With the ``series`` reading, a seal that :func:`separates` the flood side from the polder needs no re-solve:
     the model's steady state is then water at rest (:func:`still_water`: the *flood_level* before the dam, the
     polder's *tailwater* behind it) and the leakage the series seepage under that head.
-    Returns a :class:`SealResult` (delivery fields left for the caller)."""
+    Returns a :class:`SealResult` (delivery fields left for the caller). The leakage counts from the flood
+    side into the polder (*flow_sign*: :func:`~breachflow.cycle.criteria.flow_sign`)."""
     import time as _time
 
     from .criteria import section_discharge
@@ -324,7 +326,7 @@ def seal_dam(solve, pile, snapshot, criterion, *, breach_x, levee_y, y, x, thick
     pump = criterion.pump_capacity or 0.0
     target = criterion.threshold * criterion.area / SECONDS_PER_DAY + pump
     res = SealResult()
-    q0 = section_discharge(snapshot, breach_x, levee_y)
+    q0 = section_discharge(snapshot, breach_x, levee_y, flow_sign)
     block = (face_cells(pile, side, breach_x, x, flood_level, bed, obstacle) if criterion.seal_leakage == "series"
              else None)
     still = None
@@ -345,7 +347,7 @@ def seal_dam(solve, pile, snapshot, criterion, *, breach_x, levee_y, y, x, thick
         sealed_last = sealed
         if criterion.seal_leakage == "flow_model":
             snap = solve(sealed, prev, None)
-            q_flow = q = section_discharge(snap, breach_x, levee_y)
+            q_flow = q = section_discharge(snap, breach_x, levee_y, flow_sign)
             q_series = float("nan")
         else:  # the emergent sealed faces closed in the flow model, their seepage by layers in series; water at
             # rest on both sides when the seal separates them (no re-solve)
@@ -353,7 +355,7 @@ def seal_dam(solve, pile, snapshot, criterion, *, breach_x, levee_y, y, x, thick
                 snap, q_flow = still, 0.0
             else:
                 snap = solve(sealed, prev, block)
-                q_flow = section_discharge(snap, breach_x, levee_y)
+                q_flow = section_discharge(snap, breach_x, levee_y, flow_sign)
             q_series = series_leakage(snap, pile, layers, side, breach_x, criterion.law, columns=block.any(axis=0))
             q = q_flow + q_series
         v = polder_leakage_check(q, criterion.area, pump, criterion.threshold)
@@ -383,7 +385,7 @@ def seal_dam(solve, pile, snapshot, criterion, *, breach_x, levee_y, y, x, thick
     if block is not None and res.last is not None and compare_flow_model:
         # the same seal with the flow through it left to the flow model (the comparison of the docs)
         snap = solve(sealed_last, res.snapshot, None)
-        res.flow_model_leakage = section_discharge(snap, breach_x, levee_y)
+        res.flow_model_leakage = section_discharge(snap, breach_x, levee_y, flow_sign)
     return res
 
 
@@ -436,7 +438,7 @@ def seal_stage(setup, rec, snapshot):
                    available_t=crit.seal_available, height_cap=np.maximum(flood - np.asarray(dom.bed, float), 0.0),
                    flood_level=flood, bed=np.asarray(dom.bed, float), compare_flow_model=crit.seal_compare,
                    obstacle=np.asarray(dom.obstacle, bool) if obstacle is None else obstacle | np.asarray(dom.obstacle, bool),
-                   tailwater=None if tl is None else tl.tailwater)
+                   tailwater=None if tl is None else tl.tailwater, flow_sign=getattr(setup, "flow_sign", 1.0))
     # delivery: the seal's own method after the rock
     if crit.seal_method is not None:
         method = delivery_method(crit.seal_method)

@@ -388,11 +388,11 @@ def _open_breach_on(sc, scenario_path, res: float, section: CheckSection) -> Che
         snap = setup.solver.solve(setup.domain)
         if tl is not None:
             snap = tl.calibrate(snap, lambda prev: setup.solver.solve(setup.domain, initial=prev),
-                                lambda s: section_discharge(s, setup.breach_x, setup.levee_y))
+                                lambda s: section_discharge(s, setup.breach_x, setup.levee_y, setup.flow_sign))
         cpu = _time.process_time() - c0
     finally:
         hydro.resolution, hydro.refine = old
-    q = section_discharge(snap, setup.breach_x, setup.levee_y)
+    q = section_discharge(snap, setup.breach_x, setup.levee_y, setup.flow_sign)
     gmax, gmean = gap_section_speeds(snap, setup.breach_x, setup.levee_y)
     vc = control_speed(snap, setup.breach_x, setup.levee_y)[1]
     return CheckRun(label=_label(res if section.grid == "nested" else fine, fine if section.grid == "nested" else None),

@@ -89,7 +89,7 @@ CYCLE_VARIABLES: list[CycleVariable] = [
                   {"units": "kg", "long_name": "mass carried out of the breach area in this cycle"}, scale=1000.0),
     CycleVariable("breach_discharge", "breach_discharge",
                   {"units": "m3 s-1", "long_name": "discharge through the breach section at the levee line "
-                   "(sign: along +y)"}),
+                   "(positive from the flood side into the polder)"}),
     CycleVariable("seepage_discharge", "seepage_discharge",
                   {"units": "m3 s-1", "long_name": "part of breach_discharge seeping through the porous pile"}),
     CycleVariable("discharge_proxy", "discharge_proxy",

@@ -9,7 +9,7 @@ import numpy as np
 
 from ...errors import InputError
 from ...scenario.geometry import BreachGeometry
-from ..criteria import EndCriteria
+from ..criteria import EndCriteria, flow_sign
 from ..leakage import DEFAULT_ALLOWED_RISE
 from ..losses import breach_area
 from ..placement import PlacementPlan
@@ -186,6 +186,8 @@ def closure_setup(scenario, *, overrides: dict | None = None):
     for item in criteria.items:
         if hasattr(item, "bind_scenario"):
             item.bind_scenario(scenario)
+    # discharges count from the flood side into the polder, whichever way the levee line was digitised
+    polder_sign = flow_sign(built.flood_sign) if built is not None else 1.0
     timeline = None
     if closure.timeline.method is not None:
         if not isinstance(solver, (_WarmStartSWE, _StageSolver)) and coarse is None:
@@ -203,8 +205,7 @@ def closure_setup(scenario, *, overrides: dict | None = None):
 
         terrain = None
         if "polder" in scenario and scenario["polder"].storage == "terrain":
-            sign = -float(built.flood_sign) if built is not None else 1.0
-            terrain = polder_terrain(scenario["polder"], dom, (xc, yc), sign)
+            terrain = polder_terrain(scenario["polder"], dom, (xc, yc), polder_sign)
         timeline = build_timeline(scenario, closure.timeline, site_level=flood_level, ground=ground, bottom=bottom,
                                   length=2.0 * half, wall_slope=wall, built=built,
                                   levee=None if built is not None else scene.levee, placement=placement,
@@ -231,7 +232,7 @@ def closure_setup(scenario, *, overrides: dict | None = None):
                          flood_level=flood_level, bottom=bottom, name=scenario.name, attrs=attrs, metadata=metadata,
                          area=closure.area or (breach_area(scene, placement.diameter[1]) if built is None else None),
                          loss_limit=closure.loss_limit, frame=built.frame if built is not None else None,
-                         timeline=timeline)
+                         timeline=timeline, flow_sign=polder_sign)
     for k, v in (overrides or {}).items():
         setattr(setup, k, v)
     from ..sanity import check_setup
