@@ -250,7 +250,7 @@ def seal_dam(solve, pile, snapshot, criterion, *, breach_x, levee_y, y, x, thick
     in *pile*, re-solve with ``solve(porous_pile, initial_snapshot, extra_obstacles) -> snapshot`` and thicken until the
     polder takes the leakage, the thickness reaches ``max_seal_thickness`` or the tonnage *available_t*.
     Returns a :class:`SealResult` (delivery fields left for the caller). The leakage counts from the flood
-    side into the polder (*flow_sign*: :func:`~breachflow.cycle.criteria.flow_sign`)."""
+    side into the polder (*flow_sign*: :func:`~breachflow.swe.section.flow_sign`)."""
     import time as _time
 
     from .criteria import section_discharge
