@@ -185,7 +185,7 @@ def _window(district: District, head: float, q: float) -> dict:
 def _swe_flow(loc: Location, district: District, B: float, *, terrain=None, levee=None) -> tuple[float, float, float]:
     """Discharge, peak speed and depth in the gap from the embedded solver on a local domain at the breach."""
     from ..field.derived import peak_speed
-    from ..swe.section import snapshot_discharge
+    from ..swe.section import flow_sign, snapshot_discharge
     from ..swe import SWEOptions, SWESimulation
     from ..site.domain import SiteSpec, build_site
 
@@ -202,7 +202,7 @@ def _swe_flow(loc: Location, district: District, B: float, *, terrain=None, leve
     section = (xc - 0.5 * B, xc + 0.5 * B, yc)
     sim.run_to_steady(district.tolerance, district.t_max, region=region, section=section)
     ds = sim.snapshot()
-    q = abs(snapshot_discharge(ds, (xc - 0.5 * B, xc + 0.5 * B), yc))
+    q = flow_sign(site.flood_sign) * snapshot_discharge(ds, (xc - 0.5 * B, xc + 0.5 * B), yc) + 0.0
     w = site.half_width
     pk = peak_speed(ds, x_range=(xc - 0.5 * B, xc + 0.5 * B), y_range=(yc - w, yc + w))
     return float(q), float(pk["speed"]), float(pk["depth"])

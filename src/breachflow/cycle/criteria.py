@@ -34,7 +34,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..swe.section import open_wet as _open_wet
-from ..swe.section import snapshot_control_section, snapshot_discharge, snapshot_section_speeds
+from ..swe.section import flow_sign, snapshot_control_section, snapshot_discharge, snapshot_section_speeds  # noqa: F401
 from ..registry import Registry
 from ..units import to_si
 
@@ -71,7 +71,7 @@ class CycleContext:
     area: tuple | None = None
     #: breach discharge of the open breach, before the first mass (m³/s; NaN when unknown)
     open_breach_discharge: float = float("nan")
-    #: +1 when the polder is at +y of the grid, -1 when the flood is (:func:`flow_sign`)
+    #: +1 when the polder is at +y of the grid, -1 when the flood is (:func:`~breachflow.swe.section.flow_sign`)
     flow_sign: float = 1.0
 
 
@@ -111,18 +111,10 @@ def _speed(ds):
     return np.hypot(np.asarray(ds["u"].values, float), np.asarray(ds["v"].values, float))
 
 
-def flow_sign(flood_sign: float) -> float:
-    """The sign that turns a discharge counted towards +y of the grid into one counted from the flood side
-    into the polder: ``+1`` when the flood is on the low-y side of the levee (*flood_sign* ``-1``, the scene
-    and every site whose flood lies at smaller grid y), ``-1`` when it is on the high-y side (*flood_sign*
-    ``+1``: which side that is depends on the direction the levee line was digitised in)."""
-    return -1.0 if float(flood_sign) > 0 else 1.0
-
-
 def section_discharge(ds, x_range, y: float, sign: float = 1.0) -> float:
     """Discharge (m³/s) through the breach between ``x_range``, positive from the flood side into the polder:
-    *sign* (:func:`flow_sign`, ``ClosureSetup.flow_sign``; +1: the polder at +y) times the median over the
-    breach channel's rows of ``Σ h v Δx`` over the open wet cells
+    *sign* (:func:`~breachflow.swe.section.flow_sign`, ``ClosureSetup.flow_sign``; +1: the polder at +y)
+    times the median over the breach channel's rows of ``Σ h v Δx`` over the open wet cells
     (:func:`breachflow.swe.section.channel_discharge`, also the ``swe`` solver's steady-state monitor).
     Every breach discharge a closure run reports, judges or integrates into the polder is this one."""
     return float(sign) * snapshot_discharge(ds, x_range, y) + 0.0  # + 0.0: no "-0.00" for a dry breach
@@ -433,5 +425,6 @@ class OverflowDischarge(Criterion):
     description = "breach discharge over the crest"
 
     def value(self, ctx):
-        return max(abs(section_discharge(ctx.snapshot, ctx.breach_x, ctx.levee_y, ctx.flow_sign)) - abs(ctx.seepage_discharge), 0.0)
+        q = section_discharge(ctx.snapshot, ctx.breach_x, ctx.levee_y, ctx.flow_sign)
+        return max(abs(q) - abs(ctx.seepage_discharge), 0.0)
 

@@ -138,7 +138,7 @@ class ClosureSetup:
     #: time from the tonnes delivered, flood stage and polder level per cycle (None: ``[placement] rate``)
     timeline: object = None
     #: +1 when the polder is at +y of the grid, -1 when the flood is: every breach discharge the run reports
-    #: counts from the flood side into the polder (:func:`~breachflow.cycle.criteria.flow_sign`)
+    #: counts from the flood side into the polder (:func:`~breachflow.swe.section.flow_sign`)
     flow_sign: float = 1.0
 
 
@@ -295,12 +295,14 @@ class ClosureRun:
             snapshot = s.solver.solve(s.domain)
             if s.timeline is not None:  # the pre-start weir calibrated on this open breach at the start
                 snapshot = s.timeline.calibrate(snapshot, lambda prev: s.solver.solve(s.domain, initial=prev),
-                                                lambda snap: section_discharge(snap, s.breach_x, s.levee_y, s.flow_sign))
+                                                lambda snap: section_discharge(snap, s.breach_x, s.levee_y,
+                                                                               s.flow_sign))
             self.initial_solve_time = _time.perf_counter() - t0
             initial_solve_cpu = _time.process_time() - c0
             from .criteria import DischargeProxy, MaxSpeed
 
-            ctx0 = CycleContext(cycle=0, snapshot=snapshot, breach_x=s.breach_x, levee_y=s.levee_y, flow_sign=s.flow_sign)
+            ctx0 = CycleContext(cycle=0, snapshot=snapshot, breach_x=s.breach_x, levee_y=s.levee_y,
+                                flow_sign=s.flow_sign)
             self._q_open = section_discharge(snapshot, s.breach_x, s.levee_y, s.flow_sign)
             gmax, gmean = gap_section_speeds(snapshot, s.breach_x, s.levee_y)
             yc, vc = control_speed(snapshot, s.breach_x, s.levee_y)

@@ -311,7 +311,7 @@ def seal_dam(solve, pile, snapshot, criterion, *, breach_x, levee_y, y, x, thick
     the model's steady state is then water at rest (:func:`still_water`: the *flood_level* before the dam, the
     polder's *tailwater* behind it) and the leakage the series seepage under that head.
     Returns a :class:`SealResult` (delivery fields left for the caller). The leakage counts from the flood
-    side into the polder (*flow_sign*: :func:`~breachflow.cycle.criteria.flow_sign`)."""
+    side into the polder (*flow_sign*: :func:`~breachflow.swe.section.flow_sign`)."""
     import time as _time
 
     from .criteria import section_discharge

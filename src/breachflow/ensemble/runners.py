@@ -63,7 +63,8 @@ CLOSURE_OUTPUTS: dict[str, dict] = {
     "initial_breach_discharge": {"units": "m^3/s", "dtype": "f8",
                                  "long_name": "discharge through the open breach (positive into the polder)"},
     "final_breach_discharge": {"units": "m^3/s", "dtype": "f8",
-                               "long_name": "discharge through the breach after the last cycle (positive into the polder)"},
+                               "long_name": "discharge through the breach after the last cycle "
+                                            "(positive into the polder)"},
     "final_seepage_discharge": {"units": "m^3/s", "dtype": "f8",
                                 "long_name": "part of final_breach_discharge seeping through a porous pile"},
     "feasible": {"dtype": "bool", "long_name": "closure achieved before the closure window ends"},

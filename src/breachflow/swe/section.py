@@ -7,6 +7,16 @@ from __future__ import annotations
 import numpy as np
 
 
+def flow_sign(flood_sign: float) -> float:
+    """The one rule for the sign of a breach discharge: the factor that turns a discharge counted towards +y
+    of the grid (:func:`channel_discharge`) into one counted from the flood side into the polder. ``+1`` when
+    the flood is on the low-y side of the levee (*flood_sign* ``-1``: the scene, and every site whose flood
+    lies at smaller grid y), ``-1`` when it is on the high-y side (*flood_sign* ``+1``; which side that is
+    follows from the terrain and the direction the levee line was digitised in,
+    ``Site.flood_sign`` of :mod:`breachflow.site.domain`)."""
+    return -1.0 if float(flood_sign) > 0 else 1.0
+
+
 def channel_discharge(x, y, hv, open_wet, x_range, y0: float) -> float:
     """Discharge (m³/s) through the breach between ``x_range``, positive towards +y.
 
