@@ -19,7 +19,9 @@ BREACH = (1.0, 3.0)       # columns 1 and 2 (cells of 1 m), levee body in column
 PILE_ROWS = slice(5, 9)   # the pile 4 m long, crest 6 m above the bed at 0 m
 
 
-def _scene(gap: bool = False):
+def _scene(gap: bool = False, flip: bool = False):
+    """The channel of 1 m cells along y, the flood at low y (*flip*: mirrored north-south, the flood at high y;
+    the pile's rows 5-8 are symmetric about the levee line at y = 7 m)."""
     x = np.arange(NX) + 0.5
     y = np.arange(NY) + 0.5
     levee = np.zeros((NY, NX), bool)
@@ -29,8 +31,12 @@ def _scene(gap: bool = False):
     height[PILE_ROWS, 2] = 0.0 if gap else 6.0
     pile = PorousPile.build(height, np.full(height.shape, 0.4), np.full(height.shape, 1.0))
     depth = np.where(y[:, None] < 7, FLOOD, TAIL) * np.ones((NY, NX))
+    if flip:
+        height, depth = height[::-1], depth[::-1]
+        pile = PorousPile.build(height, np.full(height.shape, 0.4), np.full(height.shape, 1.0))
     snap = xr.Dataset({"depth": (("y", "x"), depth), "water_surface": (("y", "x"), depth),
-                       "u": (("y", "x"), np.zeros((NY, NX))), "v": (("y", "x"), np.full((NY, NX), 0.1)),
+                       "u": (("y", "x"), np.zeros((NY, NX))),
+                       "v": (("y", "x"), np.full((NY, NX), -0.1 if flip else 0.1)),
                        "obstacle": (("y", "x"), levee.astype("i1"))}, coords={"x": x, "y": y})
     return x, y, levee, pile, snap
 
@@ -53,10 +59,12 @@ def test_a_seal_over_every_gap_column_separates_the_sides_and_a_gap_does_not():
     assert not separates(pile, bed, levee | block, -1, FLOOD)  # column 2 has no rock: the flood runs through
 
 
-def test_still_water_leakage_is_the_series_seepage_under_flood_minus_polder_without_a_re_solve():
+@pytest.mark.parametrize("flip", [False, True])
+def test_still_water_leakage_is_the_series_seepage_under_flood_minus_polder_without_a_re_solve(flip):
     """Per sealed column ``q = h 2H / (A + sqrt(A^2 + 4 B H))`` with ``H`` = flood - polder level (4 - 1.5 m) and
-    ``h`` the flood depth (4 m), ``A = Σ L a``, ``B = Σ L b`` over 0.5 m sand, three 0.5 m filters and 2 m of rock."""
-    x, y, levee, pile, snap = _scene()
+    ``h`` the flood depth (4 m), ``A = Σ L a``, ``B = Σ L b`` over 0.5 m sand, three 0.5 m filters and 2 m of rock;
+    the same with the flood on the other side of the grid."""
+    x, y, levee, pile, snap = _scene(flip=flip)
     crit = _criterion()
 
     def solve(*_a):
@@ -73,7 +81,8 @@ def test_still_water_leakage_is_the_series_seepage_under_flood_minus_polder_with
     H, h = FLOOD - TAIL, FLOOD
     expected = 2 * 1.0 * h * 2 * H / (A + np.sqrt(A * A + 4 * B * H))  # two columns of 1 m
     assert step.leakage == pytest.approx(expected, rel=1e-12)
-    assert float(res.snapshot["water_surface"][0, 1]) == FLOOD and float(res.snapshot["depth"][12, 1]) == TAIL
+    up, down = (-1, 1) if flip else (0, 12)
+    assert float(res.snapshot["water_surface"][up, 1]) == FLOOD and float(res.snapshot["depth"][down, 1]) == TAIL
     assert float(np.abs(res.snapshot["u"]).max()) == 0.0 and res.snapshot.attrs["steady_state"] == 1
 
 
