@@ -282,7 +282,9 @@ class SWESimulation:
 
         Rates over each check interval Δt: ``sum|h - h_prev| / (sum h Δt)`` and the same with the
         discharge magnitude, summed over the cells of *region* (a boolean mask; default all cells —
-        e.g. the breach vicinity when only the flow there matters). With *section* ``(x0, x1, y)``
+        e.g. the breach vicinity when only the flow there matters). While the region is dry its rates say
+        nothing (the flood may not have reached it yet): the depth rate of the whole domain must then be below
+        *tolerance* too. With *section* ``(x0, x1, y)``
         (the breach: :meth:`section_discharge`) its discharge Q must settle too:
         ``|Q - Q_prev| / (max(|Q|, |Q_prev|) Δt) < tolerance``. Stops at *t_max* (s) of simulated time
         otherwise (``converged`` False). *progress(sim, history)* is called after each check interval.
@@ -320,6 +322,7 @@ class SWESimulation:
         t_start = self.t
         wall0 = _time.perf_counter()
         h_prev = self.depth[sel]
+        h_all_prev = self.depth.copy()
         q_prev = np.hypot(*self.discharge)[sel]
         qs_prev = self.section_discharge(section) if section is not None else math.nan
         n_sub = 8 if average else 1
@@ -340,6 +343,12 @@ class SWESimulation:
             q = np.hypot(*self.discharge)[sel]
             rate_h = float(np.abs(h - h_prev).sum() / (max(h.sum(), 1e-300) * dt))
             rate_q = float(np.abs(q - q_prev).sum() / (max(q.sum(), 1e-300) * dt)) if q.sum() > 0 else 0.0
+            # a dry monitoring region has nothing to change yet: it is steady only when the whole domain is (the
+            # flood may still be on its way to the breach)
+            h_all = self.depth.copy()
+            rate_dry = (float(np.abs(h_all - h_all_prev).sum() / (max(h_all.sum(), 1e-300) * dt))
+                        if not (h > 0).any() else 0.0)
+            h_all_prev = h_all
             rate_s = 0.0
             qs = math.nan
             if section is not None:
@@ -367,7 +376,7 @@ class SWESimulation:
                 mean_ok = se <= tolerance * check_interval * abs(mean)  # False while NaN
             if progress is not None:
                 progress(self, hist)
-            settled = rate_h < tolerance and rate_q < tolerance and rate_s < tolerance
+            settled = rate_h < tolerance and rate_q < tolerance and rate_s < tolerance and rate_dry < tolerance
             if self.t - t_start >= min_time and (settled or mean_ok):
                 hist.converged = True
                 if not settled:
