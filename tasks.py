@@ -62,7 +62,7 @@ def warm_numba_cache() -> None:
     with mod.warm_up_lock(folder):
         if mod.is_warmed(folder):  # another tasks.py warmed it while this one waited
             return
-        print("[tasks] compiling the numba kernels into the cache (once per state of the sources, about 50 CPU s)",
+        print("[tasks] compiling the numba kernels into the cache (once per state of the sources, about 90 CPU s)",
               flush=True)
         env = dict(os.environ, NUMBA_CACHE_DIR=folder)
         t0 = time.perf_counter()

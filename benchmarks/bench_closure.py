@@ -5,9 +5,10 @@ The report's typical breach closed end to end, timed against the issue-16 target
     python3 tasks.py bench closure [--resolutions 4,2] [--scenario examples/typical_breach.toml] [--no-dem]
                                    [--threads N] [--tolerances 2e-3,5e-4,2e-4] [--seeds 1,2,3] [--json FILE]
 
-Each item of ``--resolutions`` is ``RES[/window|/full][+FINE]``: the cell size (m), optionally the warm
+Each item of ``--resolutions`` is ``RES[/region|/full][+FINE]``: the cell size (m), optionally the warm
 re-solve (``[hydro] resolve``, default the scenario's) and a nested fine grid of FINE m around the breach
-(``[hydro] refine``), e.g. ``4/window,4+2,2/window``.
+(``[hydro] refine``), e.g. ``4/region,4+2,2/region`` (``/window``, the former spelling, is read as
+``/region`` with a DeprecationWarning).
 
 For each resolution the shipped scenario ``examples/typical_breach.toml`` (61 m breach in a 7.6 m levee,
 10-15 t rock by split barges in time, sealed; the figures quoted in docs/performance.md were measured with
@@ -47,6 +48,7 @@ import subprocess
 import sys
 import tempfile
 import time
+import warnings
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -69,11 +71,18 @@ def child(scenario: str, out: str, result: str) -> None:
 
 
 def parse_item(item: str):
-    """``RES[/window|/full][+FINE]`` → (res, resolve or None, refine or None, label)."""
-    m = re.fullmatch(r"\s*([0-9.]+)(?:/(window|full))?(?:\+([0-9.]+))?\s*", item)
+    """``RES[/region|/full][+FINE]`` → (res, resolve or None, refine or None, label).
+
+    ``/window`` is the former spelling of ``/region`` (the re-solve mode's former name), read as ``/region``
+    with a DeprecationWarning."""
+    m = re.fullmatch(r"\s*([0-9.]+)(?:/(region|window|full))?(?:\+([0-9.]+))?\s*", item)
     if not m:
-        raise SystemExit(f"--resolutions item {item!r}: use RES[/window|/full][+FINE]")
+        raise SystemExit(f"--resolutions item {item!r}: use RES[/region|/full][+FINE]")
     res, resolve, fine = float(m[1]), m[2], (float(m[3]) if m[3] else None)
+    if resolve == "window":
+        warnings.warn(f"--resolutions item {item!r}: '/window' is deprecated; write '/region'",
+                      DeprecationWarning, stacklevel=2)
+        resolve = "region"
     label = f"{res:g} m" + (f"/{resolve}" if resolve else "") + (f"+{fine:g} m" if fine else "")
     return res, resolve, fine, label
 
@@ -126,7 +135,7 @@ def one_resolution(scenario: Path, item: str, work: Path, threads: int | None = 
     r.update(res=res_m, fine=fine or res_m, label=label, cycles=len(cyc), tolerance=tol_s, seed=seed_v,
              q=[c.get("breach_discharge", float("nan")) for c in cyc],
              seepage=[c.get("seepage_discharge", float("nan")) for c in cyc],
-             windows=[c.get("hydro", "") for c in cyc], masses=last.get("masses", 0), tonnage=last.get("tonnage", 0.0),
+             resolves=[c.get("hydro", "") for c in cyc], masses=last.get("masses", 0), tonnage=last.get("tonnage", 0.0),
              lost=last.get("left_domain", 0), lost_t=last.get("lost_tonnage", 0.0),
              solve=[c.get("time_solve", float("nan")) for c in cyc], dem=[c.get("time_dem", float("nan")) for c in cyc],
              output=[c.get("time_output", float("nan")) for c in cyc], first_solve=init.get("solve_wall_time"),
@@ -162,10 +171,10 @@ def report(rows) -> None:
               f"{100 * sum(r['output']) / max(tot, 1e-9):.1f} %) over {n} cycles")
         print(f"        CPU: first solve {r['first_solve_cpu'] or float('nan'):.1f} s; per cycle solve "
               f"{_mean(r['cpu_solve']):.2f} / DEM {_mean(r['cpu_dem']):.2f} s")
-        fr = [float(m[1]) for w in r.get("windows", []) for m in [re.search(r"([0-9.]+) % of the domain", w)] if m]
-        full = sum("full domain" in w for w in r.get("windows", []))
+        fr = [float(m[1]) for w in r.get("resolves", []) for m in [re.search(r"([0-9.]+) % of the domain", w)] if m]
+        full = sum("full domain" in w for w in r.get("resolves", []))
         if fr or full:
-            print(f"        window re-solves: {len(fr)} (share of the domain {min(fr, default=0):.1f}-"
+            print(f"        region re-solves: {len(fr)} (share of the domain {min(fr, default=0):.1f}-"
                   f"{max(fr, default=0):.1f} %), full-domain fall-backs: {full}")
     print("\nerror figures (open breach before the first mass; report's ADH peak ~6.1 m/s, ~1,800 m3/s):")
     for r in rows:

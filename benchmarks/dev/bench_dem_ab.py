@@ -1,4 +1,4 @@
-"""A/B DEM throughput of two source trees on the same settled bed (issue 12: cost of the contact window).
+"""A/B DEM throughput of two source trees on the same settled bed (issue 12: cost of the contact law's force interval).
 
     git archive <old-commit> src | tar -x -C /tmp/old
     .venv/bin/python benchmarks/bench_dem_ab.py --old /tmp/old/src [--n 1000] [--steps 2000] [--reps 3] [--scene bed|pour]

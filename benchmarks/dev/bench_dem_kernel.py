@@ -276,10 +276,10 @@ def main(argv) -> int:
 
     kernels = {}
     for tag, mod in mods.items():  # (kernel, arguments, the position of its history array in them)
-        kernels[tag + "window, predicted"] = (mod.pair_forces_interval, pair_args(vp, wp, True, 0), 2)
-        kernels[tag + "window, velocity"] = (mod.pair_forces_interval, pair_args(s.vel, s.omega, False, 0), 2)
+        kernels[tag + "interval, predicted"] = (mod.pair_forces_interval, pair_args(vp, wp, True, 0), 2)
+        kernels[tag + "interval, velocity"] = (mod.pair_forces_interval, pair_args(s.vel, s.omega, False, 0), 2)
         kernels[tag + "hooke_history"] = (mod.pair_forces_interval, pair_args(s.vel, s.omega, False, 1), 2)
-        kernels[tag + "plane, window"] = (mod.plane_forces, plane_args(0), 5)
+        kernels[tag + "plane, interval"] = (mod.plane_forces, plane_args(0), 5)
         kernels[tag + "plane, hooke"] = (mod.plane_forces, plane_args(1), 5)
     if hasattr(contacts, "uniform_awake"):  # the pair kernel's per-call test for its one-material fast path
         kernels["uniform_awake scan"] = (contacts.uniform_awake, (s._props, s.awake, s.active), None)

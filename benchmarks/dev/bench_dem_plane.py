@@ -9,7 +9,7 @@ For each mode of ``bench dem`` (``velocity_verlet`` / ``predicted_verlet`` with 
 ``walls.plane_forces`` is called ``--calls`` times inside one compiled loop over ``sim.idx`` ("all") and
 over the candidate list ("listed"); "listed" includes the per-step guard's speed scan
 (``walls.max_speed``: the compiled loop gets this bound from ``steploop.first_pass`` without a scan, so "listed" is an upper bound; ``predicted_verlet`` only: ``velocity_verlet``'s bound is the drift's maximum, and
-``hooke_history`` has no window reach). "list build" is ``walls.plane_candidates`` per particle, paid once per
+``hooke_history`` has no force-interval reach). "list build" is ``walls.plane_candidates`` per particle, paid once per
 neighbour-list rebuild. Best and median of ``--reps``, the two interleaved in alternating order; all/listed
 per repeat, mean ± sd; "per contact" is (listed - empty list) / (floor contacts), the call's fixed cost
 (and ``predicted_verlet``'s speed scan) taken off.

@@ -4,7 +4,7 @@ steady state on an unaligned 1 m mesh, written as HEC-RAS 6 plan HDF or ADH file
 to closure at several placement seeds; per seed: closed?, cycles, masses, tonnage, lost, CPU s and the breach
 discharge of every cycle, then the totals.
 
-    python3 tasks.py bench nested_seeds --seeds 1-12 [--rule window|speed] [--fmt hecras_hdf|adh] [--out DIR]
+    python3 tasks.py bench nested_seeds --seeds 1-12 [--rule mean_speed|speed] [--fmt hecras_hdf|adh] [--out DIR]
 
 ``--rule`` sets ``[dem] rest_rule`` (which masses are the pile at the DEM's cap, :mod:`breachflow.cycle.rest`);
 without it the scenario's default.

@@ -101,7 +101,7 @@ def main(argv) -> int:
         s = setup_at(tol)
         w = s.solver.region
         solvers = [("full", s.solver.warm)] + [
-            ("window" if far == "frozen" else f"win+{far}",
+            ("region" if far == "frozen" else f"region+{far}",
              RegionResolver(s.solver.warm, margin=w.margin, edge_level=w.edge_level, far=far,
                             far_factor=a.factor if far == "coarse" else None))
             for far in a.far.split(",") if far]
@@ -126,7 +126,7 @@ def main(argv) -> int:
             name, f"{tol:.0e}", f"{r['q']:.1f}", f"{100 * (r['q'] - ref['q']) / ref['q']:+.2f}",
             f"{r['sp'][near].max():.3f}", f"{r['sp'][near].max() - ref['sp'][near].max():+.3f}", f"{dv.max():.3f}",
             f"{dv.mean():.4f}", f"{dh.max():.3f}", f"{r['t']:.0f}{'' if r['converged'] else '*'}", f"{r['cpu']:.1f}",
-            cells, info.get("grown", 0) if info.get("mode") == "window" else "full")))
+            cells, info.get("grown", 0) if info.get("mode") == "region" else "full")))
     print("  (* not converged within t_max)")
     for tol in sorted({t for _, t, _ in rows[1:]}):
         f = next(r for n, t, r in rows if n == "full" and t == tol)

@@ -20,7 +20,7 @@ its warm start, the open breach's steady state — is the problem every solve be
 * for each tolerance of ``--tolerances``: the full-domain re-solve (``resolve = "full"``, skipped with
   ``--no-full``) and the region re-solve (``resolve = "region"``, frozen far field, default margin 2 B
   and edge level 0.03 m), t_max ``--t-max``; at the tolerances of ``--frozen`` also the region that
-  never grows (``win-nogrow``, edge level 1 km): the error of the frozen far field itself; at the
+  never grows (``region-nogrow``, edge level 1 km): the error of the frozen far field itself; at the
   tolerances of ``--average`` the full-domain re-solve with the averaged criterion (``full-avg``,
   ``[hydro] steady_average = true``).
 
@@ -155,13 +155,13 @@ def main(argv=None) -> int:
         full = copy.copy(warm)
         full.tolerance, full.t_max = tol, a.t_max
         solvers = [] if a.no_full else [("full", full)]
-        solvers.append(("window", RegionResolver(full)))
+        solvers.append(("region", RegionResolver(full)))
         if tol in [float(t) for t in a.average.split(",") if t] and not a.no_full:
             avg = copy.copy(full)
             avg.average = True
             solvers.append(("full-avg", avg))
         if tol in [float(t) for t in a.frozen.split(",") if t]:
-            solvers.append(("win-nogrow", RegionResolver(full, edge_level=1e3)))
+            solvers.append(("region-nogrow", RegionResolver(full, edge_level=1e3)))
         for name, solver in solvers:
             c = time.process_time()
             ds = solver.solve(dom, obstacles=obst, initial=init)
@@ -191,7 +191,7 @@ def main(argv=None) -> int:
                    dq_sigma=(r["q"] - ref["q"]) / sig_q, vmax=r["vmax"], dvmax=r["vmax"] - ref["vmax"],
                    dv_sigma=(r["vmax"] - ref["vmax"]) / sig_v, mean_dv=float(dv.mean()), t=r["t"],
                    converged=bool(r["converged"]), cpu=r["cpu"], cells_pct=frac,
-                   grown=info.get("grown", 0) if info.get("mode") == "window" else (
+                   grown=info.get("grown", 0) if info.get("mode") == "region" else (
                        "full" if name.startswith("full") or name == "reference" else f"full@{info.get('grown', 0)}"))
         out_rows.append(row)
         print("  " + " | ".join(f"{v:>8}" for v in (
@@ -203,7 +203,7 @@ def main(argv=None) -> int:
           "region grew N times, then the full domain was re-solved)")
     for tol in sorted({t for _, t, _ in rows}):
         f = [r for n, t, r in rows if n == "full" and t == tol]
-        w = [r for n, t, r in rows if n == "window" and t == tol]
+        w = [r for n, t, r in rows if n == "region" and t == tol]
         if f and w:
             print(f"  tol {tol:.0e}: CPU region / full = {w[0]['cpu'] / max(f[0]['cpu'], 1e-9):.2f}; "
                   f"Q region - full = {w[0]['q'] - f[0]['q']:+.2f} m3/s ({100 * (w[0]['q'] - f[0]['q']) / f[0]['q']:+.3f} %)")
@@ -230,7 +230,7 @@ def _plot(path, rows, ref, sig_q, sig_v, before, tr, t_start, region, title):
         print("matplotlib not installed: no plot")
         return
     fig, ax = plt.subplots(1, 3, figsize=(15, 4.6))
-    for name, mk in (("full", "o-"), ("window", "s-"), ("win-nogrow", "^-"), ("full-avg", "v-")):
+    for name, mk in (("full", "o-"), ("region", "s-"), ("region-nogrow", "^-"), ("full-avg", "v-")):
         rr = [r for r in rows if r["name"] == name]
         if not rr:
             continue

@@ -1,9 +1,9 @@
 """A/B of the closure's warm re-solve between two source trees (issue 16: quiet cells kept across the
-porous pile's steps, the window re-solve).
+porous pile's steps, the region re-solve).
 
     git archive <old-commit> src | tar -x -C /tmp/old
     .venv/bin/python benchmarks/bench_resolve_ab.py --old /tmp/old/src [--runs default,typical4] [--reps 1]
-                                                   [--resolve full|window]
+                                                   [--resolve full|region]
 
 Runs (each in a fresh process, old / new interleaved, ``PYTHONPATH`` selecting the tree, each tree its own
 numba cache, compiled before the timing by a first run): ``default`` the embedded default scenario
@@ -56,7 +56,7 @@ def run_one(src: Path, cache: Path, scenario: str, resolve: str, work: Path) -> 
     last = cyc[-1] if cyc else {}
     return dict(cycles=len(cyc), masses=last.get("masses", 0), tonnage=last.get("tonnage", 0.0),
                 q=last.get("breach_discharge", float("nan")), seep=last.get("seepage_discharge", float("nan")),
-                cpu=[c.get("cpu_solve", float("nan")) for c in cyc], windows=[c.get("hydro", "") for c in cyc],
+                cpu=[c.get("cpu_solve", float("nan")) for c in cyc], resolves=[c.get("hydro", "") for c in cyc],
                 closed=json.loads(out.stdout.strip().splitlines()[-1])["closed"])
 
 
@@ -80,11 +80,11 @@ def main(argv=None):
             r = rs[0]
             cpu = [c for x in rs for c in x["cpu"]]
             sd = st.stdev(cpu) if len(cpu) > 1 else float("nan")
-            win = sum("window" in w and "full domain" not in w for w in r["windows"])
+            region = sum("% of the domain" in w for w in r["resolves"])
             print(f"{run} {name}: closed {r['closed']}, {r['cycles']} cycles, {r['masses']} masses, "
                   f"{r['tonnage']:.1f} t, final Q {r['q']:.4g} m3/s (seepage {r['seep']:.4g}); re-solve CPU per "
                   f"cycle {st.mean(cpu):.2f} ± {sd:.2f} s (sum {sum(cpu) / len(rs):.1f} s per run; "
-                  f"window re-solves {win} of {len(r['windows'])})", flush=True)
+                  f"region re-solves {region} of {len(r['resolves'])})", flush=True)
         ratio = [sum(n["cpu"]) / sum(o["cpu"]) for o, n in zip(res["old"], res["new"])]
         print(f"{run}: summed re-solve CPU new/old {st.mean(ratio):.2f}"
               + (f" ± {st.stdev(ratio):.2f}" if len(ratio) > 1 else "") + f" (n={len(ratio)})", flush=True)

@@ -12,7 +12,7 @@ closure run's solver options; every ``--every`` s it records
   each levee head (breach end ± 0.25 B, 0.5 B downstream); the polder 4 B downstream,
 * the water volume of the domain and the outflow across the polder's north edge.
 
-With ``--pile`` the bench-window pile (an asymmetric mound against the west breach wall, 40 % of B long,
+With ``--pile`` the region-bench pile (an asymmetric mound against the west breach wall, 40 % of B long,
 raised to 60 % of the flood depth) is in place. After the first ``--skip`` s, each record's mean, standard
 deviation, its dominant period (the peak of the periodogram of the record with its mean and linear trend
 removed) and the linear trend over the record (drift, per 1000 s) are printed; a plot is written to

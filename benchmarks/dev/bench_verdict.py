@@ -110,7 +110,7 @@ def resolve_each(scenarios: dict, inp: dict) -> dict:
         out[tag] = {"cpu": cpu, "q": q, "gap": gmean, "gapmax": gmax,
                     "t": float(snap.attrs.get("simulated_time_s", float("nan"))),
                     "converged": int(snap.attrs.get("steady_state", 0)),
-                    "window": str(snap.attrs.get("hydro_region", ""))}
+                    "region": str(snap.attrs.get("hydro_region", ""))}
     return out
 
 
@@ -245,7 +245,7 @@ def main(argv) -> int:
                     f"{'converged' if r['converged'] else 'NOT converged'}; Q {r['q']:.2f} m3/s, gap speed {r['gap']:.4f} m/s")
             if refr is not None and tag != "reference":
                 line += f"; against the reference: Q {_pct(r['q'], refr['q'])}, gap speed {_pct(r['gap'], refr['gap'])}"
-            print(line + (f" [{r['window']}]" if r["window"] else ""))
+            print(line + (f" [{r['region']}]" if r["region"] else ""))
     fastest = min(rows, key=lambda n: rows[n]["cpu"])
     target = (f" (target at 2 m: under 60 CPU s, {'met' if base['cpu'] < 60 else 'not met'}; fastest path {fastest} "
               f"{rows[fastest]['cpu']:.1f} CPU s, {'met' if rows[fastest]['cpu'] < 60 else 'not met'})"

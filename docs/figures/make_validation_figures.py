@@ -83,7 +83,7 @@ def dem_impacts(steps=(10, 20, 40, 80)) -> None:
         ax.loglog(steps, 100 * np.array(errs), marker, label=integrator)
     ax.set_xlabel("time steps per contact")
     ax.set_ylabel("mean |restitution error| (%)")
-    ax.set_title("sphere on a plane, damping ratio 0.3, window-averaged law", fontsize=10)
+    ax.set_title("sphere on a plane, damping ratio 0.3, step-averaged law", fontsize=10)
     ax.legend()
     fig.savefig(HERE / "dem_impacts.png", dpi=100)
     plt.close(fig)

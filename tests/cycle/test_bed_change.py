@@ -159,6 +159,9 @@ def test_the_verdict_names_the_bed_model():
     assert "erodible (the terrain follows the Exner bed change between cycles)" in words
     r = judge(runs, 0.02, bed=words)
     assert r.statement.endswith("— bed: " + words) and ("  bed model of the check", words) in r.rows()
+    # the summary table names the bed once, in its own row, not again at the end of the verdict
+    verdict = dict(r.rows())["verdict check"]
+    assert words not in verdict and verdict == r.statement[: -len(" — bed: " + words)]
     assert r.summary()["bed_model"] == words and r.dataset().attrs["bed_model"] == words
     assert bed_model(parse_scenario(_scenario('kind = "protection"\ngrain_size = "1 m"\nthickness = "2 m"'))) == \
         "bottom protection of 1 m stones, 2 m thick, over the whole bed, not erodible"

@@ -164,7 +164,7 @@ def settling(integrator="predicted_verlet", basset=True):
 
 @pytest.mark.parametrize("integrator", ["predicted_verlet", "adaptive_free_flight"])
 def test_basset_history_continues_bit_identically(integrator, tmp_path):
-    """The Basset history (window and exponential tail) is saved and restored into the model passed again."""
+    """The Basset history (near history and exponential tail) is saved and restored into the model passed again."""
     ref, back = continued(lambda: settling(integrator), 30, 30, tmp_path)
     h_ref, h_back = ref.models[0].basset, back.models[0].basset
     assert np.abs(h_ref.z).max() > 0  # the tail holds history

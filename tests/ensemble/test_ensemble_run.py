@@ -42,7 +42,7 @@ def client():
 
 class StandInClosureRunner:
     """A test-only runner registered by name, the way issue 7's "closure" runner will plug in: it reads
-    a scenario section the window runner ignores, uses its seed, and fails for one member."""
+    a scenario section the closure_window runner ignores, uses its seed, and fails for one member."""
 
     sections = None
     outputs = {"tonnage": {"units": "kg", "dtype": "f8", "long_name": "mass placed"},

@@ -272,7 +272,7 @@ def test_cli_ingest_and_inspect(formats, tmp_path):
     files = [str(formats / n) for n in ("adh_demo.3dm", "adh_demo_dep.dat", "adh_demo_vel.dat", "adh_demo.bc")]
     r = CliRunner().invoke(app, ["ingest", *files, "-o", str(out)])
     assert r.exit_code == 0, r.output
-    assert "12 nodes, 14 faces" in r.output and "0 .. 1.35 m" in r.output and "2: 0.0 .. 3600.0 s" in r.output
+    assert "12 nodes, 14 faces" in r.output and "0 .. 1.35 m" in r.output and "2: 0 .. 3600 s" in r.output
     r = CliRunner().invoke(app, ["inspect", str(out)])
     assert r.exit_code == 0 and "UGRID mesh" in r.output
     r = CliRunner().invoke(app, ["ingest", str(formats / "depth_max.asc"), str(formats / "velocity_max.asc"),
@@ -299,3 +299,24 @@ def test_xarray_reads_the_ugrid_file_as_plain_netcdf(formats, tmp_path):
         assert fn.dimensions == (topo.face_dimension, "max_face_nodes")
         assert nc["depth"].mesh == "mesh2d" and nc["depth"].location == "node"
         assert nc.Conventions == "CF-1.8 UGRID-1.0"
+
+
+def test_inspect_rows_read_as_a_user_reads_them(formats):
+    """The summary's extent keeps a projected northing to the centimetre (the ADH demo's nodes lie at
+    y = 4,178,200 .. 4,178,230 m in its .3dm, not '4.1782e+06 .. 4.17823e+06'), dates print to the second,
+    and the profiles of a steady HEC-RAS export are named as profiles, not given a unit '1'."""
+    import xarray as xr
+
+    from breachflow.cli.ingest import summary_rows
+
+    adh = dict(summary_rows(open_snapshot([formats / n for n in ("adh_demo.3dm", "adh_demo_dep.dat",
+                                                                  "adh_demo_vel.dat", "adh_demo.bc")])))
+    assert adh["extent"] == "x 512300 .. 512360 m, y 4178200 .. 4178230 m"
+    assert adh["time steps"] == "2: 0 .. 3600 s"
+    sdf = dict(summary_rows(open_snapshot([formats / "RASExport.sdf"])))
+    assert sdf["time steps"].startswith("2: 0 .. 1 (profile") and " 1 1" not in sdf["time steps"]
+    assert "e+" not in sdf["extent"]
+    dated = xr.Dataset(coords={"time": np.array(["1900-01-02T00:00", "1900-01-02T04:00"], dtype="datetime64[ns]")})
+    from breachflow.cli.ingest import _time_steps
+
+    assert _time_steps(dated["time"]) == "2: 1900-01-02T00:00:00 .. 1900-01-02T04:00:00"

@@ -72,3 +72,22 @@ def test_contact_law_window_averaged_is_an_alias_of_step_averaged():
     assert contact_laws.get("window_averaged") is contact_laws.get("step_averaged")
     assert contact_laws.default == "step_averaged"
     assert DemSimulation(contact_law="window_averaged").contact_law.code == DemSimulation().contact_law.code
+
+
+def test_bench_closure_resolution_item_window_is_region():
+    """``tasks.py bench closure --resolutions 4/window`` (the re-solve mode's former name) reads as ``4/region``."""
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[2] / "benchmarks" / "bench_closure.py"
+    spec = importlib.util.spec_from_file_location("bench_closure_items", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)  # defines functions only; nothing runs
+    with pytest.warns(DeprecationWarning, match=r"'4/window\+2': '/window' is deprecated; write '/region'"):
+        assert mod.parse_item("4/window+2") == (4.0, "region", 2.0, "4 m/region+2 m")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert mod.parse_item("2/region") == (2.0, "region", None, "2 m/region")
+        assert mod.parse_item("4/full") == (4.0, "full", None, "4 m/full")
+    with pytest.raises(SystemExit, match="RES\\[/region\\|/full\\]"):
+        mod.parse_item("4/windows")

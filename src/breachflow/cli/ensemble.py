@@ -144,7 +144,8 @@ def probability_table(ds):
     p = ds["closure_probability"]
     dims = list(p.dims)
     t = Table(title=f"over {ds.sizes['replicate']} replicates (placement seeds)", title_justify="left")
-    for col in (*dims, "P(closure)", "95 % Wilson", "tonnage t, median (10-90 %)", "duration h, median (10-90 %)"):
+    labels = [f"{d} ({ds[d].attrs['units']})" if ds[d].attrs.get("units", "1") != "1" else d for d in dims]
+    for col in (*labels, "P(closure)", "95 % Wilson", "tonnage t, median (10-90 %)", "duration h, median (10-90 %)"):
         t.add_column(col)
     grids = np.meshgrid(*[ds[d].values for d in dims], indexing="ij") if dims else []
 

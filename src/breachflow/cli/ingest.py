@@ -7,6 +7,27 @@ from typing import List, Optional
 import typer
 
 
+def _coordinate(value: float) -> str:
+    """A map coordinate to the centimetre, without trailing zeros: projected northings have seven digits
+    before the point (``4178230``), which a fixed number of significant digits would round away."""
+    return f"{float(value):.2f}".rstrip("0").rstrip(".")
+
+
+def _time_steps(time) -> str:
+    """``N: first .. last`` of a time axis: dates to the second, model times with their unit, and steady
+    profiles (dimensionless, e.g. HEC-RAS profile numbers) by their long name instead of a unit ``1``."""
+    import numpy as np
+
+    t = time.values
+    if t.dtype.kind == "M":
+        first, last = (np.datetime_as_string(v, unit="s") for v in (t[0], t[-1]))
+        return f"{t.size}: {first} .. {last}"
+    units = time.attrs.get("units", "")
+    if units in ("1", ""):
+        return f"{t.size}: {t[0]:g} .. {t[-1]:g}" + (f" ({time.attrs['long_name']})" if time.attrs.get("long_name") else "")
+    return f"{t.size}: {t[0]:g} .. {t[-1]:g} {units}"
+
+
 def summary_rows(ds) -> list[tuple[str, str]]:
     """(label, text) rows describing a snapshot: kind, size, extent, time steps and value ranges."""
     import numpy as np
@@ -22,10 +43,10 @@ def summary_rows(ds) -> list[tuple[str, str]]:
         x, y = ds["x"].values, ds["y"].values
         rows.append(("kind", "structured grid (cell centres)"))
         rows.append(("size", f"{ds.sizes['x']} x {ds.sizes['y']} = {ds.sizes['x'] * ds.sizes['y']} cells"))
-    rows.append(("extent", f"x {x.min():.6g} .. {x.max():.6g} m, y {y.min():.6g} .. {y.max():.6g} m"))
+    rows.append(("extent", f"x {_coordinate(x.min())} .. {_coordinate(x.max())} m, "
+                           f"y {_coordinate(y.min())} .. {_coordinate(y.max())} m"))
     if "time" in ds.dims:
-        t = ds["time"].values
-        rows.append(("time steps", f"{t.size}: {t[0]} .. {t[-1]}" + (f" {ds['time'].attrs.get('units', '')}" if t.dtype.kind in "if" else "")))
+        rows.append(("time steps", _time_steps(ds["time"])))
     else:
         rows.append(("time steps", "1 (no time axis)"))
     for name, label in (("bed_elevation", "bed elevation"), ("depth", "depth"), ("water_surface", "water surface")):

@@ -374,7 +374,7 @@ class TimelineSolver:
         self.inner, self.timeline, self.boundaries_at = inner, timeline, boundaries_at
         self.responds_to_pile = getattr(inner, "responds_to_pile", True)
 
-    def __getattr__(self, name):  # window, cold, warm... of the wrapped solver
+    def __getattr__(self, name):  # box, last, last_info... of the wrapped solver
         return getattr(self.__dict__["inner"], name)
 
     def boundaries(self, domain):

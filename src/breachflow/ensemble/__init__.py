@@ -9,7 +9,7 @@ Notebook use::
     ds.closure_window.sel(polder_area=8e6).plot()
 
 Public API: :func:`run`, :func:`plan`, :func:`load_spec`, :func:`parse_spec`, :class:`EnsembleSpec`,
-``member_runners`` (registry ``breachflow.member_runners``; built-ins ``window`` and ``synthetic``),
+``member_runners`` (registry ``breachflow.member_runners``; built-ins ``closure_window``, ``closure`` and ``synthetic``),
 :class:`MemberRunner` (protocol a runner implements), :class:`MemberScenario`, :func:`window_scalars`,
 :func:`member_seed`, :func:`validate_result`, :func:`write_result`, :func:`open_result`.
 """

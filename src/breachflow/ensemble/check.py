@@ -133,7 +133,10 @@ class CheckResult:
 
     def rows(self) -> list[tuple[str, str]]:
         """Lines of the run's summary table."""
-        out = [("verdict check", self.statement)]
+        statement = self.statement
+        if self.bed and statement.endswith(f" — bed: {self.bed}"):  # the bed has its own row just below
+            statement = statement[: -len(f" — bed: {self.bed}")]
+        out = [("verdict check", statement)]
         if self.bed:
             out.append(("  bed model of the check", self.bed))
         closures = [r for r in self.runs if r.closed is not None and not r.error]

@@ -226,10 +226,13 @@ def replicate_reductions(ds: xr.Dataset) -> xr.Dataset:
             continue
         v = ds[name].where(ok)
         units = ds[name].attrs.get("units", "1")
-        ds[f"{name}_median"] = fresh(v.median("replicate"), long_name=f"median over replicates of {name}", units=units)
+        # shown in the unit of the quantity itself (tonnage in t, durations in h), not in its SI unit
+        shown = {"display_units": ds[name].attrs["display_units"]} if "display_units" in ds[name].attrs else {}
+        ds[f"{name}_median"] = fresh(v.median("replicate"), long_name=f"median over replicates of {name}", units=units,
+                                     **shown)
         for q in (10, 90):
             ds[f"{name}_p{q}"] = fresh(v.quantile(q / 100, "replicate").drop_vars("quantile"),
-                                       long_name=f"{q} % quantile over replicates of {name}", units=units)
+                                       long_name=f"{q} % quantile over replicates of {name}", units=units, **shown)
     return ds
 
 

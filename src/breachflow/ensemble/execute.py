@@ -407,7 +407,10 @@ def local_cluster(n_workers: int | None = None, *, dask_defaults: bool = False):
     from distributed import LocalCluster
 
     n = n_workers or os.cpu_count() or 1
-    dashboard = ":0" if _has_bokeh() else None
+    # the scheduler's HTTP server starts with or without the dashboard; on a free port, so that a busy 8787
+    # (another cluster, a notebook) gives no "Port 8787 is already in use" warning; without bokeh it
+    # serves only health and metrics, on this machine alone
+    dashboard = ":0" if _has_bokeh() else "127.0.0.1:0"
     overrides = dict(SATURATION_CONFIG if dask_defaults else WORKER_CONFIG)
     malloc_trim = "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_" not in overrides
     # spawned workers inherit this process's environment, where an earlier dask cluster's nanny may have

@@ -5,18 +5,18 @@
 (``a`` radius, ``r = v - u`` the velocity relative to the water, ``phi`` the submerged fraction).
 
 Quadrature.  ``r`` is taken piecewise linear between the committed states ``(t_k, r_k)`` of the
-integrator (one per accepted step), so ``r'`` is constant on each step.  A window of the last two
-intervals is integrated exactly: from the last committed state ``(t_n, r_n)`` to the evaluated
+integrator (one per accepted step), so ``r'`` is constant on each step.  The near history, the last two
+intervals, is integrated exactly: from the last committed state ``(t_n, r_n)`` to the evaluated
 ``(t, r)``, ``2 (r - r_n) / sqrt(t - t_n)``, and the last committed step,
 ``2 (r_n - r_(n-1)) / (sqrt(t - t_(n-1)) + sqrt(t - t_n))``.  Older history (ages >= one step) uses the kernel as a sum of exponentials,
 ``1/sqrt(s) ~ sum_i w_i exp(-lambda_i s)``, the trapezoidal rule in ``x = ln lambda`` of
 ``1/sqrt(s) = pi^(-1/2) int exp(-s e^x) e^(x/2) dx`` (Beylkin & Monzón 2005; the same idea as the
-exponential tail of van Hinsberg et al. 2011 without a stored window), relative error below ~3e-7 for
+exponential tail of van Hinsberg et al. 2011 without storing the near history's samples), relative error below ~3e-7 for
 ``s`` in ``[s_min, s_max]`` (defaults 1e-8 s and 1e5 s, 112 terms).  Each term's history
 ``Z_i(t_(n-1)) = int_0^t_(n-1) r' exp(-lambda_i (t_(n-1) - tau)) dtau`` is advanced exactly when an
-interval leaves the window, ``Z_i <- exp(-lambda_i dt) Z_i + r'_k (1 - exp(-lambda_i dt)) / lambda_i``, so a
+interval leaves the near history, ``Z_i <- exp(-lambda_i dt) Z_i + r'_k (1 - exp(-lambda_i dt)) / lambda_i``, so a
 particle stores ``Z`` (M, 3) and two states however long it has been moving, and
-``H(t) = sum_i w_i exp(-lambda_i (t - t_(n-1))) Z_i + (the two exact window terms)``.  Steps shorter than
+``H(t) = sum_i w_i exp(-lambda_i (t - t_(n-1))) Z_i + (the two exact near-history terms)``.  Steps shorter than
 ``s_min`` would leave the kernel's accurate range.
 
 The history starts when the particle is first seen (release), with no initial-slip term.
@@ -64,8 +64,9 @@ def history_integral(r, t, t_hist, r_hist, z, lam, w, out):
 
 @numba.njit(cache=True)
 def commit_history(r, t, t_hist, r_hist, z, lam):
-    """Record the accepted state ``(t, r)``: the interval ``[t_(n-1), t_n]`` leaves the exact window and
-    enters the exponential histories (exact update for ``r`` linear on it), then the window shifts."""
+    """Record the accepted state ``(t, r)``: the interval ``[t_(n-1), t_n]`` leaves the exactly integrated
+    near history and enters the exponential histories (exact update for ``r`` linear on it), then the near
+    history moves on by one step."""
     for i in range(r.shape[0]):
         if not t > t_hist[i, 1]:
             continue
@@ -108,7 +109,7 @@ class BassetHistory:
     _MEMORY = ("t_hist", "r_hist", "z", "known")
 
     def state_arrays(self) -> dict[str, np.ndarray]:
-        """The history (window states, exponential sums, which rows started), copied."""
+        """The history (near-history states, exponential sums, which rows started), copied."""
         return {name: getattr(self, name).copy() for name in self._MEMORY}
 
     def restore_state(self, arrays) -> None:

@@ -28,7 +28,7 @@ __all__ = [
 ]
 
 # documented here, their public home (Sphinx reads a ``#:`` comment from the module that assigns the name)
-#: warm re-solve of the ``swe`` solver: whole domain, or a window around the changed cells (hydro/window.py)
+#: warm re-solve of the ``swe`` solver: whole domain, or a region around the changed cells (hydro/resolve_region.py)
 RESOLVE_MODES = RESOLVE_MODES
 
 #: solvers that take ingested snapshot files

@@ -26,7 +26,7 @@ Points outside the field get ``inside=False`` and NaN values (never extrapolated
 a *fallback* field: ``FieldSampler(local, fallback=regional)`` samples *regional* (a snapshot or a
 sampler, same method) where a point lies outside *local* — the nested solver's local grid inside the
 ingested regional model (``solver = "nested"``, :mod:`breachflow.hydro.nested`): outside the local
-window the field is the regional one as ingested. A grid covers its
+box the field is the regional one as ingested. A grid covers its
 cells' footprint, i.e. half a spacing beyond the outermost cell centres; in that border strip the
 bilinear weights are clamped to the outermost centres (the cell value, no extrapolation).
 

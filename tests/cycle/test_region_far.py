@@ -1,4 +1,4 @@
-"""The far field of the window re-solve (:mod:`breachflow.hydro.far_field`): the coarse model of the
+"""The far field of the region re-solve (:mod:`breachflow.hydro.far_field`): the coarse model of the
 domain against exact block averages, and the far-field level change against a lake at rest (no change)."""
 import numpy as np
 import pytest
@@ -78,7 +78,7 @@ def test_far_field_models_and_options():
 
 def test_the_coarse_far_field_keeps_a_lake_at_rest():
     """Still water behind a wall with a level boundary at the same level: a pile (raised bed) in the middle
-    changes nothing, exactly (well-balanced); the coarse far field's level change is zero and the window
+    changes nothing, exactly (well-balanced); the coarse far field's level change is zero and the region
     re-solve with it returns the lake at rest."""
     import xarray as xr
 
