@@ -1,6 +1,7 @@
 """The typical breach's open breach at the start of its closure on one grid: discharge, gap and control speeds, steady.
 
     python benchmarks/dev/open_breach_grids.py {u4,u2,n2} [--scenario examples/typical_breach.toml]
+                                               [--t-max-initial SECONDS]
 
 ``u4`` the shipped 4 m grid, ``u2`` a uniform 2 m grid, ``n2`` a nested 2 m grid at the breach (``[hydro] refine``).
 The closure's set-up is built, its timeline begun (the breach grown and the polder filled by the weir up to the
@@ -22,6 +23,8 @@ def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("grid", choices=["u4", "u2", "n2"])
     ap.add_argument("--scenario", type=Path, default=ROOT / "examples" / "typical_breach.toml")
+    ap.add_argument("--t-max-initial", type=float, default=None,
+                    help="[hydro] t_max_initial (s) of the solve instead of the scenario's")
     a = ap.parse_args(argv)
 
     from breachflow.cycle.config import closure_setup
@@ -33,6 +36,10 @@ def main(argv=None) -> None:
         text = text.replace('resolution = "4 m"', 'resolution = "2 m"')
     elif a.grid == "n2":
         text = text.replace('resolution = "4 m"', 'resolution = "4 m"\nrefine = "2 m"')
+    if a.t_max_initial is not None:
+        import re
+
+        text = re.sub(r'(?m)^t_max_initial = .*$', f't_max_initial = "{a.t_max_initial:g} s"', text)
     s = closure_setup(parse_scenario(text, path=a.scenario))
     s.timeline.begin()
     c0 = time.process_time()
