@@ -4,8 +4,9 @@ A refined run solves the breach on a nested grid whose edges take their levels a
 steady state of the embedded shallow-water model. Under the timeline the flood-side and polder levels
 change from cycle to cycle, so the coarse steady state does too: :class:`NestedTimelineSolver` re-solves
 the coarse model at the timeline's levels whenever they have moved since the last coarse solve (a warm
-start from the previous coarse state), takes the nested grid's edge conditions and cold-start state from
-it, and then solves the nested grid. A run on the nested grid (e.g. the verdict check's finer grid)
+start from the previous coarse state; a cold start from the polder's level the first time the polder holds
+water, as a uniform grid does), takes the nested grid's edge conditions and cold-start state from it, and
+then solves the nested grid. A run on the nested grid (e.g. the verdict check's finer grid)
 therefore carries the same flood, polder and start time as the run on the coarse grid."""
 from __future__ import annotations
 
