@@ -8,7 +8,8 @@ import pytest
 import xarray as xr
 
 from breachflow.cycle.leakage import PolderLeakage
-from breachflow.cycle.sealing import face_cells, seal_dam, seal_pile, separates, series_leakage, still_water
+from breachflow.cycle.sealing import (face_cells, flood_connected, seal_dam, seal_pile, separates, series_leakage,
+                                      still_water)
 from breachflow.swe import SWEOptions, SWESimulation
 from breachflow.swe.domain import BoundaryCondition as BC, uniform_grid
 from breachflow.swe.porous import PorousPile
@@ -47,16 +48,20 @@ def _criterion():
     return c
 
 
+def _reach(bed, barrier, side=-1):
+    return flood_connected((bed < FLOOD) & ~barrier, side)
+
+
 def test_a_seal_over_every_gap_column_separates_the_sides_and_a_gap_does_not():
     x, _y, levee, pile, _ = _scene()
     bed = np.zeros((NY, NX))
     block = face_cells(pile, -1, BREACH, x, FLOOD, bed, levee)
     assert block[5, 1] and block[5, 2] and block.sum() == 2
-    assert separates(pile, bed, levee | block, -1, FLOOD)
-    assert not separates(pile, bed, levee, -1, FLOOD)  # the face left open: water seeps through the pile
+    assert separates(pile, _reach(bed, levee | block), -1)
+    assert not separates(pile, _reach(bed, levee), -1)  # the face left open: water seeps through the pile
     x, _y, levee, pile, _ = _scene(gap=True)
     block = face_cells(pile, -1, BREACH, x, FLOOD, bed, levee)
-    assert not separates(pile, bed, levee | block, -1, FLOOD)  # column 2 has no rock: the flood runs through
+    assert not separates(pile, _reach(bed, levee | block), -1)  # column 2 has no rock: the flood runs through
 
 
 @pytest.mark.parametrize("flip", [False, True])
@@ -90,7 +95,7 @@ def test_a_dry_polder_gives_the_full_flood_depth_as_head():
     x, y, levee, pile, snap = _scene()
     bed = np.zeros((NY, NX))
     block = face_cells(pile, -1, BREACH, x, FLOOD, bed, levee)
-    still = still_water(snap, bed, levee | block, -1, FLOOD, None)
+    still = still_water(snap, bed, _reach(bed, levee | block), FLOOD, None)
     assert float(still["depth"][12, 1]) == 0.0 and float(still["depth"][2, 1]) == FLOOD
     assert float(still["depth"][6, 1]) == 0.0  # the pile behind the sealed face drains to the polder side
 
@@ -112,7 +117,7 @@ def test_the_flow_model_converges_to_water_at_rest_behind_a_separating_seal():
     sim = SWESimulation(dom.with_porous(sealed), SWEOptions(order=2), obstacles=levee | block)
     sim.advance_to(1500.0)
     model = sim.snapshot()
-    still = still_water(snap, bed, levee | block, -1, FLOOD, TAIL)
+    still = still_water(snap, bed, _reach(bed, levee | block), FLOOD, TAIL)
     q_model = series_leakage(model, pile, layers, -1, BREACH, columns=block.any(axis=0))
     q_still = series_leakage(still, pile, layers, -1, BREACH, columns=block.any(axis=0))
     assert q_model == pytest.approx(q_still, rel=1e-9)

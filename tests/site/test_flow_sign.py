@@ -16,13 +16,13 @@ import pytest
 import xarray as xr
 
 from breachflow.cycle.config import closure_setup
-from breachflow.cycle.criteria import flow_sign, section_discharge
+from breachflow.cycle.criteria import section_discharge
 from breachflow.cycle.main import run_closure
 from breachflow.ensemble.closure import ClosureRunner
 from breachflow.ensemble.runners import MemberScenario
 from breachflow.scenario.config import load_scenario
 from breachflow.scenario.toml import scenario_with
-from breachflow.swe.section import snapshot_discharge
+from breachflow.swe.section import flow_sign, snapshot_discharge
 
 from .conftest import SITE
 

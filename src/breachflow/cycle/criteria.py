@@ -34,7 +34,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..swe.section import open_wet as _open_wet
-from ..swe.section import flow_sign, snapshot_control_section, snapshot_discharge, snapshot_section_speeds  # noqa: F401
+from ..swe.section import snapshot_control_section, snapshot_discharge, snapshot_section_speeds
 from ..registry import Registry
 from ..units import to_si
 

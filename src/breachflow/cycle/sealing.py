@@ -129,51 +129,43 @@ def face_cells(pile, side, x_range, x, level, bed, obstacle=None) -> np.ndarray:
 
     pile_m = pile.height > 0
     open_m = ~pile_m if obstacle is None else ~pile_m & ~np.asarray(obstacle, bool)
-    lab, _ = ndimage.label(open_m)
-    edge = lab[0] if side < 0 else lab[-1]
-    ids = np.unique(edge[edge > 0])
-    flood = np.isin(lab, ids)
-    touch = pile_m & ndimage.binary_dilation(flood)
+    touch = pile_m & ndimage.binary_dilation(flood_connected(open_m, side))
     cols = (np.asarray(x) >= x_range[0]) & (np.asarray(x) <= x_range[1])
     crest = np.max(np.where(pile_m, bed + pile.height, -np.inf), axis=0)
     return touch & (cols & (crest >= level))[None, :]
 
 
-def flood_connected(bed, barrier, side: int, flood_level: float) -> np.ndarray:
-    """Mask of the cells the flood side's water reaches: cells below *flood_level* that are not a *barrier*
-    (levee, emergent pile, sealed face), 4-connected (the flow model's faces) to the flood-side edge row
-    (row 0 when *side* is -1, the last row otherwise)."""
+def flood_connected(passable, side: int) -> np.ndarray:
+    """Mask of the *passable* cells the flood side's water reaches: 4-connected (the flow model's faces) to the
+    flood-side edge row (row 0 when *side* is -1, the last row otherwise)."""
     from scipy import ndimage
 
-    passable = (np.asarray(bed, float) < flood_level) & ~np.asarray(barrier, bool)
-    lab, _ = ndimage.label(passable)
+    lab, _ = ndimage.label(np.asarray(passable, bool))
     edge = lab[0] if side < 0 else lab[-1]
     return np.isin(lab, np.unique(edge[edge > 0]))
 
 
-def separates(pile, bed, barrier, side: int, flood_level: float) -> bool:
-    """Whether the *barrier* (the sealed faces with the levee and the pile's emergent cells) cuts every path
-    of the flood's water to the protected side: no flood-connected cell lies beyond the pile's downstream
-    row."""
+def separates(pile, reach, side: int) -> bool:
+    """Whether the flood's water *reach* (:func:`flood_connected` over the cells below the flood level, with
+    the levee, the pile's emergent cells and the sealed faces as barriers) stops at the dam: no reached cell
+    lies beyond the pile's downstream row."""
     rows = np.flatnonzero((np.asarray(pile.height) > 0).any(axis=1))
     if rows.size == 0:
         return False
-    reach = flood_connected(bed, barrier, side, flood_level)
     beyond = reach[rows.max() + 1:] if side < 0 else reach[:rows.min()]
     return not bool(beyond.any())
 
 
-def still_water(snapshot, bed, barrier, side: int, flood_level: float, tailwater: float | None):
+def still_water(snapshot, bed, reach, flood_level: float, tailwater: float | None):
     """The steady state of the flow model behind a seal that :func:`separates` the two sides: water at rest at
-    the *flood_level* in every flood-connected cell, at the polder's *tailwater* (m; None while the polder is
-    dry) elsewhere, dry where the bed stands higher. A grid snapshot on the grid of *snapshot* (its obstacles,
-    CRS and attributes kept, the derived fields of water at rest), marked steady: it is the model's exact
-    steady state, reached without a re-solve."""
+    the *flood_level* in every cell the flood's water *reach*-es, at the polder's *tailwater* (m; None while the
+    polder is dry) elsewhere, dry where the bed stands higher. A grid snapshot on the grid of *snapshot* (its
+    obstacles, CRS and attributes kept, the derived fields of water at rest), marked steady: it is the model's
+    exact steady state, reached without a re-solve."""
     from ..field.derived import derived_fields
     from ..field.snapshot import grid_snapshot
 
     bed = np.asarray(bed, float)
-    reach = flood_connected(bed, barrier, side, flood_level)
     low = bed if tailwater is None else np.maximum(bed, tailwater)
     depth = np.maximum(np.where(reach, flood_level, low) - bed, 0.0)
     zero = np.zeros_like(depth)
@@ -332,8 +324,9 @@ def seal_dam(solve, pile, snapshot, criterion, *, breach_x, levee_y, y, x, thick
     still = None
     if block is not None and flood_level is not None and bed is not None:
         barrier = block if obstacle is None else (np.asarray(obstacle, bool) | block)
-        if separates(pile, bed, barrier, side, flood_level):
-            still = still_water(snapshot, bed, barrier, side, flood_level, tailwater)
+        reach = flood_connected((np.asarray(bed, float) < flood_level) & ~barrier, side)
+        if separates(pile, reach, side):
+            still = still_water(snapshot, bed, reach, flood_level, tailwater)
     prev = snapshot
     for _ in range(max_steps):
         layers = [(criterion.seal_layers[0], t)] + [(g, criterion.filter_thickness) for g in criterion.seal_layers[1:]]
@@ -438,7 +431,7 @@ def seal_stage(setup, rec, snapshot):
                    available_t=crit.seal_available, height_cap=np.maximum(flood - np.asarray(dom.bed, float), 0.0),
                    flood_level=flood, bed=np.asarray(dom.bed, float), compare_flow_model=crit.seal_compare,
                    obstacle=np.asarray(dom.obstacle, bool) if obstacle is None else obstacle | np.asarray(dom.obstacle, bool),
-                   tailwater=None if tl is None else tl.tailwater, flow_sign=getattr(setup, "flow_sign", 1.0))
+                   tailwater=None if tl is None else tl.tailwater, flow_sign=setup.flow_sign)
     # delivery: the seal's own method after the rock
     if crit.seal_method is not None:
         method = delivery_method(crit.seal_method)

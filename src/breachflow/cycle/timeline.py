@@ -27,7 +27,6 @@ through the breach stops, and the level stays with the flood's.
 from __future__ import annotations
 
 import math
-
 from dataclasses import dataclass, field
 
 import numpy as np

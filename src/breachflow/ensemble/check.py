@@ -120,7 +120,8 @@ class CheckResult:
 
     runs: list[CheckRun]
     tolerance: float
-    statement: str = ""
+    #: the verdict in words, without the bed model (:attr:`statement` adds it)
+    verdict: str = ""
     robust: bool = False
     p_closure: float = math.nan
     p_interval: tuple = (math.nan, math.nan)
@@ -131,12 +132,14 @@ class CheckResult:
     #: the bed model the runs used, in words (:func:`bed_model`): the verdict holds for that bed
     bed: str = ""
 
+    @property
+    def statement(self) -> str:
+        """The verdict and the bed model it holds for."""
+        return self.verdict + (f" — bed: {self.bed}" if self.bed else "")
+
     def rows(self) -> list[tuple[str, str]]:
-        """Lines of the run's summary table."""
-        statement = self.statement
-        if self.bed and statement.endswith(f" — bed: {self.bed}"):  # the bed has its own row just below
-            statement = statement[: -len(f" — bed: {self.bed}")]
-        out = [("verdict check", statement)]
+        """Lines of the run's summary table (the bed model in its own row)."""
+        out = [("verdict check", self.verdict)]
         if self.bed:
             out.append(("  bed model of the check", self.bed))
         closures = [r for r in self.runs if r.closed is not None and not r.error]
@@ -460,24 +463,22 @@ def judge(runs: list[CheckRun], tolerance: float, *, bed: str = "") -> CheckResu
         grid_note += f"; {len(failed)} check run(s) failed"
     if len({w for w in words.values()}) > 1 and any(all(r.closed for r in rs) for rs in by_grid.values()) \
             and any(not any(r.closed for r in rs) for rs in by_grid.values()):
-        out.statement = "grid-dependent: " + ", ".join(f"{w} at {g}" for g, w in words.items()) + grid_note
+        out.verdict = "grid-dependent: " + ", ".join(f"{w} at {g}" for g, w in words.items()) + grid_note
     elif 0 < k < n:
-        out.statement = (f"seed-dependent: closed in {k} of {n} runs (P(closure) = {k / n:.2f}; "
+        out.verdict = (f"seed-dependent: closed in {k} of {n} runs (P(closure) = {k / n:.2f}; "
                          + ", ".join(f"{w} at {g}" for g, w in words.items()) + ")" + grid_note)
     elif n and k == n:
         if flow_off or failed:
-            out.statement = "closed in every run, but unconfirmed" + grid_note
+            out.verdict = "closed in every run, but unconfirmed" + grid_note
         else:
             grids = ", ".join(by_grid)
-            out.statement = f"closed in all {n} runs ({grids}; {len({r.seed for r in done})} seeds)" + grid_note
+            out.verdict = f"closed in all {n} runs ({grids}; {len({r.seed for r in done})} seeds)" + grid_note
             out.robust = True
     elif n:
-        out.statement = f"not closed in any of {n} runs ({', '.join(f'{w} at {g}' for g, w in words.items())})" + grid_note
+        out.verdict = f"not closed in any of {n} runs ({', '.join(f'{w} at {g}' for g, w in words.items())})" + grid_note
         out.robust = not flow_off and not failed
     else:
-        out.statement = "no check run completed" + grid_note
-    if bed:
-        out.statement += f" — bed: {bed}"
+        out.verdict = "no check run completed" + grid_note
     return out
 
 

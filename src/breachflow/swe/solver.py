@@ -322,7 +322,8 @@ class SWESimulation:
         t_start = self.t
         wall0 = _time.perf_counter()
         h_prev = self.depth[sel]
-        h_all_prev = self.depth.copy()
+        # the whole domain's depth, kept only while the monitoring region is dry (below)
+        h_all_prev = None if (h_prev > 0).any() else self.depth.copy()
         q_prev = np.hypot(*self.discharge)[sel]
         qs_prev = self.section_discharge(section) if section is not None else math.nan
         n_sub = 8 if average else 1
@@ -345,10 +346,14 @@ class SWESimulation:
             rate_q = float(np.abs(q - q_prev).sum() / (max(q.sum(), 1e-300) * dt)) if q.sum() > 0 else 0.0
             # a dry monitoring region has nothing to change yet: it is steady only when the whole domain is (the
             # flood may still be on its way to the breach)
-            h_all = self.depth.copy()
-            rate_dry = (float(np.abs(h_all - h_all_prev).sum() / (max(h_all.sum(), 1e-300) * dt))
-                        if not (h > 0).any() else 0.0)
-            h_all_prev = h_all
+            rate_dry = 0.0
+            if not (h > 0).any():
+                h_all = self.depth.copy()
+                rate_dry = (math.inf if h_all_prev is None else
+                            float(np.abs(h_all - h_all_prev).sum() / (max(h_all.sum(), 1e-300) * dt)))
+                h_all_prev = h_all
+            else:
+                h_all_prev = None
             rate_s = 0.0
             qs = math.nan
             if section is not None:

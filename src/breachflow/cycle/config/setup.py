@@ -9,7 +9,8 @@ import numpy as np
 
 from ...errors import InputError
 from ...scenario.geometry import BreachGeometry
-from ..criteria import EndCriteria, flow_sign
+from ...swe.section import flow_sign
+from ..criteria import EndCriteria
 from ..leakage import DEFAULT_ALLOWED_RISE
 from ..losses import breach_area
 from ..placement import PlacementPlan
