@@ -379,7 +379,9 @@ class ClosureRun:
             return np.where(smp.inside, np.maximum(smp.surface, smp.bed), np.nan)
 
         sill = self._pile_view(sim, rec) if s.placement.uses_pile else None
-        rel = s.placement.release(g, s.seed, surface_at, pile=sill)
+        st = sim.state
+        in_breach = np.flatnonzero(st.active[:st.n])
+        rel = s.placement.release(g, s.seed, surface_at, pile=sill, placed=(st.pos[in_breach], st.radius[in_breach]))
         new_ids = self.dem.add(sim, rel.pos, rel.radius, rel.density, material=rel.material)
         placed_cycle = np.concatenate([rec["placed_cycle"], np.full(len(new_ids), g, np.int32)])
         material_index = _material_index(rec, placed_cycle.size, new_ids, rel.material)

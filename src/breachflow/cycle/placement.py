@@ -247,10 +247,13 @@ class PlacementPlan:
         """Wall-clock time of the closure operation after *masses_placed* masses (s)."""
         return masses_placed / self.rate
 
-    def release(self, g: int, seed: int, surface_at, pile: PileView | None = None) -> Release:
+    def release(self, g: int, seed: int, surface_at, pile: PileView | None = None,
+                placed: tuple[np.ndarray, np.ndarray] | None = None) -> Release:
         """The masses released in cycle *g* (1-based). *surface_at(x, y)* gives the water-surface
         elevation (m) at release points (vectorised); *pile* the sill along the gap line before the
-        release, for the strategies that read it (``uses_pile``)."""
+        release, for the strategies that read it (``uses_pile``); *placed* the centres (m, 3) and radii (m,)
+        of the masses already in the breach, above which a new mass is released where it would otherwise
+        start inside one (a crane lowers its load onto the pile, it does not push it into the pile)."""
         rng = np.random.default_rng([int(seed), int(g)])
         n = self.batch
         which = None
@@ -275,7 +278,41 @@ class PlacementPlan:
             raise InputError(f"placement: release point(s) {xy[~np.isfinite(z)].tolist()} lie outside the field")
         # masses of one batch must not be spawned overlapping: stack them vertically if they would
         pos = destack(np.column_stack([xy, z]), r)
+        if placed is not None and len(placed[1]):
+            for _ in range(len(r) + 1):  # each pass only lifts; a lift can only make a new overlap in the batch
+                before = pos[:, 2].copy()
+                pos = destack(clear_of(pos, r, *placed), r)
+                if np.array_equal(pos[:, 2], before):
+                    break
         return Release(pos=pos, radius=r, density=rho, time=self.operation_time(int(k[-1]) + 1), material=which)
+
+
+def clear_of(pos: np.ndarray, r: np.ndarray, placed_pos: np.ndarray, placed_r: np.ndarray) -> np.ndarray:
+    """Lift each new mass (centres *pos* (n, 3), radii *r*) clear of the masses already placed (*placed_pos*
+    (m, 3), *placed_r*): where it would start inside a placed mass *j* at horizontal distance ``d < r + r_j``,
+    it is put on top of it, ``z = z_j + sqrt((r + r_j)^2 - d^2) + 1 mm`` (touching it). The placed masses
+    are visited from the lowest up, so that a lift never pushes a mass into one below it. A mass spawned
+    inside another is pushed out by the contact law with the whole overlap's elastic energy, about
+    ``k_n delta^2 / 2``, and can be shot out of the breach: a loss that no flow caused. *pos* is changed in
+    place and returned."""
+    placed_pos = np.asarray(placed_pos, float).reshape(-1, 3)
+    placed_r = np.asarray(placed_r, float).ravel()
+    if placed_r.size == 0:
+        return pos
+    for i in range(len(pos)):
+        reach = r[i] + placed_r
+        d2 = (placed_pos[:, 0] - pos[i, 0]) ** 2 + (placed_pos[:, 1] - pos[i, 1]) ** 2
+        near = np.flatnonzero(d2 < reach ** 2)
+        if near.size == 0:
+            continue
+        near = near[np.argsort(placed_pos[near, 2], kind="stable")]
+        half = np.sqrt(reach[near] ** 2 - d2[near])  # vertical half-extent of the overlap at that distance
+        zi = float(pos[i, 2])
+        for zj, hj in zip(placed_pos[near, 2].tolist(), half.tolist()):
+            if abs(zi - zj) < hj:
+                zi = zj + hj + 1e-3
+        pos[i, 2] = zi
+    return pos
 
 
 def destack(pos: np.ndarray, r: np.ndarray) -> np.ndarray:
