@@ -30,11 +30,13 @@ def test_default_run_closes_the_breach_and_combines(default_run, tmp_path):
     last = man["cycles"][-1]["summary"]
     # the embedded scenario is built to close a leaky rock-fill dam (remap "porous"): the flow over the crest
     # stops, what still passes the breach section is seepage through the pile, well below the open breach's
-    # flow, and the summary leaves it to the sealing
-    assert last["closed"] and last["governing"] == "overflow_discharge+seepage_fraction"
+    # flow
+    assert last["closed"] and last["governing"] == "overflow_discharge+polder_leakage"
     assert 0 < last["seepage_discharge"] < 0.3 * q0
     assert last["breach_discharge"] - last["seepage_discharge"] < 0.5
-    assert "overflow stopped" in res.output and "to be sealed with finer fill" in res.output
+    # ... and the sealing is part of the run: the seal on the rock's upstream face brings the leakage below the
+    # polder's 1 cm/day (100 ha: 0.116 m3/s)
+    assert "closed and sealed" in res.output and "polder rise of" in res.output
     # the seepage is that of the pile by hand: 1-D Dupuit–Forchheimer over the breach width, with the final
     # pile's bulk porosity and stone size from the spheres and its path length at the base (longest) and at
     # the water line (shortest): the model lies between the two
@@ -55,7 +57,9 @@ def test_default_run_closes_the_breach_and_combines(default_run, tmp_path):
     assert reason.startswith(f"closed at cycle {len(man['cycles'])}: ")
     for name in governing.split("+"):  # mode "all": every criterion governs
         assert name in reason and f"{last['criteria'][name]['value']:.3g}" in reason
-    assert "to be sealed with finer fill" in reason
+    assert "through the rock; sealed with" in reason and "m of finer fill" in reason
+    left = float(reason.split("of finer fill: ")[1].split(" m³/s")[0])
+    assert 0 < left <= 0.01 * 100e4 / 86400
     arch = tmp_path / "archive.nc"
     res = runner.invoke(app, ["combine", str(out), "-o", str(arch)])
     assert res.exit_code == 0, res.output
@@ -112,7 +116,7 @@ def _hand_seepage(rd, man, half=6.0):
 def test_progress_lines_show_the_criteria(default_run):
     _, res = default_run
     assert res.exit_code == 0, res.output
-    assert "[overflow_discharge " in res.output and "seepage_fraction " in res.output
+    assert "[overflow_discharge " in res.output and "polder_leakage " in res.output
 
 
 # --------------------------------------------------------------------------- issue 15: never lose a user's run

@@ -4,13 +4,14 @@ The re-solve that ``breachflow run`` makes after the first cycle of the embedded
 (its masses remapped into the flow) is compared with two references that do not depend on when the
 steady-state test stops: the same warm start marched ten times longer, and a cold solve of the same
 obstacles and bed from the scene's initial state. Its breach discharge must agree with both within
-1 %, its max speed within 0.5 %. Before the breach discharge was part of the criterion (and with the
+1 %, the mean and peak speed in the gap section with both within 0.5 %, and the domain's peak speed (in the
+jet below the pile) with the marched-on warm start within 0.5 %. Before the breach discharge was part of the criterion (and with the
 old defaults 2e-3 1/s, 60 s) the re-solve stopped after 33 s at +2.7 %.
 """
 import numpy as np
 
 from breachflow.cycle.config import closure_setup
-from breachflow.cycle.criteria import CycleContext, MaxSpeed, section_discharge
+from breachflow.cycle.criteria import CycleContext, MaxSpeed, gap_section_speeds, section_discharge
 from breachflow.cycle.driver import ClosureRun
 from breachflow.cycle.main import default_scenario_text
 from breachflow.swe import SWESimulation
@@ -40,11 +41,20 @@ def test_warm_resolve_of_the_default_scene_matches_a_long_resolve_and_a_cold_sol
     # the raised-bed remap: the masses change the bed the warm start must adjust to
     text = text.replace("max_cycles = 24", "max_cycles = 1").replace('remap = "porous"', 'remap = "raised_bed"')
     setup = closure_setup(parse_scenario(text))
-    rec = _Recorder(setup.solver)
-    setup.solver = rec
+    # record the solves as the flow model makes them: under the closure in time, inside the timeline's
+    # wrapper, which moves the flood- and polder-side levels to the cycle's operation time
+    outer = setup.solver if setup.timeline is not None else None
+    rec = _Recorder(outer.inner if outer is not None else setup.solver)
+    if outer is not None:
+        outer.inner = rec
+    else:
+        setup.solver = rec
     ClosureRun(setup, tmp_path / "run", text).run()
-    assert len(rec.calls) == 1
-    dom, obst, init, snap, sim = rec.calls[0]
+    # the closure in time first solves the open breach at the flood stage and polder level of cycle 1's
+    # operation time (bed unchanged), then re-solves with the cycle's masses: that re-solve is judged here
+    assert len(rec.calls) == 1 + int(setup.timeline is not None)
+    assert all(np.count_nonzero(c[0].bed != setup.domain.bed) == 0 for c in rec.calls[:-1])
+    dom, obst, init, snap, sim = rec.calls[-1]
     assert np.count_nonzero(dom.bed != setup.domain.bed) > 0  # the masses raised the bed (remap)
     q, v = _measures(setup, snap)
     warm = rec.solver.warm
@@ -52,10 +62,19 @@ def test_warm_resolve_of_the_default_scene_matches_a_long_resolve_and_a_cold_sol
     long = SWESimulation(dom, warm.options, obstacles=obst, initial=init).advance_to(10.0 * sim.t)
     cold = SWESimulation(dom, warm.options, obstacles=obst)
     assert cold.run_to_steady(1e-4, 3000.0, region=warm.region).converged
+    gap = gap_section_speeds(snap, setup.breach_x, setup.levee_y)
     for ref in (long, cold):
-        q_ref, v_ref = _measures(setup, ref.snapshot(derived=False))
+        ds_ref = ref.snapshot(derived=False)
+        q_ref, v_ref = _measures(setup, ds_ref)
         assert abs(q / q_ref - 1.0) < 0.01, (q, q_ref, sim.t)
-        assert abs(v / v_ref - 1.0) < 0.005, (v, v_ref, sim.t)
+        # the speeds in the gap, where the criteria read them, within 0.5 % of both references
+        for a, b in zip(gap, gap_section_speeds(ds_ref, setup.breach_x, setup.levee_y)):
+            assert abs(a / b - 1.0) < 0.005, (gap, b, sim.t)
+        if ref is long:
+            # the domain's peak speed, in the supercritical jet below the pile, within 0.5 % of the same warm
+            # start marched on; a cold start reaches a jet of another depth (0.675 m against 0.713 m at its peak
+            # in the default scene: the jet below a dam is not unique), so its peak is not compared
+            assert abs(v / v_ref - 1.0) < 0.005, (v, v_ref, sim.t)
     # the two references agree with each other far better: the steady state is unique
     q_long, _ = _measures(setup, long.snapshot(derived=False))
     q_cold, _ = _measures(setup, cold.snapshot(derived=False))

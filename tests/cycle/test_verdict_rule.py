@@ -174,14 +174,14 @@ def test_a_run_whose_masses_roll_out_over_two_cycles_ends_with_the_verdict(tmp_p
 
 
 def test_the_default_scene_closes_though_older_masses_leave_in_a_slow_flow(tmp_path):
-    """The case that ended the default scene "not closable" under the old rule (lost > loss_limit x this cycle's
-    placement): tolerance 2e-3, seed 2. In cycle 8 three masses (34.1 t) left the breach area, two of them cycle
-    7's, knocked off the pile's top onto the intact levee and the flood-side slope, in a 3.8 m/s flow (below
-    Izbash's 6.71 and the rolling speed 5.51 m/s); the breach closes one cycle later."""
+    """The case that ends "not closable" under the old rule (lost > loss_limit x this cycle's placement): the
+    default scene with the crane barge starting at the breach (start 0 h, at the flood's peak), seed 1. In cycle
+    2, 33.0 t left the breach area, 9.5 t of them cycle 2's own and the rest cycle 1's (64.2 t placed in cycle 2,
+    so more than half of it by the old rule); the breach closes and is sealed all the same."""
     from breachflow.cycle.main import default_scenario_text
     from breachflow.scenario.toml import scenario_with
 
-    text = scenario_with(default_scenario_text(), {"hydro.tolerance": "2e-3 1/s", "closure.seed": 2})
+    text = scenario_with(default_scenario_text(), {"closure.start": "0 h", "closure.seed": 1})
     run = ClosureRun(closure_setup(parse_scenario(text)), tmp_path / "d", text)
     reps = run.run()
     assert reps[-1].closed and all(r.verdict == "" for r in reps)
