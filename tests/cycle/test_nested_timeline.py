@@ -23,9 +23,10 @@ def _edge_levels(snap):
 @pytest.fixture(scope="module", params=["1 m", "0.9 m"])
 def refined(request):
     text = files("breachflow.data").joinpath("closure_default.toml").read_text()
-    # the embedded default as a closure in time: a delivery method instead of a free rate
-    assert 'rate = "30 1/hr"\n' in text and "seed = 1\n" in text
-    text = text.replace('rate = "30 1/hr"\n', "").replace("seed = 1\n", 'seed = 1\nmethod = "barge_crane"\n')
+    # the embedded default, a closure in time by crane barge, started at the breach (the levels below are the
+    # flood's from its crest on)
+    assert 'method = "barge_crane"\n' in text and 'start = "1 h"\n' in text
+    text = text.replace('start = "1 h"\n', 'start = "0 h"\n')
     text = text.replace('resolution = "1 m"', f'resolution = "2 m"\nrefine = "{request.param}"')
     return closure_setup(parse_scenario(text))
 
