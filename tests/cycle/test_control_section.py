@@ -78,6 +78,50 @@ def test_the_critical_section_of_a_falling_surface_at_any_row_offset(sign, offse
     assert yc == pytest.approx(3.0, abs=0.1)
 
 
+def with_film(ds, rows, side, film):
+    """*ds* with the wall column(s) *side* ("west", "east", "both") opened on *rows* (a boolean per row) and
+    holding water of depth *film* (m) at rest: the bank beside a breach head on a terrain site."""
+    cols = {"west": [0], "east": [-1], "both": [0, -1]}[side]
+    h, ob = ds.depth.values.copy(), ds.obstacle.values.copy()
+    for c in cols:
+        h[rows, c] = film
+        ob[rows, c] = 0
+    return ds.assign(depth=(("y", "x"), h), obstacle=(("y", "x"), ob), wet=(("y", "x"), (h > 0).astype("i1")))
+
+
+@pytest.mark.parametrize("side", ["west", "east", "both"])
+@pytest.mark.parametrize("where", ["levee row", "every row"])
+@pytest.mark.parametrize("film", [2e-6, 4.9e-5, 1e-3, 0.009])
+@pytest.mark.parametrize("offset", [0.0, 0.3, 1.1])
+def test_a_film_beside_the_breach_head_is_a_wall(side, where, film, offset):
+    """A film of water on the bank beside a breach head (here up to 0.9 % of the channel's 1 m-or-more depth,
+    flowing nowhere) does not open the channel's side: the control section is the film-free channel's,
+    critical where h = h_c at the speed (g q)^{1/3}. Exactly dry walls only would find no channel here."""
+    q, sign = 6.0, 1.0
+    hc = (q * q / G) ** (1 / 3)                     # 1.54 m
+    y = np.arange(-30.0, 30.1, 2.0) + offset
+    h = hc - sign * 0.02 * (y - 3.0)                # h_c at y = 3, 0.92-2.16 m over the channel
+    assert film < 0.01 * h.min()
+    rows = np.abs(y) == np.abs(y).min() if where == "levee row" else np.ones(y.size, bool)
+    ds = with_film(channel(h, sign * q / h, y), rows, side, film)
+    yc, vc = control_speed(ds, (-3.0, 3.0), 0.0)
+    assert vc == pytest.approx((G * q) ** (1 / 3), rel=0.01)
+    assert yc == pytest.approx(3.0, abs=0.1)
+
+
+@pytest.mark.parametrize("spill", [0.03, 0.2])
+def test_water_spilling_round_the_head_is_not_a_wall(spill):
+    """Water beside the head at a few per cent of the channel's depth and more is flow round the head, not
+    a film: the levee row is not walled, so no channel section is found there."""
+    q = 6.0
+    y = np.arange(-30.0, 30.1, 2.0)
+    h = np.full(y.size, 1.5)
+    rows = np.abs(y) < 1.0
+    ds = with_film(channel(h, q / h, y), rows, "west", spill * 1.5)
+    yc, vc = control_speed(ds, (-3.0, 3.0), 0.0)
+    assert np.isnan(yc) and np.isnan(vc)
+
+
 def test_a_drowned_channel_takes_its_narrowest_flow():
     q = 10.0
     y = np.arange(-10.0, 10.1, 2.0)

@@ -10,6 +10,7 @@ site (``examples/site/make_site.py --angle``) at 3 m cells, one cycle.
 """
 import importlib.util
 import json
+import re
 import shutil
 import subprocess
 import sys
@@ -161,3 +162,85 @@ def _flip_rows(T, ny):
     from affine import Affine
 
     return Affine(T.a, T.b, T.c + ny * T.b, T.d, -T.e, T.f + ny * T.e)
+
+
+#: How GIS tools pair two grids into one vector: QGIS's mesh layers (its mesh data abstraction library, reading
+#: NetCDF through GDAL) join two bands whose names contain an "x"/"u" and a "y"/"v" component phrase and that are
+#: the same once it is removed, and draw them as arrows along the map axes.
+_COMPONENT = re.compile(r"^(?:(?P<axis>[xyuv])[- ]component(?: of)?|(?P<start>[xyuv])-)\s*(?P<rest>.*)$", re.I)
+_ANYWHERE = re.compile(r"[xyuv][- ]component", re.I)
+
+
+def test_gis_tools_pair_the_map_velocity_into_arrows(cycle_file):
+    """The one velocity a GIS draws as arrows is along the map axes: on a north-up grid ``u``/``v``, on a
+    turned grid ``u_east``/``v_north`` — whose values are the grid components turned by the frame's angle
+    (east = u cos a − v sin a, north = u sin a + v cos a) — and the grid-axis ``u``/``v`` of a turned grid are
+    not named as a pair (QGIS would draw them turned by the grid's angle)."""
+    angle, path = cycle_file
+    with xr.open_dataset(path) as ds:
+        ds = ds.isel(cycle=0).load()
+    pairs: dict[str, dict[str, str]] = {}
+    for name, var in ds.data_vars.items():
+        if var.dims[-2:] != ("y", "x"):
+            continue
+        long_name = str(var.attrs.get("long_name", ""))
+        m = _COMPONENT.match(long_name)
+        if m is None:
+            assert not _ANYWHERE.search(long_name), f"{name}: {long_name!r} names a component a GIS would misread"
+            continue
+        axis = (m["axis"] or m["start"]).lower().replace("u", "x").replace("v", "y")
+        pairs.setdefault(m["rest"].strip(), {})[axis] = name
+    assert len(pairs) == 1, pairs
+    (vector,) = pairs.values()
+    turned = angle != 0.0
+    assert vector == ({"x": "u_east", "y": "v_north"} if turned else {"x": "u", "y": "v"})
+    if turned:
+        a = np.radians(ds.attrs["grid_rotation_deg"])
+        u, v = ds["u"].values, ds["v"].values
+        np.testing.assert_allclose(ds["u_east"].values, u * np.cos(a) - v * np.sin(a), rtol=0, atol=1e-12)
+        np.testing.assert_allclose(ds["v_north"].values, u * np.sin(a) + v * np.cos(a), rtol=0, atol=1e-12)
+
+
+def test_open_north_up_puts_every_cell_at_its_map_position(cycle_file):
+    """:func:`breachflow.io.north_up.open_north_up` (GDAL's warper): a north-up raster in the site's CRS
+    covering the whole grid; the pixel that holds each cell's map centre (``map_x``/``map_y``, or the 1-D
+    axes north-up) carries that cell's value, exactly, at pixels of the cell size / √2 (a turned grid) and at
+    the default pixel, the cell size (a north-up grid: its own cells)."""
+    from pyproj import CRS
+
+    from breachflow.io.north_up import open_north_up
+
+    angle, path = cycle_file
+    with xr.open_dataset(path) as ds:
+        ds = ds.isel(cycle=0).load()
+    cell = float(ds.x[1] - ds.x[0])
+    MX, MY = _expected_map(ds)
+    for res in ([None, 0.99 * cell / np.sqrt(2)] if angle == 0.0 else [0.99 * cell / np.sqrt(2)]):
+        da = open_north_up(path, "depth", resolution=res)
+        assert da.dims == ("cycle", "y", "x") and da.sizes["cycle"] == 1
+        assert CRS.from_wkt(da["crs"].attrs["crs_wkt"]).to_epsg() == 26915 and da.attrs["grid_mapping"] == "crs"
+        x, y = da.x.values, da.y.values
+        px, py = x[1] - x[0], y[1] - y[0]
+        assert px > 0 and py < 0 and px == pytest.approx(res or cell) and -py == pytest.approx(res or cell)
+        col = np.floor((MX - (x[0] - px / 2)) / px).astype(int)
+        row = np.floor((MY - (y[0] - py / 2)) / py).astype(int)
+        assert col.min() >= 0 and row.min() >= 0 and col.max() < x.size and row.max() < y.size
+        got = da.values[0][row, col]
+        want = ds["depth"].values
+        np.testing.assert_array_equal(np.isnan(got), np.isnan(want))
+        np.testing.assert_array_equal(got[~np.isnan(want)], want[~np.isnan(want)])
+
+
+def test_open_north_up_names_what_it_cannot_read(cycle_file, tmp_path):
+    from breachflow.errors import InputError
+    from breachflow.io.north_up import open_north_up
+
+    _, path = cycle_file
+    with pytest.raises(InputError, match="'particle_x' is not a map grid.*depth"):
+        open_north_up(path, "particle_x")
+    with pytest.raises(InputError, match="no such file"):
+        open_north_up(tmp_path / "missing.nc", "depth")
+    with pytest.raises(InputError, match="resampling 'closest'"):
+        open_north_up(path, "depth", resampling="closest")
+    with pytest.raises(InputError, match="resolution"):
+        open_north_up(path, "depth", resolution=0.0)

@@ -31,8 +31,8 @@ VARIABLE_ATTRS: dict[str, dict] = {
     "bed_elevation": {"long_name": "bed elevation above datum", "units": "m", "positive": "up"},
     "depth": {"standard_name": "sea_floor_depth_below_sea_surface", "long_name": "water depth", "units": "m"},
     "water_surface": {"standard_name": "water_surface_height_above_reference_datum", "long_name": "water-surface elevation above datum", "units": "m"},
-    "u": {"standard_name": "barotropic_sea_water_x_velocity", "long_name": "depth-averaged velocity, x component", "units": "m s-1"},
-    "v": {"standard_name": "barotropic_sea_water_y_velocity", "long_name": "depth-averaged velocity, y component", "units": "m s-1"},
+    "u": {"standard_name": "barotropic_sea_water_x_velocity", "long_name": "x component of depth-averaged velocity", "units": "m s-1"},
+    "v": {"standard_name": "barotropic_sea_water_y_velocity", "long_name": "y component of depth-averaged velocity", "units": "m s-1"},
     "wet": {"long_name": "wet cell mask (depth above the dry threshold)", "units": "1", "flag_values": np.array([0, 1], dtype="i1"), "flag_meanings": "dry wet"},
     "obstacle": {"long_name": "no-flow obstacle cell mask (placed masses, structures)", "units": "1", "flag_values": np.array([0, 1], dtype="i1"), "flag_meanings": "open blocked"},
 }

@@ -130,11 +130,14 @@ class GridFrame:
             ds["crs"].attrs["GeoTransform"] = " ".join(repr(v) for v in self.geotransform(ds["x"].values, ds["y"].values))
         if "u" in ds and "v" in ds:
             ue, vn = self.vector_to_map(ds["u"].values, ds["v"].values)
-            for name, val, std, comp in (("u_east", ue, "barotropic_eastward_sea_water_velocity", "eastward (CRS x)"),
-                                         ("v_north", vn, "barotropic_northward_sea_water_velocity", "northward (CRS y)")):
-                ds[name] = (ds["u"].dims, val, {"standard_name": std, "units": "m s-1",
-                                                 "long_name": f"depth-averaged velocity, {comp} component", **gm})
-            for k in ("u", "v"):
+            # GIS tools pair two grids into one vector by their long names ("x component of NAME" and "y component
+            # of NAME": QGIS's mesh layers draw them as arrows), so only the map components are named so here
+            for name, val, std, comp in (("u_east", ue, "barotropic_eastward_sea_water_velocity", "x"),
+                                         ("v_north", vn, "barotropic_northward_sea_water_velocity", "y")):
+                ds[name] = (ds["u"].dims, val, {"standard_name": std, "units": "m s-1", **gm,
+                                                 "long_name": f"{comp} component of depth-averaged velocity in the site CRS"})
+            for k, axis in (("u", "x"), ("v", "y")):
+                ds[k].attrs["long_name"] = f"depth-averaged velocity along the breach-aligned grid's {axis} axis"
                 ds[k].attrs["comment"] = "component along the grid axis (breach-aligned grid), not east/north"
         if "particle_x" in ds and "particle_y" in ds:
             PX, PY = self.to_map(ds["particle_x"].values, ds["particle_y"].values)
