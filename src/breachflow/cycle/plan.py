@@ -137,6 +137,8 @@ def closure_plan(rundir, setup, scenario=None) -> dict | None:
         "average_rate_t_h": placed_t / ((finish - tl.start) / HOUR) if finish > tl.start else float("nan"),
         "materials": _materials(rundir, int(last["cycle"])) if cycles else [],
         "flood": tl.stage.source,
+        # an ingested flow model: the method's clock only, the flood and the polder held (cycle/frozen_timeline.py)
+        "flood_frozen": bool(getattr(tl, "frozen", False)),
         "polder": {"area_m2": pol.area, "pump_capacity_m3_s": pol.pump_capacity, "initial_level_m": pol.initial_level,
                    "level_at_start_m": start_state.get("polder_level"), "level_at_finish_m": last.get("polder_level")},
         "leakage_end": {"breach_discharge_m3_s": q_end, "seepage_m3_s": seep,
@@ -211,6 +213,10 @@ def plan_lines(plan: dict) -> list[str]:
         parts.append(f"inundation limit reached in the run at {w['inundation_time_s'] / HOUR:,.1f} h")
     if w["report_closure_window_s"] is not None:
         parts.append(f"report's linear window {w['report_closure_window_s'] / HOUR:,.1f} h")
+    if plan.get("flood_frozen"):
+        lines.append(f"  flood   {plan['flood']}: the levels do not follow the flood or the polder's filling, "
+                     f"and no closure window is computed")
+        return lines
     lines.append("  window  " + ("; ".join(parts) if parts else "no balance or inundation limit reached")
                  + f": {'fits' if w['fits'] else 'does NOT fit'}")
     return lines

@@ -191,10 +191,8 @@ def closure_setup(scenario, *, overrides: dict | None = None):
     polder_sign = flow_sign(built.flood_sign) if built is not None else 1.0
     timeline = None
     if closure.timeline.method is not None:
-        if not isinstance(solver, (_WarmStartSWE, _StageSolver)) and coarse is None:
-            raise InputError(f"[closure] method: the closure in time moves the flood-side and polder levels of the "
-                             f"embedded flow model; [hydro] solver = {hydro.solver!r} takes its boundaries from "
-                             f"the ingested model (use solver = \"swe\")")
+        # an ingested model takes its boundaries from its own result: the method's clock with the flood held frozen
+        ingested = not isinstance(solver, (_WarmStartSWE, _StageSolver)) and coarse is None
         from .timeline import build_timeline, shifted_boundaries
         from ..timeline import TimelineSolver
 
@@ -211,7 +209,12 @@ def closure_setup(scenario, *, overrides: dict | None = None):
                                   length=2.0 * half, wall_slope=wall, built=built,
                                   levee=None if built is not None else scene.levee, placement=placement,
                                   terrain=terrain)
-        if coarse is not None:  # a nested finer grid: its edges follow the coarse model at the timeline's levels
+        if ingested:
+            from ..frozen_timeline import frozen_flood
+
+            timeline = frozen_flood(timeline, flood_level, hydro.solver)
+            attrs["closure_timeline_note"] = timeline.note
+        elif coarse is not None:  # a nested finer grid: its edges follow the coarse model at the timeline's levels
             from .nested_timeline import NestedTimelineSolver
 
             base = coarse[0].boundaries

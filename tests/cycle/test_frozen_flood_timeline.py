@@ -1,0 +1,88 @@
+"""``[closure] method`` over an ingested flow model (issue 30): its boundaries come from the model's own
+result, so the flood and the polder are held frozen, but the operation time is the delivery method's,
+from the tonnes placed and the capacity, and the run says plainly that the flood is held frozen."""
+import json
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from breachflow.cycle.config import closure_setup
+from breachflow.cycle.frozen_timeline import FrozenFloodTimeline
+from breachflow.cycle.main import run_closure
+from breachflow.cycle.plan import plan_lines
+from breachflow.errors import BreachflowWarning, InputError
+from breachflow.field.snapshot import grid_snapshot
+from breachflow.scenario.config import parse_scenario
+
+from .test_snapshot_frozen import BASE
+
+TIMED = BASE + """method = "barge_crane"
+start = "{start}"
+capacity = "{capacity}"
+[polder]
+area = "300 ha"
+"""
+
+
+def _snapshot(tmp_path):
+    """A still-water field at 3 m on the demo scene's grid with a 0.3 m/s current toward the polder."""
+    sc = parse_scenario(BASE.replace('solver = "{solver}"', 'solver = "swe"').replace('snapshots = ["{snap}"]', ""))
+    dom = closure_setup(sc).domain
+    depth = np.maximum(3.0 - dom.bed, 0.0)
+    path = tmp_path / "snap.nc"
+    grid_snapshot(dom.x, dom.y, dom.bed, depth, np.zeros_like(depth), np.full_like(depth, 0.3)).to_netcdf(path)
+    return path
+
+
+def _placed_tonnes(run, g):
+    """Tonnes released up to cycle *g*, from the particles of cycle *g*'s file (pi/6 D^3 rho)."""
+    with xr.open_dataset(run / f"cycle_{g:04d}.nc", decode_times=False) as ds:
+        placed = np.asarray(ds["particle_placed_cycle"].values).ravel()
+        d = np.asarray(ds["particle_diameter"].values, float).ravel()
+        rho = np.asarray(ds["particle_density"].values, float).ravel()
+    sel = (placed >= 1) & (placed <= g)
+    return float(np.sum(np.pi / 6.0 * d[sel] ** 3 * rho[sel])) / 1000.0
+
+
+@pytest.mark.parametrize("start_h, capacity_t_h", [(0.0, 400.0), (30.0, 25.0)])
+def test_ingested_model_runs_a_method_with_the_flood_held_frozen(tmp_path, start_h, capacity_t_h):
+    snap = _snapshot(tmp_path)
+    scen = tmp_path / "timed.toml"
+    scen.write_text(TIMED.format(solver="snapshot_frozen", snap=snap, start=f"{start_h:g} h",
+                                 capacity=f"{capacity_t_h:g} t/hr"))
+    with pytest.warns(BreachflowWarning, match="does not respond to the pile"):
+        setup = closure_setup(parse_scenario(scen.read_text()))
+    assert isinstance(setup.timeline, FrozenFloodTimeline)
+    assert type(setup.solver).__name__ == "SnapshotSolver"  # its boundaries are the ingested model's
+    with pytest.warns(BreachflowWarning, match="does not respond to the pile"):
+        res = run_closure(scen, tmp_path / "run", plots=False)
+    assert res.cycles == 2
+    for rep in res.reports:
+        # t_g = start + (tonnes placed up to cycle g) / capacity: round-the-clock work, no wind record
+        t = _placed_tonnes(tmp_path / "run", rep.cycle)
+        assert t > 0
+        assert rep.operation_time == pytest.approx(3600.0 * (start_h + t / capacity_t_h), rel=1e-9)
+        assert rep.flood_level == pytest.approx(3.0, abs=1e-9)  # the demo scene's flood level, held
+        assert rep.polder_level == pytest.approx(setup.timeline.polder.initial_level, abs=1e-12)
+    plan = json.loads((tmp_path / "run" / "closure_plan.json").read_text())
+    assert plan["flood_frozen"] is True and plan["method"] == "barge_crane"
+    assert plan["capacity_t_h"] == pytest.approx(capacity_t_h)
+    assert plan["start_s"] == pytest.approx(3600.0 * start_h)
+    assert plan["placed_t"] == pytest.approx(_placed_tonnes(tmp_path / "run", 2), rel=1e-6)
+    assert plan["window"]["open_breach_window_s"] is None
+    text = "\n".join(plan_lines(plan))
+    assert "held frozen at 3.00 m" in text and "no closure window is computed" in text
+    man = json.loads((tmp_path / "run" / "manifest.json").read_text())
+    assert "flood held frozen" in man["metadata"]["timeline"]["description"]
+    with xr.open_dataset(tmp_path / "run" / "cycle_0002.nc", decode_times=False) as ds:
+        assert "flood held frozen" in ds.attrs["closure_timeline_note"]
+        assert float(ds["operation_time"].values.item()) == pytest.approx(res.reports[-1].operation_time)
+
+
+def test_ingested_model_with_a_method_needs_a_polder(tmp_path):
+    snap = _snapshot(tmp_path)
+    text = TIMED.format(solver="snapshot_frozen", snap=snap, start="0 h", capacity="400 t/hr")
+    text = text[:text.index("[polder]")]
+    with pytest.warns(BreachflowWarning), pytest.raises(InputError, match=r"needs a \[polder\] section"):
+        closure_setup(parse_scenario(text))
