@@ -13,8 +13,6 @@ STILL_ON_REPLACED_KEYS = {
     "src/breachflow/data/closure_default.toml": {"rate", "seepage_fraction"},
     "examples/site/site.toml": {"rate"},
     "examples/district/closure.toml": {"rate", "seepage_fraction"},
-    "examples/nested/nested_adh.toml": {"rate"},
-    "examples/nested/nested_hecras.toml": {"rate"},
     "examples/ensembles/typical_feasibility.toml": {"rate", "seepage_fraction"},
     "examples/ensembles/typical_replicates.toml": {"rate", "seepage_fraction"},
     "pipelines/closure_feasibility.py": {"rate"},
