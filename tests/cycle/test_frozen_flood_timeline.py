@@ -11,7 +11,7 @@ from breachflow.cycle.config import closure_setup
 from breachflow.cycle.frozen_timeline import FrozenFloodTimeline
 from breachflow.cycle.main import run_closure
 from breachflow.cycle.plan import plan_lines
-from breachflow.errors import BreachflowWarning, InputError
+from breachflow.errors import BreachflowWarning, InputError, ParseError
 from breachflow.field.snapshot import grid_snapshot
 from breachflow.scenario.config import parse_scenario
 
@@ -86,3 +86,46 @@ def test_ingested_model_with_a_method_needs_a_polder(tmp_path):
     text = text[:text.index("[polder]")]
     with pytest.warns(BreachflowWarning), pytest.raises(InputError, match=r"needs a \[polder\] section"):
         closure_setup(parse_scenario(text))
+
+
+EMBEDDED = BASE.replace('solver = "{solver}"', 'solver = "swe"').replace('snapshots = ["{snap}"]', "")
+EMBEDDED = EMBEDDED.replace("[hydro]", '[hydro]\nt_max_initial = "120 s"\nt_max = "30 s"\ntolerance = "2e-3 1/s"')
+WINDOW = """
+[flood]
+surge_height = "3 m"
+rise_rate = "0.3 m/hr"
+fall_rate = "0.3 m/hr"
+[polder]
+area = "20 ha"
+inundation_depth = "1.5 m"
+"""
+
+
+def test_embedded_model_with_the_flood_frozen_solves_the_same_flow_on_the_methods_clock(tmp_path):
+    """``[closure] flood = "frozen"`` with the embedded solver: the flow solves are exactly those of the same
+    run without a method (the levels do not move although [flood] falls and a 20 ha polder would fill within
+    the hour), only the operation time is the method's."""
+    plain = tmp_path / "plain.toml"
+    plain.write_text(EMBEDDED + WINDOW)
+    timed = tmp_path / "timed.toml"
+    timed.write_text(EMBEDDED.replace("[closure]", '[closure]\nmethod = "barge_crane"\nstart = "6 h"\n'
+                                                   'capacity = "150 t/hr"\nflood = "frozen"') + WINDOW)
+    a = run_closure(plain, tmp_path / "plain", plots=False)
+    b = run_closure(timed, tmp_path / "timed", plots=False)
+    assert isinstance(closure_setup(parse_scenario(timed.read_text())).timeline, FrozenFloodTimeline)
+    assert a.cycles == b.cycles == 2
+    for ra, rb in zip(a.reports, b.reports):
+        assert rb.breach_discharge == ra.breach_discharge and rb.max_speed == ra.max_speed
+        t = _placed_tonnes(tmp_path / "timed", rb.cycle)
+        assert rb.operation_time == pytest.approx(3600.0 * (6.0 + t / 150.0), rel=1e-9)
+        assert rb.flood_level == pytest.approx(3.0, abs=1e-12)
+    plan = json.loads((tmp_path / "timed" / "closure_plan.json").read_text())
+    assert plan["flood_frozen"] is True and '[closure] flood = "frozen"' in plan["flood"]
+
+
+@pytest.mark.parametrize("bad, match", [('flood = "held"', r"flood must be one of \('follow', 'frozen'\)"),
+                                        ('flood = "frozen"', "needs method")])
+def test_closure_flood_key_bad_input(bad, match):
+    text = EMBEDDED.replace("[closure]", f"[closure]\n{bad}" + ('\nmethod = "barge_crane"' if "held" in bad else ""))
+    with pytest.raises(ParseError, match=r"<input>:\d+: \[closure\] flood: " + match):
+        parse_scenario(text + WINDOW)

@@ -11,7 +11,6 @@ ROOT = Path(__file__).resolve().parents[2]
 #: shipped files still on a replaced key, and which
 STILL_ON_REPLACED_KEYS = {
     "src/breachflow/data/closure_default.toml": {"rate", "seepage_fraction"},
-    "examples/site/site.toml": {"rate"},
     "examples/district/closure.toml": {"rate", "seepage_fraction"},
     "examples/ensembles/typical_feasibility.toml": {"rate", "seepage_fraction"},
     "examples/ensembles/typical_replicates.toml": {"rate", "seepage_fraction"},

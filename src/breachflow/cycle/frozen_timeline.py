@@ -11,7 +11,8 @@ hydrograph or the polder's filling as the embedded model's do (:mod:`~breachflow
 seal follows at its own delivery time, and the closure plan states the method, tonnage and duration.
 The flood level stays at the site's (the ingested model's) level and the polder at its initial level
 for the whole operation: the run says so in its plan and metadata, and it computes no closure window
-(the open breach's filling is not modelled).
+(the open breach's filling is not modelled). The embedded flow model runs the same way with
+``[closure] flood = "frozen"`` (a screening at a fixed flood level, timed by a real delivery).
 """
 from __future__ import annotations
 
@@ -24,9 +25,10 @@ from .timeline import FloodStage, Timeline
 @dataclass
 class FrozenFloodTimeline(Timeline):
     """A :class:`~breachflow.cycle.timeline.Timeline` whose flood and polder levels are held: the clock
-    follows the delivered tonnes, nothing else moves. ``solver`` names the ingested flow model."""
+    follows the delivered tonnes, nothing else moves. ``solver`` names the ingested flow model (None: the
+    embedded one, held by ``[closure] flood = "frozen"``)."""
 
-    solver: str = "nested"
+    solver: str | None = None
     #: the closure plan and the run's metadata say the flood is held frozen
     frozen: bool = True
 
@@ -50,21 +52,24 @@ class FrozenFloodTimeline(Timeline):
 
     @property
     def note(self) -> str:
+        why = ("[closure] flood = \"frozen\": the flow model's boundaries" if self.solver is None else
+               f"the boundaries of the ingested flow model ([hydro] solver = {self.solver!r})")
         return (f"flood held frozen at {self.stage(0.0):.2f} m and polder at {self.polder.initial_level:.2f} m: "
-                f"the boundaries of the ingested flow model ([hydro] solver = {self.solver!r}) do not follow the "
-                f"flood or the polder's filling; the operation time follows the delivered tonnes only, and no "
-                f"closure window is computed")
+                f"{why} do not follow the flood or the polder's filling; the operation time follows the delivered "
+                f"tonnes only, and no closure window is computed")
 
     def describe(self) -> str:
         return (f"closure by {self.method.describe()}; start {self.start / HOUR:g} h after the breach; "
                 f"{self.note}")
 
 
-def frozen_flood(timeline: Timeline, level: float, solver: str) -> FrozenFloodTimeline:
+def frozen_flood(timeline: Timeline, level: float, solver: str | None = None) -> FrozenFloodTimeline:
     """*timeline* (built from the scenario: method, start, polder, wind, date) with the flood held at
-    *level* (m) and no breach growth before the start: the closure in time of an ingested model."""
+    *level* (m) and no breach growth before the start: the closure in time of an ingested model (*solver*
+    its name), or of the embedded one with ``[closure] flood = "frozen"`` (*solver* None)."""
     stage = FloodStage.constant(level)
-    stage.source = f"held frozen at {float(level):.2f} m (the ingested flow model's boundaries)"
+    stage.source = f"held frozen at {float(level):.2f} m (" + (
+        "[closure] flood = \"frozen\")" if solver is None else "the ingested flow model's boundaries)")
     return FrozenFloodTimeline(stage=stage, polder=timeline.polder, method=timeline.method, start=timeline.start,
                                bottom=timeline.bottom, length=timeline.length, wall_slope=timeline.wall_slope,
                                growth=None, wind=timeline.wind, breach_date=timeline.breach_date,

@@ -150,7 +150,8 @@ class ClosureSection:
     the pile top, blocked where it stands above the water over half the cell, :mod:`~breachflow.cycle.remap`).
     The closure in time: ``method`` (a delivery method, :mod:`~breachflow.cycle.delivery`), ``start`` (after
     the breach), ``breach_date`` and the method's overrides ``capacity``, ``working_hours``, ``wind_limit``,
-    ``unit_mass`` (:mod:`~breachflow.cycle.config.timeline`, :mod:`~breachflow.cycle.timeline`)."""
+    ``unit_mass``, and ``flood`` (``"follow"`` | ``"frozen"``: the levels held, :mod:`~breachflow.cycle.frozen_timeline`)
+    (:mod:`~breachflow.cycle.config.timeline`, :mod:`~breachflow.cycle.timeline`)."""
 
     remap: str = "porous"
     seed: int = 0

@@ -193,6 +193,7 @@ def closure_setup(scenario, *, overrides: dict | None = None):
     if closure.timeline.method is not None:
         # an ingested model takes its boundaries from its own result: the method's clock with the flood held frozen
         ingested = not isinstance(solver, (_WarmStartSWE, _StageSolver)) and coarse is None
+        frozen = ingested or closure.timeline.flood == "frozen"
         from .timeline import build_timeline, shifted_boundaries
         from ..timeline import TimelineSolver
 
@@ -209,10 +210,13 @@ def closure_setup(scenario, *, overrides: dict | None = None):
                                   length=2.0 * half, wall_slope=wall, built=built,
                                   levee=None if built is not None else scene.levee, placement=placement,
                                   terrain=terrain)
-        if ingested:
+        if frozen and isinstance(solver, _StageSolver):
+            raise InputError("[closure] flood = \"frozen\" holds the flood level, but [site] flood_stage moves it: "
+                             "leave one of them out")
+        if frozen:
             from ..frozen_timeline import frozen_flood
 
-            timeline = frozen_flood(timeline, flood_level, hydro.solver)
+            timeline = frozen_flood(timeline, flood_level, hydro.solver if ingested else None)
             attrs["closure_timeline_note"] = timeline.note
         elif coarse is not None:  # a nested finer grid: its edges follow the coarse model at the timeline's levels
             from .nested_timeline import NestedTimelineSolver
