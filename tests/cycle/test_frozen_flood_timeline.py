@@ -80,12 +80,6 @@ def test_ingested_model_runs_a_method_with_the_flood_held_frozen(tmp_path, start
         assert float(ds["operation_time"].values.item()) == pytest.approx(res.reports[-1].operation_time)
 
 
-def test_ingested_model_with_a_method_needs_a_polder(tmp_path):
-    snap = _snapshot(tmp_path)
-    text = TIMED.format(solver="snapshot_frozen", snap=snap, start="0 h", capacity="400 t/hr")
-    text = text[:text.index("[polder]")]
-    with pytest.warns(BreachflowWarning), pytest.raises(InputError, match=r"needs a \[polder\] section"):
-        closure_setup(parse_scenario(text))
 
 
 EMBEDDED = BASE.replace('solver = "{solver}"', 'solver = "swe"').replace('snapshots = ["{snap}"]', "")
@@ -129,3 +123,20 @@ def test_closure_flood_key_bad_input(bad, match):
     text = EMBEDDED.replace("[closure]", f"[closure]\n{bad}" + ('\nmethod = "barge_crane"' if "held" in bad else ""))
     with pytest.raises(ParseError, match=r"<input>:\d+: \[closure\] flood: " + match):
         parse_scenario(text + WINDOW)
+
+
+def test_a_frozen_flood_needs_no_polder_but_a_moving_one_does(tmp_path):
+    """The levels held, the polder's area serves only the plan's leakage figure: without [polder] the run is
+    set up (a polder of unknown area) and the plan states no polder rise; the flood that follows [flood]
+    needs [polder] for the protected side's level."""
+    snap = _snapshot(tmp_path)
+    text = TIMED.format(solver="snapshot_frozen", snap=snap, start="0 h", capacity="400 t/hr")
+    text = text[:text.index("[polder]")]
+    with pytest.warns(BreachflowWarning):
+        tl = closure_setup(parse_scenario(text)).timeline
+    assert isinstance(tl, FrozenFloodTimeline) and tl.polder.area == float("inf")
+    moving = EMBEDDED.replace("[closure]", '[closure]\nmethod = "barge_crane"')
+    with pytest.raises(InputError, match=r"needs a \[polder\] section"):
+        closure_setup(parse_scenario(moving))
+    held = moving.replace('method = "barge_crane"', 'method = "barge_crane"\nflood = "frozen"')
+    assert closure_setup(parse_scenario(held)).timeline.polder.area == float("inf")

@@ -142,7 +142,8 @@ def closure_plan(rundir, setup, scenario=None) -> dict | None:
         "polder": {"area_m2": pol.area, "pump_capacity_m3_s": pol.pump_capacity, "initial_level_m": pol.initial_level,
                    "level_at_start_m": start_state.get("polder_level"), "level_at_finish_m": last.get("polder_level")},
         "leakage_end": {"breach_discharge_m3_s": q_end, "seepage_m3_s": seep,
-                        "polder_rise_m_per_day": pol.rise_per_day(q_end) if np.isfinite(q_end) else None,
+                        "polder_rise_m_per_day": pol.rise_per_day(q_end) if np.isfinite(q_end) and np.isfinite(pol.area)
+                        else None,  # a frozen flood without [polder]: no area
                         "pump_capacity_m3_s": pol.pump_capacity,
                         "within_pumps": bool(np.isfinite(q_end) and q_end <= pol.pump_capacity)},
         "window": {"open_breach_window_s": open_window if np.isfinite(open_window) else None,

@@ -209,7 +209,7 @@ def closure_setup(scenario, *, overrides: dict | None = None):
         timeline = build_timeline(scenario, closure.timeline, site_level=flood_level, ground=ground, bottom=bottom,
                                   length=2.0 * half, wall_slope=wall, built=built,
                                   levee=None if built is not None else scene.levee, placement=placement,
-                                  terrain=terrain)
+                                  terrain=terrain, frozen=frozen)
         if frozen and isinstance(solver, _StageSolver):
             raise InputError("[closure] flood = \"frozen\" holds the flood level, but [site] flood_stage moves it: "
                              "leave one of them out")

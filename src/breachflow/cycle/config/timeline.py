@@ -149,19 +149,26 @@ def polder_terrain(section, domain=None, breach_centre=(0.0, 0.0), protected_sig
 
 
 def build_timeline(scenario, keys: TimelineKeys, *, site_level: float, ground: float, bottom: float,
-                   length: float, wall_slope: float, built=None, levee=None, placement=None, terrain=None):
+                   length: float, wall_slope: float, built=None, levee=None, placement=None, terrain=None,
+                   frozen: bool = False):
     """The :class:`~breachflow.cycle.timeline.Timeline` of a scenario with ``[closure] method``: the flood
     stage (the site's stage series, else ``[flood]``, else the site's constant level), the polder
     (``[polder]``; required), the delivery method with its overrides, the breach growth before the start
     (``[breach] growth``) and the wind record (``[wind]``). *terrain*: :func:`polder_terrain`, for
-    ``[polder] storage = "terrain"``."""
+    ``[polder] storage = "terrain"``. *frozen*: the levels will be held (the polder is then optional: without
+    ``[polder]`` a polder of unknown area, ``polder.area`` inf, that never rises)."""
     from ..delivery import delivery_method
     from ..timeline import FloodStage, Timeline, flood_stage_from_section
 
-    if "polder" not in scenario:
+    if "polder" not in scenario and frozen:
+        from ...scenario.polder import Polder
+
+        polder = Polder(area=float("inf"), initial_level=ground)
+    elif "polder" not in scenario:
         raise InputError("[closure] method: the closure in time needs a [polder] section (area, pump_capacity, "
                          "initial_level) for the protected-side level")
-    polder = scenario["polder"].polder(ground, terrain)
+    else:
+        polder = scenario["polder"].polder(ground, terrain)
     if built is not None and built.stage is not None:
         stage = FloodStage(built.level_at, "the site's stage series")
     elif "flood" in scenario:
