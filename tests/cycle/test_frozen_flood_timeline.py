@@ -72,7 +72,8 @@ def test_ingested_model_runs_a_method_with_the_flood_held_frozen(tmp_path, start
     assert plan["placed_t"] == pytest.approx(_placed_tonnes(tmp_path / "run", 2), rel=1e-6)
     assert plan["window"]["open_breach_window_s"] is None
     text = "\n".join(plan_lines(plan))
-    assert "held frozen at 3.00 m" in text and "no closure window is computed" in text
+    assert "held frozen at 3.00 m" in text and "the breach left open is not simulated" in text
+    assert "window  none" in text and plan["window"]["fits"] is res.closed
     man = json.loads((tmp_path / "run" / "manifest.json").read_text())
     assert "flood held frozen" in man["metadata"]["timeline"]["description"]
     with xr.open_dataset(tmp_path / "run" / "cycle_0002.nc", decode_times=False) as ds:
@@ -92,6 +93,11 @@ fall_rate = "0.3 m/hr"
 [polder]
 area = "20 ha"
 inundation_depth = "1.5 m"
+[breach]
+length = "12 m"
+depth = "3 m"
+wall_slope = 0
+mean_velocity = "3 m/s"
 """
 
 
@@ -115,6 +121,12 @@ def test_embedded_model_with_the_flood_frozen_solves_the_same_flow_on_the_method
         assert rb.flood_level == pytest.approx(3.0, abs=1e-12)
     plan = json.loads((tmp_path / "timed" / "closure_plan.json").read_text())
     assert plan["flood_frozen"] is True and '[closure] flood = "frozen"' in plan["flood"]
+    # the only window: the report's linear one, Q_D = h_W B v = 3 m x 12 m x 3 m/s = 108 m3/s fills 20 ha
+    # 1.5 m deep in 2,778 s (before the flood falling at 0.3 m/h meets it); the closure from 6 h misses it
+    assert plan["window"]["open_breach_window_s"] is None
+    assert plan["window"]["window_s"] == pytest.approx(1.5 * 20e4 / 108.0, rel=1e-6)
+    assert plan["window"]["fits"] is False and b.feasible is False
+    assert "report's linear window 0.8 h: does NOT fit" in "\n".join(plan_lines(plan))
 
 
 @pytest.mark.parametrize("bad, match", [('flood = "held"', r"flood must be one of \('follow', 'frozen'\)"),

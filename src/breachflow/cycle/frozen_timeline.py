@@ -10,8 +10,9 @@ hydrograph or the polder's filling as the embedded model's do (:mod:`~breachflow
 (working hours and the wind limit of the method, :class:`~breachflow.cycle.delivery.DeliveryClock`), the
 seal follows at its own delivery time, and the closure plan states the method, tonnage and duration.
 The flood level stays at the site's (the ingested model's) level and the polder at its initial level
-for the whole operation: the run says so in its plan and metadata, and it computes no closure window
-(the open breach's filling is not modelled). The embedded flow model runs the same way with
+for the whole operation: the run says so in its plan and metadata, and the open breach's filling is not
+simulated: the plan judges the finish against the report's linear closure window when the scenario gives one
+(``[flood]``, ``[polder]``, ``[breach]``), and against none otherwise. The embedded flow model runs the same way with
 ``[closure] flood = "frozen"`` (a screening at a fixed flood level, timed by a real delivery).
 """
 from __future__ import annotations
@@ -56,7 +57,8 @@ class FrozenFloodTimeline(Timeline):
                f"the boundaries of the ingested flow model ([hydro] solver = {self.solver!r})")
         return (f"flood held frozen at {self.stage(0.0):.2f} m and polder at {self.polder.initial_level:.2f} m: "
                 f"{why} do not follow the flood or the polder's filling; the operation time follows the delivered "
-                f"tonnes only, and no closure window is computed")
+                f"tonnes only, and the only closure window is the report's linear one (when [flood], [polder] and "
+                f"[breach] give it)")
 
     def describe(self) -> str:
         return (f"closure by {self.method.describe()}; start {self.start / HOUR:g} h after the breach; "
