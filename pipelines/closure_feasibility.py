@@ -7,11 +7,13 @@
 For which breach lengths, polder areas and mass sizes can the breach be closed inside its closure window?
 Every member runs the ``closure`` member runner: the closure simulation of its scenario (docs/theory.md, *The closure cycle*: masses of
 that diameter dropped cycle after cycle into the embedded shallow-water flow until the end criteria hold)
-and its closure window (docs/theory.md, *Closure window*), so ``feasible = closure achieved and closure duration at the placement
-rate <= closure window``. The polder area enters only the window; breach length enters both.
+and its closure window (docs/theory.md, *Closure window*), so ``feasible = closure achieved and closure duration <= closure window``, the duration being the
+delivery's (tonnes placed / the crane barge's 400 t/h). The flood is held frozen in the simulation
+(``[closure] flood = "frozen"``): the polder area enters only the window; breach length enters both.
 
 The base scenario is the embedded demo breach (3 m levee, water at the crest) on a coarse grid (2 m,
-first order), 6 masses per cycle at 30 per hour, at most 8 cycles, closed when the masses block half the
+first order), 6 masses per cycle placed by a crane barge (400 t/h; a crane for units of up to 40 t, the
+largest masses of ``--full`` being 37 t), at most 8 cycles, closed when the masses block half the
 breach cross-section or no speed exceeds 1 m/s: a member takes a few CPU seconds once numba's cache is
 warm. The default grid is 3 × 3 × 3 parameter combinations; ``--full`` runs 6 × 5 × 5. Each combination
 runs ``--replicates`` placement seeds (default 4; the same seeds in every combination, common random
@@ -88,7 +90,6 @@ name = "closure feasibility member"
 """ + QUICK_SITE + """
 [placement]
 batch = 6
-rate = "30 1/hr"
 release_height = "1 m"
 
 [criteria]
@@ -97,9 +98,13 @@ max_cycles = 8
 max_speed = "1 m/s"
 blocked_fraction = 0.5
 
-# a quick screening with an impervious pile (the default, a porous pile, needs the overflow / seepage criteria)
+# a quick screening with an impervious pile (the default, a porous pile, needs the overflow / seepage criteria),
+# timed by a crane barge (cycle/delivery.py) at the fixed flood level: [flood] and [polder] give the window only
 [closure]
 remap = "raised_bed"
+method = "barge_crane"
+unit_mass = ["0 t", "40 t"]
+flood = "frozen"
 """
 
 

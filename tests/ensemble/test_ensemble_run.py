@@ -261,7 +261,7 @@ def test_closure_feasibility_pipeline_runs_closure_members(client, tmp_path, cap
     r_p = 3.0 * 8.0 * 3.0 / np.array([20e4, 200e4])
     t_b = np.minimum(3.0 / (0.3 / 3600 + r_p), 1.5 / r_p)
     np.testing.assert_allclose(ds["closure_window"].values.ravel(), np.repeat(t_b, 2), rtol=1e-9)
-    # 6 masses per cycle at 30 masses per hour, at most 8 cycles
+    # 6 masses per cycle, at most 8 cycles, delivered by a crane barge at 400 t/h (spheres of 2.5 m, 2650 kg/m3)
     cycles = ds["cycles"].values.ravel()
     assert np.all((cycles >= 1) & (cycles <= 8))
     np.testing.assert_array_equal(ds["masses_placed"].values.ravel(), 6 * cycles)
@@ -269,12 +269,13 @@ def test_closure_feasibility_pipeline_runs_closure_members(client, tmp_path, cap
     per = ds["cycle_masses_placed"].values.reshape(-1, ds.sizes["cycle"])
     for row, n in zip(per, cycles):
         np.testing.assert_array_equal(row[:n], 6 * np.arange(1, n + 1))
-    np.testing.assert_allclose(ds["closure_duration"].values.ravel(), 6 * cycles * 120.0)
+    unit_t = np.pi / 6.0 * 2.5 ** 3 * 2650.0 / 1000.0
+    np.testing.assert_allclose(ds["closure_duration"].values.ravel(), 6 * cycles * unit_t / 400.0 * 3600.0, rtol=1e-9)
     achieved = ds["closure_achieved"].values.ravel() == 1
     np.testing.assert_array_equal(ds["feasible"].values.ravel() == 1,
                                   achieved & (ds["closure_duration"].values.ravel() <= np.repeat(t_b, 2)))
-    # common random numbers: the polder area enters only the window, so with the same seeds the closure
-    # simulations are identical along polder_area
+    # common random numbers: the polder area enters only the window (the flood and polder held frozen in the
+    # simulation), so with the same seeds the closure simulations are identical along polder_area
     for name in ("cycles", "tonnage", "final_breach_discharge"):
         v = ds[name].values
         np.testing.assert_array_equal(v[:, 0], v[:, 1], err_msg=name)

@@ -1,22 +1,23 @@
 """Which shipped scenarios still use the keys the closure in time replaces: the free ``[placement] rate`` (the
 operation time now follows from a ``[closure] method``) and the fixed ``[criteria] seepage_fraction`` (now the
 ``polder_leakage`` criterion). The list below may only shrink: a new scenario with either key fails, and so
-does a listed file that no longer has it (take it off the list)."""
+does a listed file that no longer has it (take it off the list). Both keys are deprecated: reading them warns,
+naming the file, the line, the key and what replaces it."""
 import re
 import tomllib
+import warnings
 from pathlib import Path
+
+import pytest
+
+from breachflow.scenario.config import load_scenario
 
 ROOT = Path(__file__).resolve().parents[2]
 
 #: shipped files still on a replaced key, and which
 STILL_ON_REPLACED_KEYS = {
-    "examples/site/site.toml": {"rate"},
-    "examples/district/closure.toml": {"rate", "seepage_fraction"},
-    "examples/nested/nested_adh.toml": {"rate"},
-    "examples/nested/nested_hecras.toml": {"rate"},
-    "examples/ensembles/typical_feasibility.toml": {"rate", "seepage_fraction"},
-    "examples/ensembles/typical_replicates.toml": {"rate", "seepage_fraction"},
-    "pipelines/closure_feasibility.py": {"rate"},
+    "examples/ensembles/typical_feasibility.toml": {"seepage_fraction"},
+    "examples/ensembles/typical_replicates.toml": {"seepage_fraction"},
 }
 
 
@@ -52,3 +53,49 @@ def test_shipped_scenarios_use_replaced_keys_only_where_listed():
         if keys:
             found[path.relative_to(ROOT).as_posix()] = keys
     assert found == STILL_ON_REPLACED_KEYS
+
+
+REPLACED = """[placement]
+diameter = "1 m"
+rate = "30 1/hr"
+
+[criteria]
+mode = "all"
+overflow_discharge = "0.5 m^3/s"
+seepage_fraction = 0.3
+"""
+
+
+def test_replaced_keys_warn_naming_file_line_key_and_replacement(tmp_path):
+    path = tmp_path / "old.toml"
+    path.write_text(REPLACED)
+    with pytest.warns(DeprecationWarning) as rec:
+        sc = load_scenario(path)
+    msgs = [str(w.message) for w in rec if issubclass(w.category, DeprecationWarning)]
+    rate = next(m for m in msgs if "[placement] rate" in m)
+    assert rate.startswith(f"{path}, line 3: ") and "[closure] method" in rate and "t/h" in rate
+    frac = next(m for m in msgs if "[criteria] seepage_fraction" in m)
+    assert frac.startswith(f"{path}, line 8: ") and "polder_leakage" in frac and "[polder]" in frac
+    # still read as before
+    assert sc["placement"].plan.rate == pytest.approx(30 / 3600)
+    assert "seepage_fraction" in [c.name for c in sc["criteria"].criteria.items]
+    # the replacements: no warning
+    new = REPLACED.replace('rate = "30 1/hr"\n', "").replace("seepage_fraction = 0.3", 'polder_leakage = "1 cm/day"')
+    path.write_text(new + '[closure]\nmethod = "barge_crane"\n[polder]\narea = "100 ha"\n')
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", DeprecationWarning)
+        load_scenario(path)
+
+
+@pytest.mark.parametrize("name", sorted(STILL_ON_REPLACED_KEYS))
+def test_a_listed_shipped_scenario_warns_for_each_replaced_key(name):
+    path = ROOT / name
+    if path.suffix != ".toml":
+        pytest.skip("TOML text inside a Python file: read by the regular expressions above")
+    with pytest.warns(DeprecationWarning) as rec:
+        load_scenario(path)
+    text = " ".join(str(w.message) for w in rec)
+    for key in STILL_ON_REPLACED_KEYS[name]:
+        section = "placement" if key == "rate" else "criteria"
+        line = next(i for i, ln in enumerate(path.read_text().splitlines(), 1) if re.match(rf"\s*{key}\s*=", ln))
+        assert f"{path}, line {line}: [{section}] {key}: deprecated" in text, text

@@ -122,6 +122,9 @@ def closure_plan(rundir, setup, scenario=None) -> dict | None:
                      "head_m": st.get("flood_level", float("nan")) - max(st.get("polder_level", float("nan")), tl.bottom),
                      "breach_discharge_m3_s": q_end, "delivered_t": placed_t + float(seal["seal_tonnage_t"])})
         closed = closed and bool(seal.get("sealed"))
+    frozen = bool(getattr(tl, "frozen", False))
+    if frozen:  # the levels held (cycle/frozen_timeline.py): the report's linear window is the only one
+        window_sim = report_window
     fits = closed and (window_sim is None or finish <= window_sim)
     plan = {
         "method": tl.method.name, "method_description": tl.method.describe(),
@@ -137,10 +140,13 @@ def closure_plan(rundir, setup, scenario=None) -> dict | None:
         "average_rate_t_h": placed_t / ((finish - tl.start) / HOUR) if finish > tl.start else float("nan"),
         "materials": _materials(rundir, int(last["cycle"])) if cycles else [],
         "flood": tl.stage.source,
+        # an ingested flow model: the method's clock only, the flood and the polder held (cycle/frozen_timeline.py)
+        "flood_frozen": frozen,
         "polder": {"area_m2": pol.area, "pump_capacity_m3_s": pol.pump_capacity, "initial_level_m": pol.initial_level,
                    "level_at_start_m": start_state.get("polder_level"), "level_at_finish_m": last.get("polder_level")},
         "leakage_end": {"breach_discharge_m3_s": q_end, "seepage_m3_s": seep,
-                        "polder_rise_m_per_day": pol.rise_per_day(q_end) if np.isfinite(q_end) else None,
+                        "polder_rise_m_per_day": pol.rise_per_day(q_end) if np.isfinite(q_end) and np.isfinite(pol.area)
+                        else None,  # a frozen flood without [polder]: no area
                         "pump_capacity_m3_s": pol.pump_capacity,
                         "within_pumps": bool(np.isfinite(q_end) and q_end <= pol.pump_capacity)},
         "window": {"open_breach_window_s": open_window if np.isfinite(open_window) else None,
@@ -211,6 +217,13 @@ def plan_lines(plan: dict) -> list[str]:
         parts.append(f"inundation limit reached in the run at {w['inundation_time_s'] / HOUR:,.1f} h")
     if w["report_closure_window_s"] is not None:
         parts.append(f"report's linear window {w['report_closure_window_s'] / HOUR:,.1f} h")
+    if plan.get("flood_frozen"):
+        lines.append(f"  flood   {plan['flood']}: the levels do not follow the flood or the polder's filling, "
+                     f"and the breach left open is not simulated")
+        if w["report_closure_window_s"] is None:
+            lines.append("  window  none: no simulated window, and no [flood], [polder] and [breach] for the "
+                         "report's linear one")
+            return lines
     lines.append("  window  " + ("; ".join(parts) if parts else "no balance or inundation limit reached")
                  + f": {'fits' if w['fits'] else 'does NOT fit'}")
     return lines

@@ -12,6 +12,12 @@ from ..placement import POSITION_MODES, PlacementPlan
 from .timeline import TIMELINE_KEYS, TimelineKeys
 
 
+def _where(ctx, key: str) -> str:
+    """File and line of *key* in the section (for a warning)."""
+    line = ctx.line_of(key)
+    return f"{ctx.path or '<scenario>'}" + (f", line {line}" if line else "")
+
+
 @register_section("placement")
 @dataclass
 class PlacementSection:
@@ -85,9 +91,10 @@ class PlacementSection:
         if "rate" in table:
             import warnings
 
-            warnings.warn(f"{ctx.path or 'scenario'}, [placement] rate: deprecated; the operation time follows from "
+            warnings.warn(f"{_where(ctx, 'rate')}: [placement] rate: deprecated; the operation time follows from "
                           "the tonnes delivered with [closure] method (a delivery method with its capacity in t/h, "
-                          "e.g. method = \"split_barge\"); without a method, rate still sets masses per hour",
+                          "e.g. method = \"split_barge\"; with flood = \"frozen\" the flood level stays fixed); "
+                          "without a method, rate still sets masses per hour",
                           DeprecationWarning, stacklevel=2)
         try:
             return cls(PlacementPlan.from_config(table))
@@ -129,6 +136,13 @@ class CriteriaSection:
 
     @classmethod
     def from_table(cls, table, ctx):
+        if "seepage_fraction" in table:
+            import warnings
+
+            warnings.warn(f"{_where(ctx, 'seepage_fraction')}: [criteria] seepage_fraction: deprecated; write "
+                          "polder_leakage = \"1 cm/day\" (what still flows through the dam as the rise of the [polder] "
+                          "area per day, net of its pumps; with seal = [...] for a leaky rock dam)",
+                          DeprecationWarning, stacklevel=2)
         try:
             return cls(EndCriteria.from_config(table))
         except (BreachflowError, TypeError, ValueError) as exc:
@@ -150,7 +164,8 @@ class ClosureSection:
     the pile top, blocked where it stands above the water over half the cell, :mod:`~breachflow.cycle.remap`).
     The closure in time: ``method`` (a delivery method, :mod:`~breachflow.cycle.delivery`), ``start`` (after
     the breach), ``breach_date`` and the method's overrides ``capacity``, ``working_hours``, ``wind_limit``,
-    ``unit_mass`` (:mod:`~breachflow.cycle.config.timeline`, :mod:`~breachflow.cycle.timeline`)."""
+    ``unit_mass``, and ``flood`` (``"follow"`` | ``"frozen"``: the levels held, :mod:`~breachflow.cycle.frozen_timeline`)
+    (:mod:`~breachflow.cycle.config.timeline`, :mod:`~breachflow.cycle.timeline`)."""
 
     remap: str = "porous"
     seed: int = 0

@@ -191,10 +191,9 @@ def closure_setup(scenario, *, overrides: dict | None = None):
     polder_sign = flow_sign(built.flood_sign) if built is not None else 1.0
     timeline = None
     if closure.timeline.method is not None:
-        if not isinstance(solver, (_WarmStartSWE, _StageSolver)) and coarse is None:
-            raise InputError(f"[closure] method: the closure in time moves the flood-side and polder levels of the "
-                             f"embedded flow model; [hydro] solver = {hydro.solver!r} takes its boundaries from "
-                             f"the ingested model (use solver = \"swe\")")
+        # an ingested model takes its boundaries from its own result: the method's clock with the flood held frozen
+        ingested = not isinstance(solver, (_WarmStartSWE, _StageSolver)) and coarse is None
+        frozen = ingested or closure.timeline.flood == "frozen"
         from .timeline import build_timeline, shifted_boundaries
         from ..timeline import TimelineSolver
 
@@ -210,8 +209,16 @@ def closure_setup(scenario, *, overrides: dict | None = None):
         timeline = build_timeline(scenario, closure.timeline, site_level=flood_level, ground=ground, bottom=bottom,
                                   length=2.0 * half, wall_slope=wall, built=built,
                                   levee=None if built is not None else scene.levee, placement=placement,
-                                  terrain=terrain)
-        if coarse is not None:  # a nested finer grid: its edges follow the coarse model at the timeline's levels
+                                  terrain=terrain, frozen=frozen)
+        if frozen and isinstance(solver, _StageSolver):
+            raise InputError("[closure] flood = \"frozen\" holds the flood level, but [site] flood_stage moves it: "
+                             "leave one of them out")
+        if frozen:
+            from ..frozen_timeline import frozen_flood
+
+            timeline = frozen_flood(timeline, flood_level, hydro.solver if ingested else None)
+            attrs["closure_timeline_note"] = timeline.note
+        elif coarse is not None:  # a nested finer grid: its edges follow the coarse model at the timeline's levels
             from .nested_timeline import NestedTimelineSolver
 
             base = coarse[0].boundaries

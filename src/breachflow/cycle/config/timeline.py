@@ -9,7 +9,9 @@ import numpy as np
 from ...errors import BreachflowError, InputError
 
 #: keys of ``[closure]`` read here
-TIMELINE_KEYS = ("method", "start", "breach_date", "capacity", "working_hours", "wind_limit", "unit_mass")
+TIMELINE_KEYS = ("method", "start", "breach_date", "capacity", "working_hours", "wind_limit", "unit_mass", "flood")
+#: ``[closure] flood``: the flood and polder levels follow ``[flood]`` / ``[polder]``, or are held frozen
+FLOOD_MODES = ("follow", "frozen")
 
 
 @dataclass
@@ -21,6 +23,8 @@ class TimelineKeys:
     start: float = 0.0
     breach_date: str | None = None
     overrides: dict | None = None
+    #: ``"frozen"``: the method's clock only, the flood and polder levels held (cycle/frozen_timeline.py)
+    flood: str = "follow"
 
     @classmethod
     def from_table(cls, table, ctx) -> "TimelineKeys":
@@ -28,6 +32,7 @@ class TimelineKeys:
         method = ctx.raw(table, "method")
         start = ctx.quantity(table, "start", "time", default="0 h", nonnegative=True)
         date = ctx.raw(table, "breach_date")
+        flood = ctx.raw(table, "flood", default="follow")
         over = {}
         for key, kind in (("capacity", "kg/s"), ("working_hours", "time"), ("wind_limit", "speed")):
             if key in table:
@@ -48,6 +53,9 @@ class TimelineKeys:
         elif any(k in table for k in TIMELINE_KEYS if k != "method"):
             key = next(k for k in TIMELINE_KEYS if k in table and k != "method")
             raise ctx.error("needs method (the delivery method, e.g. \"split_barge\") to couple the closure to time", key)
+        if flood not in FLOOD_MODES:
+            raise ctx.error(f"flood must be one of {FLOOD_MODES} (\"frozen\": the flood and polder levels held, the "
+                            f"operation time from the method), got {flood!r}", "flood")
         if np.ndim(np.asarray(getattr(start, "values", start))) != 0:
             raise ctx.error("one start time per run (sweep it with the feasibility pipeline or an ensemble)", "start")
         if date is not None:
@@ -68,7 +76,7 @@ class TimelineKeys:
             except BreachflowError as exc:
                 key = next((k for k in over if k in str(exc)), None)
                 raise ctx.error(str(exc).removeprefix("[closure] "), key) from None
-        return cls(method or None, float(getattr(start, "values", start)), date, over or None)
+        return cls(method or None, float(getattr(start, "values", start)), date, over or None, flood)
 
     @staticmethod
     def schema_keys() -> dict:
@@ -94,6 +102,11 @@ class TimelineKeys:
                             positive=True),
             "unit_mass": {"type": "array", "items": {"type": "string"}, "minItems": 2, "maxItems": 2,
                           "description": "override of the unit masses the method handles: [lightest, heaviest]"},
+            "flood": {"type": "string", "enum": list(FLOOD_MODES), "default": "follow",
+                      "description": "\"follow\": each cycle at the flood stage and polder level of its operation time; "
+                                     "\"frozen\": the flood and polder held at the site's flood level and the polder's "
+                                     "initial level, only the operation time follows the method (always so for "
+                                     "an ingested flow model)"},
         }
 
 
@@ -136,19 +149,26 @@ def polder_terrain(section, domain=None, breach_centre=(0.0, 0.0), protected_sig
 
 
 def build_timeline(scenario, keys: TimelineKeys, *, site_level: float, ground: float, bottom: float,
-                   length: float, wall_slope: float, built=None, levee=None, placement=None, terrain=None):
+                   length: float, wall_slope: float, built=None, levee=None, placement=None, terrain=None,
+                   frozen: bool = False):
     """The :class:`~breachflow.cycle.timeline.Timeline` of a scenario with ``[closure] method``: the flood
     stage (the site's stage series, else ``[flood]``, else the site's constant level), the polder
     (``[polder]``; required), the delivery method with its overrides, the breach growth before the start
     (``[breach] growth``) and the wind record (``[wind]``). *terrain*: :func:`polder_terrain`, for
-    ``[polder] storage = "terrain"``."""
+    ``[polder] storage = "terrain"``. *frozen*: the levels will be held (the polder is then optional: without
+    ``[polder]`` a polder of unknown area, ``polder.area`` inf, that never rises)."""
     from ..delivery import delivery_method
     from ..timeline import FloodStage, Timeline, flood_stage_from_section
 
-    if "polder" not in scenario:
+    if "polder" not in scenario and frozen:
+        from ...scenario.polder import Polder
+
+        polder = Polder(area=float("inf"), initial_level=ground)
+    elif "polder" not in scenario:
         raise InputError("[closure] method: the closure in time needs a [polder] section (area, pump_capacity, "
                          "initial_level) for the protected-side level")
-    polder = scenario["polder"].polder(ground, terrain)
+    else:
+        polder = scenario["polder"].polder(ground, terrain)
     if built is not None and built.stage is not None:
         stage = FloodStage(built.level_at, "the site's stage series")
     elif "flood" in scenario:
