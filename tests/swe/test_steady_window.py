@@ -103,12 +103,22 @@ def test_a_geometric_approach_is_extrapolated_exactly():
     assert rng == pytest.approx(q[-1] - (q_inf - a * math.exp(-(150.0 - window) / tau)), rel=1e-9)
 
 
-def test_a_flow_that_only_begins_to_move_is_never_settled():
-    """A slow start (the change speeding up over the window, a logistic's first half) extrapolates to no end."""
-    t, q, q0 = _sampled(lambda t: 1500.0 + 250.0 / (1.0 + np.exp(-(t - 150.0) / 20.0)), 90.0)
+def test_a_flow_that_only_begins_to_move_is_not_settled():
+    """A slow start (the change speeding up over the window, a logistic's first half): the estimate is one more
+    window at the pace of its second half, and it keeps the solve going where the range alone would not."""
+    f = lambda t: 1500.0 + 250.0 / (1.0 + np.exp(-(t - 150.0) / 20.0))
+    t, q, q0 = _sampled(f, 90.0)
     rng, remaining = window_change_estimate(t, q, 0.0, q0, 60.0)
-    assert remaining == math.inf
-    assert rng < WINDOW_CHANGE * 1500.0  # the range alone would have let it pass
+    d2 = f(np.array([90.0]))[0] - f(np.array([60.0]))[0]
+    assert remaining == pytest.approx(2.0 * d2, rel=1e-9)
+    assert rng < WINDOW_CHANGE * 1500.0 < remaining  # the range alone would have let it pass
+
+
+def test_a_creep_is_judged_by_its_pace():
+    """A linear creep (r = 1): the change of one more window; tiny, it passes."""
+    t, q, q0 = _sampled(lambda t: 73.0 + 1e-4 * t, 100.0)
+    rng, remaining = window_change_estimate(t, q, 0.0, q0, 10.0)
+    assert rng == pytest.approx(1e-3, rel=1e-6) and remaining == pytest.approx(1e-3, rel=1e-6)
 
 
 def test_an_oscillation_counts_half_its_range():

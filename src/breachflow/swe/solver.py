@@ -484,9 +484,10 @@ def window_change_estimate(times, q, t_start: float, q0: float, window: float) -
     linearly between checks). *remaining* estimates how far the discharge still has to go: from the values
     ``Q0, Q1, Q2`` at ``t - W``, ``t - W/2`` and ``t``, with ``d1 = Q1 - Q0`` and ``d2 = Q2 - Q1`` of one sign
     (a monotone approach) the change still to come of a geometric (exponential) approach,
-    ``|d2| r / (1 - r)`` with ``r = d2 / d1`` (Aitken's Δ² extrapolation), and infinity when the change
-    does not slow down (``r >= 1``: a slow start, the flow only beginning to move); without one sign (an
-    oscillation, or no change) half the range."""
+    ``|d2| r / (1 - r)`` with ``r = d2 / d1`` (Aitken's Δ² extrapolation); when the change does not slow
+    down (``r >= 1``: a slow start, the flow only beginning to move, or a creep) the change of one more
+    window at the pace of its second half, ``2 |d2|``; without one sign (an oscillation, or no change)
+    half the range."""
     t = np.append(t_start, np.asarray(times, float))
     v = np.append(q0 if np.isfinite(q0) else q[0], np.asarray(q, float))
     now = t[-1]
@@ -499,7 +500,7 @@ def window_change_estimate(times, q, t_start: float, q0: float, window: float) -
     d1, d2 = q_mid - q_start, v[-1] - q_mid
     if d1 * d2 > 0:
         r = d2 / d1
-        remaining = math.inf if r >= 1.0 else abs(d2) * r / (1.0 - r)
+        remaining = 2.0 * abs(d2) if r >= 1.0 else abs(d2) * r / (1.0 - r)
     else:
         remaining = 0.5 * rng
     return rng, float(remaining)
