@@ -15,10 +15,7 @@ from breachflow.scenario.config import load_scenario
 ROOT = Path(__file__).resolve().parents[2]
 
 #: shipped files still on a replaced key, and which
-STILL_ON_REPLACED_KEYS = {
-    "examples/ensembles/typical_feasibility.toml": {"seepage_fraction"},
-    "examples/ensembles/typical_replicates.toml": {"seepage_fraction"},
-}
+STILL_ON_REPLACED_KEYS: dict = {}
 
 
 def _keys_in_toml(path: Path) -> set:

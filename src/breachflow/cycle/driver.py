@@ -319,7 +319,10 @@ class ClosureRun:
                 "gap_max_speed": gmax, "gap_mean_speed": gmean, "control_speed": vc if np.isfinite(vc) else None,
                 "control_y": yc if np.isfinite(yc) else None,
                 "solve_wall_time": self.initial_solve_time, "solve_cpu_time": initial_solve_cpu}, warnings=list(s.warnings))
-        for g in range(g0 + 1, s.criteria.max_cycles + 1):
+        from .leakage import undesignable_seal
+
+        blocked = undesignable_seal(s.criteria)  # the criterion's seal cannot be made for this rock: no cycle runs
+        for g in range(g0 + 1, (g0 if blocked else s.criteria.max_cycles) + 1):
             rep, rec, snapshot = self._cycle(g, rec, snapshot)
             self.reports.append(rep)
             if self.progress:
@@ -327,7 +330,7 @@ class ClosureRun:
             if rep.closed or rep.verdict:
                 break
         last = self.reports[-1] if self.reports else None
-        verdict = last.verdict if last else ""
+        verdict = last.verdict if last else (blocked or "")
         if last and not last.closed and not verdict and self.rundir.last_cycle() >= s.criteria.max_cycles:
             verdict = f"not closed after max_cycles = {s.criteria.max_cycles} cycles"
         closed = bool(last and last.closed)
