@@ -144,11 +144,11 @@ class PolderLeakage(Criterion):
         # a last entry "auto": the filters from the last named layer to the dam's rock are chosen by the filter
         # rules among the EN 13383 gradings when the rock is known (bind_rock)
         self.auto_filters = bool(seal) and seal[-1] == AUTO_FILTERS
-        if self.auto_filters:
-            seal = seal[:-1]
-            if not seal or AUTO_FILTERS in seal:
+        if seal and AUTO_FILTERS in seal:
+            if not self.auto_filters or seal.index(AUTO_FILTERS) == 0 or seal.count(AUTO_FILTERS) > 1:
                 raise InputError(f"criteria.polder_leakage.seal: {AUTO_FILTERS!r} may only end a list of named layers "
-                                 f"(e.g. [\"sand\", \"gravel\", \"quarry_run\", \"{AUTO_FILTERS}\"]), got {seal + [AUTO_FILTERS]!r}")
+                                 f"(e.g. [\"sand\", \"gravel\", \"quarry_run\", \"{AUTO_FILTERS}\"]), got {seal!r}")
+            seal = seal[:-1]
         self.named_layers = None if seal is None else [_grading(g) for g in seal]
         self.seal_layers = None if self.named_layers is None else list(self.named_layers)
         #: why no seal can be designed for the dam's rock (``"auto"`` found no filters), else None
