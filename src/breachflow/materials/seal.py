@@ -113,7 +113,8 @@ def bridge_filters(base: Grading, rock: Grading, candidates, retention_limit=RET
     """The shortest run of *candidates* (:class:`Grading`, e.g. the EN 13383 gradings) between the finer *base*
     and the dam's *rock* such that every interface passes both filter rules (:func:`check_filter`): a
     breadth-first search over the candidates coarser than the layer before; among the shortest runs the one
-    whose tightest interface has the largest margin (:func:`_margin`). ``[]`` when *base* lies on the rock
+    whose tightest interface has the largest margin (the smaller of
+    ``limit / retention`` and ``permeability / limit``). ``[]`` when *base* lies on the rock
     directly. Raises :class:`~breachflow.errors.InputError` beginning "no seal designable" with the ratios of the
     nearest candidates against the rock when no run of at most *max_layers* layers exists."""
     cands = sorted({g.name: g for g in candidates}.values(), key=lambda g: (g.d15, g.d85))
