@@ -146,3 +146,21 @@ def test_a_run_whose_seal_cannot_be_designed_ends_before_its_first_cycle_with_th
     assert not res.closed and res.cycles == 0 and res.tonnage == 0.0
     assert res.verdict.startswith("[criteria] polder_leakage: no seal designable"), res.verdict
     assert "from sand to rock dam" in res.verdict
+
+
+def test_an_ensemble_says_before_running_which_members_have_no_seal(tmp_path):
+    """The typical feasibility ensemble with a 3.2 m mass size added: its members are not refused (the others
+    run), but the check before running counts the ones that will end with "no seal designable"."""
+    from breachflow.ensemble.execute import check_members, plan
+
+    root = Path(__file__).resolve().parents[2]
+    text = (root / "examples" / "ensembles" / "typical_feasibility.toml").read_text()
+    text = text.replace('values = ["3 m", "4 m", "5 m"]', 'values = ["3.2 m", "4 m"]')
+    text = text.replace('values = ["1900 kg/m^3", "2300 kg/m^3", "2650 kg/m^3"]', 'values = ["2650 kg/m^3"]')
+    text = text.replace("values = [10, 20, 30]", "values = [10]")
+    spec = tmp_path / "gap.toml"
+    spec.write_text(text)
+    _, _, _, tasks = plan(spec, out=tmp_path / "out")
+    assert len(tasks) == 2
+    warnings = check_members(tasks)
+    assert any("no seal designable" in w and "(1 of 2 members)" in w for w in warnings), warnings

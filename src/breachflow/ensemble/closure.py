@@ -38,7 +38,13 @@ class ClosureRunner:
 
         # parsed afresh (not member.scenario(): its cache would travel to the worker with the task)
         scenario = parse_scenario(member.text(), path=member.path)
-        warnings = list(closure_setup(scenario).warnings)
+        setup = closure_setup(scenario)
+        warnings = list(setup.warnings)
+        from ..cycle.leakage import undesignable_seal
+
+        if undesignable_seal(setup.criteria):  # the member runs, but ends with that verdict before its first cycle
+            warnings.append("[criteria] polder_leakage: no seal designable for this member's rock (it ends not "
+                            "closed before its first cycle)")
         missing = [s for s in ("flood", "polder", "breach") if s not in scenario]
         if missing:
             warnings.append("no closure window: the scenario has no [" + "], [".join(missing) + "] table, so "
