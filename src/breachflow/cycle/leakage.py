@@ -18,7 +18,10 @@ layers in series, :mod:`breachflow.materials.seal`) and reports its thickness an
 dam's flow path is its mean width, the bulk volume of the resting masses over the gap width and the wetted
 height; the head is the flood level minus the water level behind the dam. The filter rules between the
 layers and the rock are checked when the scenario is read. A layer can also be a rock grading of the
-materials registry (``"LMA_40_200"``, its D_n15/D_n50/D_n85).
+materials registry (``"LMA_40_200"``, its D_n15/D_n50/D_n85). A last entry ``"auto"`` is replaced, once the
+dam's rock is known, by the shortest run of EN 13383 gradings that passes both rules up to it
+(:func:`~breachflow.materials.seal.bridge_filters`); when there is none the run ends before its first cycle with
+the verdict "no seal designable" (:func:`undesignable_seal`).
 
 When the rock dam is closed this way, the seal is placed in the flow model's pile and re-solved until the
 leakage read from the flow meets the criterion (:mod:`breachflow.cycle.sealing`; keys ``seal_method``,
