@@ -164,3 +164,18 @@ def test_an_ensemble_says_before_running_which_members_have_no_seal(tmp_path):
     assert len(tasks) == 2
     warnings = check_members(tasks)
     assert any("no seal designable" in w and "(1 of 2 members)" in w for w in warnings), warnings
+
+
+def test_an_ensemble_member_is_feasible_only_if_its_seal_is_done_inside_the_window():
+    """The closure is done when the seal is in (delivered after the rock): a member whose rock is placed at
+    14 h but whose seal is finished at 16 h does not fit a 15.1 h window; without a plan (no timeline) the
+    last cycle's operation time counts."""
+    from types import SimpleNamespace
+
+    from breachflow.ensemble.closure import finish_time
+
+    rock_only = SimpleNamespace(operation_time=14 * 3600.0, plan=None)
+    sealed = SimpleNamespace(operation_time=14 * 3600.0, plan={"finish_s": 16 * 3600.0})
+    window = 4900e4 * 2.0 / 1800.0  # the typical breach's linear window, 15.1 h
+    assert finish_time(rock_only) == 14 * 3600.0 <= window
+    assert finish_time(sealed) == 16 * 3600.0 > window
