@@ -179,3 +179,16 @@ def test_an_ensemble_member_is_feasible_only_if_its_seal_is_done_inside_the_wind
     window = 4900e4 * 2.0 / 1800.0  # the typical breach's linear window, 15.1 h
     assert finish_time(rock_only) == 14 * 3600.0 <= window
     assert finish_time(sealed) == 16 * 3600.0 > window
+
+
+def test_auto_applies_the_criterion_s_own_limits():
+    """A stricter retention limit of 4: HMA 300-1000 on 4 m spheres (retention 3.224/0.757 = 4.26) no longer
+    passes and no other grading does, while HMA 1000-3000 on 5 m spheres (4.030/1.088 = 3.70) still does."""
+    # (sand on gravel, 4.17, breaks a limit of 4 itself: the named layers start at gravel here)
+    strict = dict(seal=["gravel", "quarry_run", "auto"], retention_limit=4)
+    c4 = PolderLeakage("1 cm/day", area="4900 ha", **strict)
+    c4.bind_rock(sphere_rock(4.0))
+    assert c4.undesignable and "retention D15_rock/D85 <= 4" in c4.undesignable
+    c5 = PolderLeakage("1 cm/day", area="4900 ha", **strict)
+    c5.bind_rock(sphere_rock(5.0))
+    assert c5.undesignable is None and c5.seal_layers[-1].name == "HMA_1000_3000"
