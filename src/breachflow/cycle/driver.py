@@ -289,7 +289,7 @@ class ClosureRun:
             g0 = 0
             rec = self._initial_record()
             t0, c0 = _time.perf_counter(), _time.process_time()
-            first = None
+            first, window_cpu = None, (None, None)
             if s.timeline is not None:  # the breach grows and the polder fills until the start of the closure
                 s.timeline.begin()
                 self._t_op = float(s.timeline.time)  # an erodible bed's first flow time: the first delivery
@@ -299,8 +299,8 @@ class ClosureRun:
                 first = s.timeline.calibrate_window(lambda: s.solver.solve(s.domain),
                                                     lambda snap: section_discharge(snap, s.breach_x, s.levee_y,
                                                                                    s.flow_sign))
-                if s.timeline.window_calibration:  # its CPU, less the start's own first solve when it was that
-                    s.timeline.window_calibration.update(cpu_s=_time.process_time() - cw, start_solve_reused=first is not None)
+                # its CPU (with the start's own first solve when the start is the reference: handed on)
+                window_cpu = (_time.process_time() - cw, first is not None)
             snapshot = first if first is not None else s.solver.solve(s.domain)
             if s.timeline is not None:  # the pre-start weir calibrated on this open breach at the start
                 snapshot = s.timeline.calibrate(snapshot, lambda prev: s.solver.solve(s.domain, initial=prev),
@@ -328,7 +328,9 @@ class ClosureRun:
                 "gap_speed": gap_speed(snapshot, s.area if s.area is not None else (-np.inf, np.inf, -np.inf, np.inf)),
                 "gap_max_speed": gmax, "gap_mean_speed": gmean, "control_speed": vc if np.isfinite(vc) else None,
                 "control_y": yc if np.isfinite(yc) else None,
-                "solve_wall_time": self.initial_solve_time, "solve_cpu_time": initial_solve_cpu}, warnings=list(s.warnings))
+                "solve_wall_time": self.initial_solve_time, "solve_cpu_time": initial_solve_cpu,
+                "window_calibration_cpu_time": window_cpu[0], "window_solve_is_start_solve": window_cpu[1]},
+                warnings=list(s.warnings))
         for g in range(g0 + 1, s.criteria.max_cycles + 1):
             rep, rec, snapshot = self._cycle(g, rec, snapshot)
             self.reports.append(rep)
