@@ -222,8 +222,8 @@ def plan_lines(plan: dict) -> list[str]:
     if w["open_breach_window_s"] is not None:
         cal = w.get("calibration")
         on = "" if not cal else (
-            f" (weir {cal['weir_coefficient']:.3f} m^0.5/s, calibrated on the open breach at its full size "
-            f"{cal['time_s'] / HOUR:,.1f} h after the breach: {cal['model_discharge_m3_s']:,.0f} m³/s)")
+            f" (its weir calibrated on the open breach at full size, {cal['time_s'] / HOUR:,.1f} h after the breach: "
+            f"{cal['weir_coefficient']:.3f} m^0.5/s, {cal['model_discharge_m3_s']:,.0f} m³/s; the same for every start)")
         parts.append(f"the breach left open would reach the balance or the inundation limit at "
                      f"{w['open_breach_window_s'] / HOUR:,.1f} h" + on)
     if w["balance_time_s"] is not None:
