@@ -161,7 +161,7 @@ def figure(rows, path: Path) -> Path:
     ax[0].set_ylabel("placed (t)")
     ax[1].set_xlabel("start of the closure after the breach (h)")
     ax[1].set_ylabel("finish after the breach (h)")
-    ax[1].legend(fontsize=8)
+    ax[1].legend(fontsize=8, loc="lower right")
     ax[0].set_title("tonnage (open: not closed inside the window)", fontsize=9)
     ax[1].set_title("finish time", fontsize=9)
     fig.savefig(path, dpi=110)

@@ -6,7 +6,8 @@
 state of the window's weir (the open breach at its full size, :meth:`breachflow.cycle.timeline.Timeline.calibrate_window`:
 one cold solve without a growth law, up to ``calibration_solves`` + 1 with one), and printed: the reference state, the
 coefficient, the flow model's and the weir's discharges, the window (balance; and the inundation limit when
-``[polder] inundation_depth`` is given) and the CPU seconds. ``--starts`` repeats it with the closure started at
+``[polder] inundation_depth`` is given), the polder level at the start by the window's weir and the CPU
+seconds. ``--starts`` repeats it with the closure started at
 those times (h after the breach): the window must not move. ``--coefficients`` prints the window the weir would give
 with other coefficients (m^0.5/s, e.g. those calibrated at a run's start: ``metadata.timeline_start.weir_coefficient``
 of its manifest), by the timeline alone.
@@ -48,11 +49,17 @@ def main(argv=None) -> None:
         cpu = time.process_time() - c0
         cal = tl.window_calibration
         w = tl.open_breach_window(d_i)
+        z_start = tl.polder_level  # the start's polder with the report's coefficient (before the start's calibration)
+        c_start, tl.weir_coefficient = tl.weir_coefficient, tl.window_coefficient
+        tl.begin()
+        z_window = tl.polder_level  # ... and with the window's
+        tl.weir_coefficient = c_start
         print(f"start {tl.start / 3600:g} h: reference {cal['time_s'] / 3600:.2f} h after the breach (breach "
               f"{cal['breach_length_m']:.1f} m, flood {cal['flood_level_m']:.2f} m, polder {cal['polder_level_m']:.2f} m); "
               f"weir coefficient {cal['weir_coefficient']:.4f} m^0.5/s ({len(cal['steps'])} step(s), the report's "
               f"{cal['steps'][0]['weir_coefficient']:.4f}); flow model {cal['model_discharge_m3_s']:,.1f} m3/s, weir "
-              f"{cal['weir_discharge_m3_s']:,.1f} m3/s; window {w / 3600:.2f} h; {cpu:.1f} CPU s", flush=True)
+              f"{cal['weir_discharge_m3_s']:,.1f} m3/s; window {w / 3600:.2f} h; polder at the start {z_window:.2f} m by the "
+              f"window's weir ({z_start:.2f} m by the report's); {cpu:.1f} CPU s", flush=True)
         if start is None:
             for c in a.coefficients:
                 tl.window_coefficient = c
