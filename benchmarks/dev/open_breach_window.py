@@ -1,6 +1,7 @@
 """The closure window of a scenario's breach left open, without a closure: the window weir's calibration and the window.
 
     python benchmarks/dev/open_breach_window.py SCENARIO [--resolution M] [--starts H ...] [--coefficients C ...]
+        [--start-levels Z ...]
 
 *SCENARIO* is a closure scenario in time (``[closure] method``, ``[polder]``). The breach is solved at the reference
 state of the window's weir (the open breach at its full size, :meth:`breachflow.cycle.timeline.Timeline.calibrate_window`:
@@ -10,7 +11,8 @@ coefficient, the flow model's and the weir's discharges, the window (balance; an
 seconds. ``--starts`` repeats it with the closure started at
 those times (h after the breach): the window must not move. ``--coefficients`` prints the window the weir would give
 with other coefficients (m^0.5/s, e.g. those calibrated at a run's start: ``metadata.timeline_start.weir_coefficient``
-of its manifest), by the timeline alone.
+of its manifest), by the timeline alone. ``--start-levels`` solves the open breach cold at the scenario's start
+with the polder at those levels (m), e.g. those of a run's start calibration (``metadata.timeline_start.weir_calibration``).
 """
 from __future__ import annotations
 
@@ -25,6 +27,8 @@ def main(argv=None) -> None:
     ap.add_argument("--resolution", type=float, default=None, help="[hydro] resolution (m)")
     ap.add_argument("--starts", type=float, nargs="*", default=[], help="closure starts to repeat it for (h)")
     ap.add_argument("--coefficients", type=float, nargs="*", default=[], help="other weir coefficients (m^0.5/s)")
+    ap.add_argument("--start-levels", type=float, nargs="*", default=[],
+                    help="cold solves of the open breach at the scenario's start with these polder levels (m)")
     a = ap.parse_args(argv)
 
     from breachflow.cycle.config import closure_setup
@@ -61,6 +65,13 @@ def main(argv=None) -> None:
               f"{cal['weir_discharge_m3_s']:,.1f} m3/s; window {w / 3600:.2f} h; polder at the start {z_window:.2f} m by the "
               f"window's weir ({z_start:.2f} m by the report's); {cpu:.1f} CPU s", flush=True)
         if start is None:
+            tl.begin()
+            for z in a.start_levels:  # e.g. the levels of a run's start calibration (its weir_calibration steps)
+                tl.polder_level = z
+                c0 = time.process_time()
+                q = section_discharge(s.solver.solve(s.domain), s.breach_x, s.levee_y, s.flow_sign)
+                print(f"   polder {z:.2f} m at the start: cold solve {q:,.1f} m3/s ({time.process_time() - c0:.1f} CPU s)")
+            tl.begin()
             for c in a.coefficients:
                 tl.window_coefficient = c
                 print(f"   with the coefficient {c:.4f} m^0.5/s: window {tl.open_breach_window(d_i) / 3600:.2f} h")
