@@ -180,19 +180,24 @@ def test_a_falling_flood_reference_is_at_the_full_size_not_the_start():
     assert math.isfinite(cals[0][2])
 
 
-def test_closure_runs_at_two_starts_record_one_window(tmp_path):
-    """The CI demo breach in a 2 ha polder on the embedded solver, one cycle, started 0.05 and 0.1 h after the
-    breach: the manifest records the window's calibration (at the breach time, polder dry), the plan the same
-    window for both."""
+@pytest.mark.parametrize("growth", [None, "verheij_sand"])
+def test_closure_runs_at_two_starts_record_one_window(tmp_path, growth):
+    """The CI demo breach in a 2 ha polder on the embedded solver, one cycle, started 0.05 and 0.2 h after the
+    breach: the manifest records the window's calibration (at the breach time with the polder dry; with Verheij's
+    growth in sand, at its full size 0.11 h after the breach, between the two starts, with the polder the weir
+    integration gives there), the plan the same window for both."""
     import json
 
     from breachflow.cycle.main import run_closure
     from breachflow.scenario.toml import scenario_with
 
     plans, cals, start_levels = [], [], []
-    for start_h in (0.05, 0.1):
-        text = scenario_with(CI_CLOSURE, {"closure.method": "split_barge", "closure.start": f"{start_h} h",
-                                          "polder.area": "2 ha", "criteria.max_cycles": 1})
+    for start_h in (0.05, 0.2):
+        changes = {"closure.method": "split_barge", "closure.start": f"{start_h} h", "polder.area": "2 ha",
+                   "criteria.max_cycles": 1}
+        if growth:
+            changes["breach.growth"] = growth
+        text = scenario_with(CI_CLOSURE, changes)
         scen = tmp_path / f"s{start_h}.toml"
         scen.write_text(text)
         out = tmp_path / f"run{start_h}"
@@ -206,13 +211,37 @@ def test_closure_runs_at_two_starts_record_one_window(tmp_path):
         start_levels.append(ts["polder_level"])
         assert ts["window_coefficient"] == cal["weir_coefficient"]
     for cal in cals:
-        assert cal["time_s"] == 0.0 and cal["steps"][0]["weir_coefficient"] == pytest.approx(C_REPORT)
-        # the coefficient: the solver's breach discharge over the ideal weir's at the same state
-        assert cal["weir_coefficient"] == pytest.approx(
-            C_REPORT * cal["steps"][0]["model_discharge"] / cal["steps"][0]["weir_discharge"], rel=1e-12)
+        assert cal["steps"][0]["weir_coefficient"] == pytest.approx(C_REPORT)
+        if growth is None:
+            assert cal["time_s"] == 0.0 and cal["polder_level_m"] == cal["steps"][0]["polder_level"]
+            # the coefficient: the solver's breach discharge over the ideal weir's at the same state
+            assert cal["weir_coefficient"] == pytest.approx(
+                C_REPORT * cal["steps"][0]["model_discharge"] / cal["steps"][0]["weir_discharge"], rel=1e-12)
+        else:  # between the two starts; the polder there has water in it and the weir agrees with the solver there
+            assert 0.05 * 3600 < cal["time_s"] < 0.2 * 3600 and cal["polder_level_m"] > 0.3
+            assert abs(cal["weir_discharge_m3_s"] / cal["model_discharge_m3_s"] - 1.0) <= 0.03
     assert cals[0]["weir_coefficient"] == cals[1]["weir_coefficient"]
     assert cals[0]["model_discharge_m3_s"] == cals[1]["model_discharge_m3_s"]
     assert start_levels[1] > start_levels[0]  # two different starts
     w = [p["window"]["open_breach_window_s"] for p in plans]
     assert w[0] is not None and w[0] == w[1]
-    assert plans[0]["window"]["calibration"]["time_s"] == 0.0 and "steps" not in plans[0]["window"]["calibration"]
+    assert plans[0]["window"]["calibration"] == plans[1]["window"]["calibration"]
+    assert "steps" not in plans[0]["window"]["calibration"]
+
+
+def test_a_polder_full_before_the_breach_is_full_calibrates_on_the_full_breach_at_the_initial_level():
+    # a 2 ha polder meets the flood long before the breach reaches its 10 m (5 h): no flow at the full size; the
+    # reference is then the full breach with the polder at its initial level, at the full-size time: the model's
+    # free flow over the ideal weir's, 0.7 C, whatever the start
+    got = []
+    for start_h in (0.5, 2.0, 6.0):
+        tl = Timeline(stage=FloodStage.constant(FLOOD), polder=Polder(area=2e4, initial_level=0.0),
+                      method=delivery_method("split_barge"), start=start_h * HOUR, bottom=0.0, length=B,
+                      wall_slope=0.0, growth=_linear_growth)
+        _run_start(tl)
+        cal = tl.window_calibration
+        assert cal["polder_level_m"] == 0.0 and cal["time_s"] == pytest.approx(5 * HOUR, abs=1.0)
+        assert cal["steps"][0]["weir_discharge"] == 0.0 and cal["flowing"]
+        got.append((tl.window_coefficient, tl.open_breach_window()))
+    assert got[0][0] == pytest.approx(0.7 * C_REPORT, rel=1e-12)
+    assert got == [got[0]] * 3

@@ -272,7 +272,9 @@ class Timeline:
         on what was solved before), the coefficient is scaled by the flow model's discharge over the weir's, the
         polder is integrated to ``t_r`` again with it, and the breach re-solved there when its level moved, until
         the two discharges agree within ``calibration_tolerance`` (at most ``calibration_solves`` re-solves; a
-        reference at the breach time needs one solve: its polder does not depend on the coefficient). Sets
+        reference at the breach time needs one solve: its polder does not depend on the coefficient). When the
+        polder has met the flood before the breach reached its full size (no flow there), the full breach is
+        solved with the polder at its initial level at ``t_r`` instead: one ratio, a state of the same breach. Sets
         ``window_coefficient`` and ``window_calibration``; the timeline's coefficient and state are left as they
         were (call after :meth:`begin`). Returns the snapshot of the first solve when it was the start's own
         state (the start is the reference time: the caller need not solve it again), else None. Skipped (None)
@@ -306,9 +308,25 @@ class Timeline:
                 if self.polder_level != level:
                     snapshot = solve()
                     q_model = float(discharge_of(snapshot))
+            reference = "the polder level of the weir integration"
+            if not (steps[-1]["weir_discharge"] > 0 and q_model > 0) and self.polder_level > self.polder.initial_level:
+                # the polder met the flood before the breach reached its full size: the full breach against the
+                # polder at its initial level instead, at the same time (a state of the same breach in both)
+                reference = "the polder at its initial level (the balance came before the full size)"
+                self.weir_coefficient, self.polder_level = saved[5], self.polder.initial_level
+                snapshot = solve()
+                if t_ref == self.start:
+                    first = None  # not the start's state
+                q_model = float(discharge_of(snapshot))
+                q_weir = self.weir(t_ref, self.polder_level)
+                steps.append({"weir_coefficient": float(self.weir_coefficient), "weir_discharge": float(q_weir),
+                              "model_discharge": q_model, "polder_level": float(self.polder_level),
+                              "flood_level": float(self.stage(t_ref))})
+                if q_weir > 0 and np.isfinite(q_model) and q_model > 0:
+                    self.weir_coefficient *= q_model / q_weir
             self.window_coefficient = float(self.weir_coefficient)
             self.window_calibration = {
-                "time_s": float(t_ref), "breach_length_m": float(self.breach_length_at(t_ref)),
+                "time_s": float(t_ref), "polder": reference, "breach_length_m": float(self.breach_length_at(t_ref)),
                 "flood_level_m": float(self.stage(t_ref)), "polder_level_m": float(self.polder_level),
                 "weir_coefficient": self.window_coefficient, "model_discharge_m3_s": q_model,
                 "weir_discharge_m3_s": float(self.weir(t_ref, self.polder_level)),
