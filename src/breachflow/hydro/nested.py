@@ -47,6 +47,7 @@ from .regional_grid import with_no_flow
 from ..field.sampling import FieldSample, FieldSampler
 from ..field.snapshot import DRY_DEPTH
 from ..swe.domain import BoundaryCondition, Domain, uniform_grid
+from ..swe.solver import WINDOW_CHANGE
 
 GRAVITY = 9.81
 
@@ -339,6 +340,8 @@ class NestedSolver:
         self.last = None
         #: breach section ``(x0, x1, y)`` whose discharge must settle too (run_to_steady); None: region only
         self.section = None
+        #: the steady window of the solves with a section (``run_to_steady(window=...)``; None: off)
+        self.window, self.window_change = None, WINDOW_CHANGE
 
     def fallback_sampler(self, method: str = "bilinear") -> FieldSampler:
         """The regional field as ingested, sampled where a point lies outside the nested box (the DEM's
@@ -356,7 +359,8 @@ class NestedSolver:
         cold = initial is None
         sim = SWESimulation(domain, self.options, obstacles=obstacles, initial=self.initial_state if cold else initial)
         sim.run_to_steady(self.tolerance, self.t_max_initial if cold else self.t_max, region=self.region,
-                          section=self.section)
+                          section=self.section, window=self.window if self.section is not None else None,
+                          window_change=self.window_change)
         self.last = sim
         ds = sim.snapshot(source=f"breachflow nested local model in {self.source}")
         where = "" if self.frame is None else " (breach-aligned grid coordinates)"

@@ -35,6 +35,7 @@ import xarray as xr
 from ..errors import InputError
 from .nested import GRAVITY, edge_conditions
 from ..swe.domain import BoundaryCondition, Domain
+from ..swe.solver import WINDOW_CHANGE
 
 #: margin (m) around the changed cells, in breach lengths when the section is known
 DEFAULT_MARGIN_B = 2.0
@@ -252,7 +253,9 @@ class RegionResolver:
                         reg = region[sl]
                     sim = SWESimulation(sub, self.full.options, initial=state.isel(y=sl[0], x=sl[1]))
                     sim.run_to_steady(self.full.tolerance, self.full.t_max, self.full.check_interval, region=reg,
-                                      section=sec, average=getattr(self.full, "average", False) and sec is not None)
+                                      section=sec, average=getattr(self.full, "average", False) and sec is not None,
+                                      window=getattr(self.full, "window", None) if sec is not None else None,
+                                      window_change=getattr(self.full, "window_change", WINDOW_CHANGE))
                     # outside the region the (shifted) previous state; every earlier region lies inside this one
                     h_new = h0.copy()
                     hu_new = h0 * np.asarray(base["u"].values, float)

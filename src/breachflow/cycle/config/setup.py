@@ -92,6 +92,7 @@ def closure_setup(scenario, *, overrides: dict | None = None):
         nested = NestedSolver(regional, box, spacing, manning=float(np.mean(dom.manning)),
                               order=hydro.order, courant=hydro.courant, tolerance=hydro.tolerance,
                               t_max_initial=hydro.t_max_initial, t_max=hydro.t_max, frame=frame, terrain=terrain)
+        nested.window, nested.window_change = hydro.steady_window, hydro.steady_window_change
         if nested.domain.crs_wkt is None:  # regional files without a CRS (e.g. ADH without its .prj): the site's
             nested.domain.crs_wkt = dom.crs_wkt
         elif built is not None and hydro.refine is None:
@@ -270,7 +271,8 @@ class _WarmStartSWE:
         from ...hydro.solvers import solvers
 
         kw = dict(order=hydro.order, courant=hydro.courant, tolerance=hydro.tolerance, region=region,
-                  section=section, threads=hydro.threads, average=hydro.steady_average)
+                  section=section, threads=hydro.threads, average=hydro.steady_average,
+                  window=hydro.steady_window, window_change=hydro.steady_window_change)
         self.cold = solvers.create("swe", t_max=hydro.t_max_initial, **kw)
         self.warm = solvers.create("swe", t_max=hydro.t_max, **kw)
         if getattr(hydro, "cold_start", "cold") == "coarse":
