@@ -11,7 +11,9 @@ time (``[closure] method`` and ``start``): the breach opens at the flood's crest
 it until the start, then the masses are delivered at the method's capacity while the flood falls and the
 polder keeps filling; each cycle's flow is solved at the flood and polder levels of its operation time.
 The member's closure plan (``closure_plan.json``) gives the tonnage, the finish and whether it fits in
-the window of the simulated polder (breach balance or inundation limit).
+the window of the simulated polder (breach balance or inundation limit). The window of the breach left open
+is the breach's, the same for every member: its weir is calibrated on the open breach at its full size, not at
+the member's start.
 
 The base scenario is the embedded demo breach (3 m levee, water at the crest, 12 m breach) on a coarse
 grid (2 m, first order) with a hurricane flood (fall 0.3 m/h), a 100 ha polder that may be inundated
@@ -112,13 +114,16 @@ def run_member(out: Path, method: str, start_h: float, capacity_factor: float, m
 
 def member_row(method: str, start_h: float, plan: dict) -> dict:
     """One member's row from its closure plan. ``window_h`` is the window of the breach left open (the same
-    for every method at one start: the chart's deadline); ``run_balance_h`` is when the polder met the flood
-    during this member's own closure, which makes the member miss its window (``fits``) when it comes first."""
+    for every member: the chart's deadline), ``window_weir`` the weir coefficient it was calibrated to (on the
+    open breach at its full size); ``run_balance_h`` is when the polder met the flood during this member's own
+    closure, which makes the member miss its window (``fits``) when it comes first."""
     w = plan["window"]
     hours = lambda s: None if s is None else s / 3600.0
+    cal = w.get("calibration") or {}
     return {"method": method, "start_h": start_h, "closed": plan["closed"], "fits": w["fits"],
             "placed_t": plan["placed_t"], "finish_h": plan["finish_s"] / 3600.0,
             "duration_h": plan["duration_s"] / 3600.0, "window_h": hours(w["open_breach_window_s"]),
+            "window_weir": cal.get("weir_coefficient"), "window_calibrated_h": hours(cal.get("time_s")),
             "run_balance_h": hours(w["balance_time_s"]),
             "report_window_h": hours(w["report_closure_window_s"]),
             "leakage_m3_s": plan["leakage_end"]["breach_discharge_m3_s"], "verdict": plan["verdict"]}
@@ -146,10 +151,9 @@ def figure(rows, path: Path) -> Path:
             if not r["fits"]:
                 ax[0].plot(r["start_h"], r["placed_t"], "o", mfc="white", color=line.get_color())
                 ax[1].plot(r["start_h"], r["finish_h"], "o", mfc="white", color=line.get_color())
-    windows = sorted({(r["start_h"], r["window_h"]) for r in rows if r["window_h"] is not None})
-    if windows:  # the breach left open from the breach on: balance or inundation limit, per start
-        ax[1].plot([s for s, _ in windows], [w for _, w in windows], color="red", lw=0.8, ls="--",
-                   label="end of the window (breach left open)")
+    windows = sorted({r["window_h"] for r in rows if r["window_h"] is not None})
+    for k, w in enumerate(windows):  # the breach left open: balance or inundation limit, one for the breach
+        ax[1].axhline(w, color="red", lw=0.8, ls="--", label="end of the window (breach left open)" if k == 0 else None)
     report = [r["report_window_h"] for r in rows if r.get("report_window_h") is not None]
     if report:
         ax[1].axhline(report[0], color="grey", lw=0.8, ls=":", label="report's linear closure window")
@@ -157,7 +161,7 @@ def figure(rows, path: Path) -> Path:
     ax[0].set_ylabel("placed (t)")
     ax[1].set_xlabel("start of the closure after the breach (h)")
     ax[1].set_ylabel("finish after the breach (h)")
-    ax[1].legend(fontsize=8)
+    ax[1].legend(fontsize=8, loc="lower right")
     ax[0].set_title("tonnage (open: not closed inside the window)", fontsize=9)
     ax[1].set_title("finish time", fontsize=9)
     fig.savefig(path, dpi=110)
@@ -188,6 +192,13 @@ def main(argv=None) -> int:
                   f"{row['placed_t']:8.1f} t, finish {row['finish_h']:6.2f} h, window "
                   f"{'-' if row['window_h'] is None else format(row['window_h'], '.2f')} h, "
                   f"{'fits' if row['fits'] else 'does not fit'}", flush=True)
+    windows = sorted({round(r["window_h"], 9) for r in rows if r["window_h"] is not None})
+    if len(windows) > 1:  # members of an older version, calibrated at their own starts
+        print(f"the members' windows differ ({', '.join(f'{w:.1f}' for w in windows)} h): rerun them into a new "
+              f"directory for the window of the breach")
+    elif windows:
+        print(f"window of the breach left open: {windows[0]:.2f} h (weir {rows[0]['window_weir']} m^0.5/s, "
+              f"calibrated {rows[0]['window_calibrated_h']} h after the breach)")
     (a.out / "feasibility.json").write_text(json.dumps(rows, indent=1))
     print(f"wrote {figure(rows, a.out / 'closure_feasibility_timeline.png')}")
     for method in a.methods:

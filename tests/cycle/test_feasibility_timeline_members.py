@@ -43,3 +43,18 @@ def test_the_window_of_a_start_does_not_depend_on_the_method():
     assert fast["window_h"] == slow["window_h"] == pytest.approx(292267.9 / 3600.0)
     assert slow["run_balance_h"] == pytest.approx(54.155, abs=1e-3) and fast["run_balance_h"] is None
     assert fast["fits"] and not slow["fits"]
+
+
+def test_a_row_carries_what_the_window_was_calibrated_on(tmp_path):
+    from closure_feasibility_timeline import figure, member_row
+
+    cal = {"time_s": 0.0, "weir_coefficient": 1.4027, "model_discharge_m3_s": 1792.7, "weir_discharge_m3_s": 1792.7}
+    rows = []
+    for start_h in (24.0, 36.0, 48.0):
+        plan = {"closed": True, "placed_t": 9000.0, "finish_s": (start_h + 10) * 3600.0, "duration_s": 36000.0,
+                "window": {"open_breach_window_s": 356605.7, "calibration": cal, "balance_time_s": None,
+                           "window_s": 356605.7, "report_closure_window_s": None, "fits": True},
+                "leakage_end": {"breach_discharge_m3_s": 2.0}, "verdict": ""}
+        rows.append(member_row("split_barge", start_h, plan))
+    assert {r["window_weir"] for r in rows} == {1.4027} and {r["window_calibrated_h"] for r in rows} == {0.0}
+    assert figure(rows, tmp_path / "chart.png").stat().st_size > 0  # the chart takes the rows

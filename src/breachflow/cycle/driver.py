@@ -289,10 +289,19 @@ class ClosureRun:
             g0 = 0
             rec = self._initial_record()
             t0, c0 = _time.perf_counter(), _time.process_time()
+            first, window_cpu = None, (None, None)
             if s.timeline is not None:  # the breach grows and the polder fills until the start of the closure
                 s.timeline.begin()
                 self._t_op = float(s.timeline.time)  # an erodible bed's first flow time: the first delivery
-            snapshot = s.solver.solve(s.domain)
+                # the closure window's weir, calibrated once on the open breach at its full size (the same for
+                # every start; first solved, so that no solve of this run's start comes before it)
+                cw = _time.process_time()
+                first = s.timeline.calibrate_window(lambda: s.solver.solve(s.domain),
+                                                    lambda snap: section_discharge(snap, s.breach_x, s.levee_y,
+                                                                                   s.flow_sign))
+                # its CPU (with the start's own first solve when the start is the reference: handed on)
+                window_cpu = (_time.process_time() - cw, first is not None)
+            snapshot = first if first is not None else s.solver.solve(s.domain)
             if s.timeline is not None:  # the pre-start weir calibrated on this open breach at the start
                 snapshot = s.timeline.calibrate(snapshot, lambda prev: s.solver.solve(s.domain, initial=prev),
                                                 lambda snap: section_discharge(snap, s.breach_x, s.levee_y,
@@ -310,7 +319,8 @@ class ClosureRun:
                 s.timeline.record(self._q_open, "start")
                 self.rundir.update_metadata(timeline_start={**s.timeline.state(),
                                                             "prestart": list(s.timeline.history),
-                                                            "weir_calibration": list(s.timeline.calibration)})
+                                                            "weir_calibration": list(s.timeline.calibration),
+                                                            "window_calibration": dict(s.timeline.window_calibration)})
             self.rundir.update_metadata(initial={
                 "max_speed": MaxSpeed("0 m/s", region="domain").value(ctx0),
                 "discharge_proxy": DischargeProxy("0 m^3/s").value(ctx0),
@@ -318,8 +328,13 @@ class ClosureRun:
                 "gap_speed": gap_speed(snapshot, s.area if s.area is not None else (-np.inf, np.inf, -np.inf, np.inf)),
                 "gap_max_speed": gmax, "gap_mean_speed": gmean, "control_speed": vc if np.isfinite(vc) else None,
                 "control_y": yc if np.isfinite(yc) else None,
-                "solve_wall_time": self.initial_solve_time, "solve_cpu_time": initial_solve_cpu}, warnings=list(s.warnings))
-        for g in range(g0 + 1, s.criteria.max_cycles + 1):
+                "solve_wall_time": self.initial_solve_time, "solve_cpu_time": initial_solve_cpu,
+                "window_calibration_cpu_time": window_cpu[0], "window_solve_is_start_solve": window_cpu[1]},
+                warnings=list(s.warnings))
+        from .leakage import undesignable_seal
+
+        blocked = undesignable_seal(s.criteria)  # the criterion's seal cannot be made for this rock: no cycle runs
+        for g in range(g0 + 1, (g0 if blocked else s.criteria.max_cycles) + 1):
             rep, rec, snapshot = self._cycle(g, rec, snapshot)
             self.reports.append(rep)
             if self.progress:
@@ -327,7 +342,7 @@ class ClosureRun:
             if rep.closed or rep.verdict:
                 break
         last = self.reports[-1] if self.reports else None
-        verdict = last.verdict if last else ""
+        verdict = last.verdict if last else (blocked or "")
         if last and not last.closed and not verdict and self.rundir.last_cycle() >= s.criteria.max_cycles:
             verdict = f"not closed after max_cycles = {s.criteria.max_cycles} cycles"
         closed = bool(last and last.closed)

@@ -45,6 +45,11 @@ class FrozenFloodTimeline(Timeline):
         self.discharge = float(discharge_of(snapshot))
         return snapshot
 
+    def calibrate_window(self, solve, discharge_of):
+        """Nothing to calibrate: the filling of the polder is not modelled (no window)."""
+        self.window_coefficient, self.window_calibration = None, {}
+        return None
+
     def _integrate(self, t_new: float, max_step: float = HOUR) -> None:
         self.time = max(float(t_new), self.time)  # the polder is held: only the clock moves
 

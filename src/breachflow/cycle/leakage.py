@@ -18,7 +18,10 @@ layers in series, :mod:`breachflow.materials.seal`) and reports its thickness an
 dam's flow path is its mean width, the bulk volume of the resting masses over the gap width and the wetted
 height; the head is the flood level minus the water level behind the dam. The filter rules between the
 layers and the rock are checked when the scenario is read. A layer can also be a rock grading of the
-materials registry (``"LMA_40_200"``, its D_n15/D_n50/D_n85).
+materials registry (``"LMA_40_200"``, its D_n15/D_n50/D_n85). A last entry ``"auto"`` is replaced, once the
+dam's rock is known, by the shortest run of EN 13383 gradings that passes both rules up to it
+(:func:`~breachflow.materials.seal.bridge_filters`); when there is none the run ends before its first cycle with
+the verdict "no seal designable" (:func:`undesignable_seal`).
 
 When the rock dam is closed this way, the seal is placed in the flow model's pile and re-solved until the
 leakage read from the flow meets the criterion (:mod:`breachflow.cycle.sealing`; keys ``seal_method``,
@@ -138,7 +141,21 @@ class PolderLeakage(Criterion):
         if not self.seal_growth > 1.0:
             raise InputError(f"criteria.polder_leakage.seal_growth must be > 1 (the seal grows between re-solves), "
                              f"got {seal_growth!r}")
-        self.seal_layers = None if seal is None else [_grading(g) for g in (seal if isinstance(seal, list) else [seal])]
+        from ..materials.seal import AUTO_FILTERS
+
+        seal = None if seal is None else (seal if isinstance(seal, list) else [seal])
+        # a last entry "auto": the filters from the last named layer to the dam's rock are chosen by the filter
+        # rules among the EN 13383 gradings when the rock is known (bind_rock)
+        self.auto_filters = bool(seal) and seal[-1] == AUTO_FILTERS
+        if seal and AUTO_FILTERS in seal:
+            if not self.auto_filters or seal.index(AUTO_FILTERS) == 0 or seal.count(AUTO_FILTERS) > 1:
+                raise InputError(f"criteria.polder_leakage.seal: {AUTO_FILTERS!r} may only end a list of named layers "
+                                 f"(e.g. [\"sand\", \"gravel\", \"quarry_run\", \"{AUTO_FILTERS}\"]), got {seal!r}")
+            seal = seal[:-1]
+        self.named_layers = None if seal is None else [_grading(g) for g in seal]
+        self.seal_layers = None if self.named_layers is None else list(self.named_layers)
+        #: why no seal can be designed for the dam's rock (``"auto"`` found no filters), else None
+        self.undesignable = None
         self.filter_thickness = to_si(filter_thickness, name="criteria.polder_leakage.filter_thickness",
                                       kind="length", positive=True)
         self.max_seal_thickness = to_si(max_seal_thickness, name="criteria.polder_leakage.max_seal_thickness",
@@ -186,7 +203,9 @@ class PolderLeakage(Criterion):
         "pump_capacity": ("discharge", "pump capacity; default [polder] pump_capacity, else 0"),
         "fallback_fraction": ("dimensionless", "without a polder area: the closure is judged by seepage through "
                                                "the pile below this fraction of the open breach's discharge"),
-        "seal": ("array", "seal layers, finest first: names or tables {name, d15, d50, d85, porosity, density}"),
+        "seal": ("array", "seal layers, finest first: names or tables {name, d15, d50, d85, porosity, density}; a "
+                          "last entry \"auto\" adds the shortest run of EN 13383 gradings up to the dam's rock "
+                          "that passes the filter rules"),
         "filter_thickness": ("length", "thickness of each filter layer between the seal and the rock"),
         "max_seal_thickness": ("length", "thickest seal allowed"),
         "face_slope": ("dimensionless", "slope of the dam's upstream face (H per V) the seal covers; default "
@@ -241,9 +260,19 @@ class PolderLeakage(Criterion):
     def bind_rock(self, rock) -> None:
         """The dam's rock grading (:class:`~breachflow.materials.seal.Grading`); checks the filter rules from the
         seal through its filters to the rock (:func:`~breachflow.materials.seal.check_filter`)."""
-        from ..materials.seal import check_filter
+        from ..materials.seal import bridge_filters, check_filter, standard_filter_gradings
 
         self.rock = rock
+        if self.auto_filters:
+            self.undesignable = None
+            try:
+                bridge = bridge_filters(self.named_layers[-1], rock, standard_filter_gradings(),
+                                        self.retention_limit, self.permeability_limit)
+            except InputError as exc:  # the run ends with this verdict (cycle.driver) instead of a seal
+                self.undesignable = f"[criteria] polder_leakage: {exc}"
+                self.seal_layers = list(self.named_layers)
+                return
+            self.seal_layers = [*self.named_layers, *bridge]
         if self.seal_layers:
             try:
                 check_filter([*self.seal_layers, rock], self.retention_limit, self.permeability_limit)
@@ -335,6 +364,9 @@ class PolderLeakage(Criterion):
                                    f"{r.description} (no polder area: fallback of polder_leakage)")
         v = self.verdict(ctx)
         self.seal_plan = None
+        if self.undesignable and not v.acceptable:
+            return CriterionResult(self.name, v.net_rise_per_day, self.threshold, self.units, False,
+                                   f"leakage {v.leakage:.4g} m3/s, net {v.net_rise_per_day:.3g} m/day; {self.undesignable}")
         if self.seal_layers and not v.acceptable and self.rock is not None:
             res = self.sealed(ctx, v)
             if res is not None:
@@ -352,6 +384,18 @@ class PolderLeakage(Criterion):
         return CriterionResult(self.name, v.net_rise_per_day, self.threshold, self.units, v.acceptable,
                                f"leakage {v.leakage:.4g} m3/s = polder rise {v.rise_per_day:.3g} m/day over "
                                f"{self.area:.4g} m2 ({pump}); net {v.net_rise_per_day:.3g} m/day")
+
+
+def undesignable_seal(criteria) -> str | None:
+    """The "no seal designable" verdict of the first ``polder_leakage`` criterion among *criteria* (an
+    :class:`~breachflow.cycle.criteria.EndCriteria` or a list) whose ``seal = [..., "auto"]`` found no filter
+    layers between its named layers and the dam's rock, else None. A closure that needs a seal which no
+    standard grading can make is not attempted: the run ends before its first cycle with this verdict."""
+    for c in getattr(criteria, "items", criteria) or []:
+        reason = getattr(c, "undesignable", None)
+        if reason and not getattr(c, "fallback", False):
+            return reason
+    return None
 
 
 def _grading(spec):

@@ -150,6 +150,8 @@ def closure_plan(rundir, setup, scenario=None) -> dict | None:
                         "pump_capacity_m3_s": pol.pump_capacity,
                         "within_pumps": bool(np.isfinite(q_end) and q_end <= pol.pump_capacity)},
         "window": {"open_breach_window_s": open_window if np.isfinite(open_window) else None,
+                   # what the window's weir was calibrated on: the open breach at its full size, whatever the start
+                   "calibration": _window_calibration(man, tl),
                    "balance_time_s": balance, "inundation_time_s": inundation, "window_s": window_sim,
                    "window_date": _date(tl, window_sim), "report_closure_window_s": report_window,
                    "fits": bool(fits)},
@@ -164,6 +166,15 @@ def closure_plan(rundir, setup, scenario=None) -> dict | None:
         plan["seal"]["finish_date"] = _date(tl, finish)
         plan["leakage_end"]["seepage_m3_s"] = None  # the split is not computed for the sealed pile
     return plan
+
+
+def _window_calibration(man: dict, tl) -> dict | None:
+    """The window weir's calibration as recorded at the run's start (the manifest), without its steps."""
+    cal = man.get("metadata", {}).get("timeline_start", {}).get("window_calibration") or getattr(
+        tl, "window_calibration", None)
+    if not cal:
+        return None
+    return {k: v for k, v in cal.items() if k != "steps"}
 
 
 def _num(x: float) -> str:
@@ -209,8 +220,12 @@ def plan_lines(plan: dict) -> list[str]:
                  + f"pumps {leak['pump_capacity_m3_s']:g} m³/s ({'within' if leak['within_pumps'] else 'beyond'} them)")
     parts = []
     if w["open_breach_window_s"] is not None:
+        cal = w.get("calibration")
+        on = "" if not cal else (
+            f" (its weir calibrated on the open breach at full size, {cal['time_s'] / HOUR:,.1f} h after the breach: "
+            f"{cal['weir_coefficient']:.3f} m^0.5/s, {cal['model_discharge_m3_s']:,.0f} m³/s; the same for every start)")
         parts.append(f"the breach left open would reach the balance or the inundation limit at "
-                     f"{w['open_breach_window_s'] / HOUR:,.1f} h")
+                     f"{w['open_breach_window_s'] / HOUR:,.1f} h" + on)
     if w["balance_time_s"] is not None:
         parts.append(f"balance reached in the run at {w['balance_time_s'] / HOUR:,.1f} h")
     if w["inundation_time_s"] is not None:

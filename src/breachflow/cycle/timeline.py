@@ -21,6 +21,12 @@ polder fills; the first solve then starts from the polder level at the start tim
 coefficient is calibrated on that solve (:meth:`Timeline.calibrate`: the report's ideal weir passes more
 than the flow model's breach, which contracts into the gap and loses head behind it).
 
+The closure window of the breach left open (:meth:`Timeline.open_breach_window`) is a property of the breach
+and the flood, not of the start: its weir is calibrated once, on the flow model's open breach at its full size
+(the time the growth law reaches the breach length, the breach time without a growth law), whatever the start
+(:meth:`Timeline.calibrate_window`). The weir's mismatch with the flow model changes with the polder's
+tailwater, so a coefficient calibrated at each start would give each start a window of its own.
+
 A polder that reaches the flood level has met the breach balance (report's ``t_Q``): the flow
 through the breach stops, and the level stays with the flood's.
 """
@@ -128,6 +134,11 @@ class Timeline:
     calibration_solves: int = CALIBRATION_SOLVES
     #: the calibration's steps: coefficient, weir and flow-model discharge and polder level at the start
     calibration: list = field(default_factory=list)
+    #: the weir coefficient of the closure window (m^0.5/s), calibrated at the breach's full size
+    #: (:meth:`calibrate_window`); None: the window uses ``weir_coefficient``
+    window_coefficient: float | None = None
+    #: the window calibration: reference time and state, its steps and the calibrated weir (:meth:`calibrate_window`)
+    window_calibration: dict = field(default_factory=dict)
     # state
     time: float = 0.0
     polder_level: float = float("nan")
@@ -236,6 +247,95 @@ class Timeline:
         self.discharge = q_model
         return snapshot
 
+    def full_size_time(self, horizon: float = 60 * 86400.0) -> float:
+        """Time since the breach (s) at which the growth law reaches the breach length (0 without a growth
+        law; *horizon* when it does not within it), to 1 s: the reference state of the window's weir."""
+        if self.growth is None or self.breach_length_at(0.0) >= self.length:
+            return 0.0
+        lo, hi = 0.0, 60.0
+        while self.breach_length_at(hi) < self.length:
+            if hi >= horizon:
+                return float(horizon)
+            lo, hi = hi, min(2.0 * hi, horizon)
+        while hi - lo > 1.0:  # bisection: B(lo) < length <= B(hi)
+            mid = 0.5 * (lo + hi)
+            lo, hi = (mid, hi) if self.breach_length_at(mid) < self.length else (lo, mid)
+        return float(hi)
+
+    def calibrate_window(self, solve, discharge_of):
+        """Calibrate the weir of the closure window on the flow model's open breach at its full size.
+
+        The reference state does not depend on the start: the time ``t_r`` the growth law reaches the breach
+        length (:meth:`full_size_time`; the breach time without a growth law), the flood level there and the
+        polder level the weir integration gives there. Starting from the weir's coefficient as given (the
+        report's), the breach is solved cold at that state (*solve()*, no warm start: the answer must not depend
+        on what was solved before), the coefficient is scaled by the flow model's discharge over the weir's, the
+        polder is integrated to ``t_r`` again with it, and the breach re-solved there when its level moved, until
+        the two discharges agree within ``calibration_tolerance`` (at most ``calibration_solves`` re-solves; a
+        reference at the breach time needs one solve: its polder does not depend on the coefficient). When the
+        polder has met the flood before the breach reached its full size (no flow there), the full breach is
+        solved with the polder at its initial level at ``t_r`` instead: one ratio, a state of the same breach. Sets
+        ``window_coefficient`` and ``window_calibration``; the timeline's coefficient and state are left as they
+        were (call after :meth:`begin`). Returns the snapshot of the first solve when it was the start's own
+        state (the start is the reference time: the caller need not solve it again), else None. Skipped (None)
+        with a fixed pre-start discharge or ``calibrate_weir`` off: the window then uses ``weir_coefficient``."""
+        self.window_coefficient, self.window_calibration = None, {}
+        if not self.calibrate_weir or self.prestart_discharge is not None:
+            return None
+        saved = (self.time, self.polder_level, self.discharge, list(self.history), self.balance_time,
+                 self.weir_coefficient)
+        t_ref = self.full_size_time()
+        first = None
+        steps = []
+        try:
+            self._open_breach(t_ref)
+            snapshot = solve()
+            if t_ref == self.start:
+                first = snapshot
+            q_model = float(discharge_of(snapshot))
+            for k in range(self.calibration_solves + 1):
+                q_weir = self.weir(t_ref, self.polder_level)
+                steps.append({"weir_coefficient": float(self.weir_coefficient), "weir_discharge": float(q_weir),
+                              "model_discharge": q_model, "polder_level": float(self.polder_level),
+                              "flood_level": float(self.stage(t_ref))})
+                if not (q_weir > 0 and np.isfinite(q_model) and q_model > 0):
+                    break  # no flow at the reference (the balance reached before it, or a dry breach)
+                if abs(q_model / q_weir - 1.0) <= self.calibration_tolerance or k == self.calibration_solves:
+                    break
+                level = self.polder_level
+                self.weir_coefficient *= q_model / q_weir
+                self._open_breach(t_ref)
+                if self.polder_level != level:
+                    snapshot = solve()
+                    q_model = float(discharge_of(snapshot))
+            reference = "the polder level of the weir integration"
+            if not (steps[-1]["weir_discharge"] > 0 and q_model > 0) and self.polder_level > self.polder.initial_level:
+                # the polder met the flood before the breach reached its full size: the full breach against the
+                # polder at its initial level instead, at the same time (a state of the same breach in both)
+                reference = "the polder at its initial level (the balance came before the full size)"
+                self.weir_coefficient, self.polder_level = saved[5], self.polder.initial_level
+                snapshot = solve()
+                if t_ref == self.start:
+                    first = None  # not the start's state
+                q_model = float(discharge_of(snapshot))
+                q_weir = self.weir(t_ref, self.polder_level)
+                steps.append({"weir_coefficient": float(self.weir_coefficient), "weir_discharge": float(q_weir),
+                              "model_discharge": q_model, "polder_level": float(self.polder_level),
+                              "flood_level": float(self.stage(t_ref))})
+                if q_weir > 0 and np.isfinite(q_model) and q_model > 0:
+                    self.weir_coefficient *= q_model / q_weir
+            self.window_coefficient = float(self.weir_coefficient)
+            self.window_calibration = {
+                "time_s": float(t_ref), "polder": reference, "breach_length_m": float(self.breach_length_at(t_ref)),
+                "flood_level_m": float(self.stage(t_ref)), "polder_level_m": float(self.polder_level),
+                "weir_coefficient": self.window_coefficient, "model_discharge_m3_s": q_model,
+                "weir_discharge_m3_s": float(self.weir(t_ref, self.polder_level)),
+                "flowing": bool(steps and steps[-1]["weir_discharge"] > 0 and q_model > 0), "steps": steps}
+        finally:
+            (self.time, self.polder_level, self.discharge, self.history, self.balance_time,
+             self.weir_coefficient) = saved
+        return first
+
     def _open_breach(self, t_end: float, *, log: bool = False, inundation: float | None = None):
         """The open breach from the breach to *t_end* (or to the balance / the polder *inundation* depth
         above its initial level, whichever first when *inundation* is given): returns ``(polder level,
@@ -274,13 +374,18 @@ class Timeline:
     def open_breach_window(self, inundation_depth: float | None = None, horizon: float = 60 * 86400.0):
         """The closure window of the breach left open (s since the breach): the first of the breach balance
         and the polder reaching *inundation_depth* (m above its initial level), with the weir discharge of
-        the growing breach as before the start; inf when neither happens within *horizon*. The timeline's
-        state is left as it was."""
-        saved = (self.time, self.polder_level, self.discharge, list(self.history), self.balance_time)
+        the growing breach as before the start; inf when neither happens within *horizon*. The weir's
+        coefficient is ``window_coefficient`` (calibrated at the breach's full size, :meth:`calibrate_window`:
+        the same window for every start), else ``weir_coefficient``. The timeline's state is left as it was."""
+        saved = (self.time, self.polder_level, self.discharge, list(self.history), self.balance_time,
+                 self.weir_coefficient)
         try:
+            if self.window_coefficient is not None:
+                self.weir_coefficient = self.window_coefficient
             _, _, t, _ = self._open_breach(horizon, inundation=inundation_depth if inundation_depth else 1e9)
         finally:
-            self.time, self.polder_level, self.discharge, self.history, self.balance_time = saved
+            (self.time, self.polder_level, self.discharge, self.history, self.balance_time,
+             self.weir_coefficient) = saved
         return float(t) if t < horizon else float("inf")
 
     # ------------------------------------------------------------------ during the closure
@@ -319,7 +424,8 @@ class Timeline:
                 "polder_level": float(self.polder_level), "timeline_discharge": float(self.discharge),
                 "delivered_t": self.delivered / 1000.0,
                 "balance_time": None if self.balance_time is None else float(self.balance_time),
-                "weir_coefficient": float(self.weir_coefficient)}
+                "weir_coefficient": float(self.weir_coefficient),
+                "window_coefficient": None if self.window_coefficient is None else float(self.window_coefficient)}
 
     def restore(self, summary: dict) -> None:
         self.time = float(summary["operation_time"])
@@ -330,6 +436,8 @@ class Timeline:
         self.balance_time = None if bt is None else float(bt)
         if "weir_coefficient" in summary:  # as calibrated at the start
             self.weir_coefficient = float(summary["weir_coefficient"])
+        if summary.get("window_coefficient") is not None:  # as calibrated at the breach's full size
+            self.window_coefficient = float(summary["window_coefficient"])
 
     def describe(self) -> str:
         return (f"closure by {self.method.describe()}; start {self.start / HOUR:g} h after the breach; flood: "

@@ -38,7 +38,13 @@ class ClosureRunner:
 
         # parsed afresh (not member.scenario(): its cache would travel to the worker with the task)
         scenario = parse_scenario(member.text(), path=member.path)
-        warnings = list(closure_setup(scenario).warnings)
+        setup = closure_setup(scenario)
+        warnings = list(setup.warnings)
+        from ..cycle.leakage import undesignable_seal
+
+        if undesignable_seal(setup.criteria):  # the member runs, but ends with that verdict before its first cycle
+            warnings.append("[criteria] polder_leakage: no seal designable for this member's rock (it ends not "
+                            "closed before its first cycle)")
         missing = [s for s in ("flood", "polder", "breach") if s not in scenario]
         if missing:
             warnings.append("no closure window: the scenario has no [" + "], [".join(missing) + "] table, so "
@@ -75,12 +81,21 @@ class ClosureRunner:
         last = m["cycles"][-1]["summary"] if m["cycles"] else {}
         results.update(
             cycles=res.cycles, masses_placed=res.masses, tonnage=Q_(res.tonnage * 1000.0, "kg"),
-            closure_duration=Q_(res.operation_time, "s"), closure_achieved=res.closed,
+            closure_duration=Q_(finish_time(res), "s"), closure_achieved=res.closed,
             governing_criterion=res.governing or "none",
             peak_velocity=Q_(m["metadata"]["initial"]["max_speed"], "m/s"),
             initial_breach_discharge=Q_(m["metadata"]["initial"]["breach_discharge"], "m**3/s"),
             final_breach_discharge=Q_(last.get("breach_discharge", float("nan")), "m**3/s"),
             final_seepage_discharge=Q_(last.get("seepage_discharge", 0.0), "m**3/s"),
-            feasible=bool(res.closed and window is not None and res.operation_time <= window),
+            feasible=bool(res.closed and window is not None and finish_time(res) <= window),
         )
         return results
+
+
+def finish_time(res) -> float:
+    """When the closure of *res* (:class:`~breachflow.cycle.main.ClosureResult`) is done, s since the breach: the
+    end of its seal stage when the run has a plan with one (the seal is delivered after the rock,
+    :mod:`breachflow.cycle.sealing`), else the operation time of its last cycle."""
+    plan = getattr(res, "plan", None) or {}
+    finish = plan.get("finish_s")
+    return float(finish) if finish is not None else float(res.operation_time)

@@ -56,7 +56,8 @@ CLOSURE_OUTPUTS: dict[str, dict] = {
     "masses_placed": {"units": "1", "dtype": "i8", "long_name": "masses placed"},
     "tonnage": {"units": "kg", "dtype": "f8", "long_name": "total mass placed", "display_units": "t"},
     "closure_duration": {"units": "s", "dtype": "f8", "display_units": "h",
-                         "long_name": "simulated duration of the closure operation at the placement rate"},
+                         "long_name": "simulated duration of the closure operation at the placement rate, "
+                                      "the seal stage included"},
     "closure_achieved": {"dtype": "bool", "long_name": "the end criteria of the closure were met"},
     "governing_criterion": {"dtype": "str", "long_name": "end criterion that ended the closure run"},
     "peak_velocity": {"units": "m/s", "dtype": "f8", "long_name": "maximum depth-averaged speed before any placement"},

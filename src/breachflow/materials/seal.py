@@ -98,6 +98,82 @@ def check_filter(layers, retention_limit=RETENTION_LIMIT, permeability_limit=PER
     return out
 
 
+#: a seal list's last entry that asks for the filter layers up to the rock to be chosen by the rules
+AUTO_FILTERS = "auto"
+
+
+def _margin(base: Grading, filt: Grading, retention_limit: float, permeability_limit: float) -> float:
+    """The smaller of ``limit / retention`` and ``permeability / limit`` at one interface (>= 1: both rules hold)."""
+    ret, perm = filter_ratios(base, filt)
+    return min(retention_limit / ret, perm / permeability_limit)
+
+
+def bridge_filters(base: Grading, rock: Grading, candidates, retention_limit=RETENTION_LIMIT,
+                   permeability_limit=PERMEABILITY_LIMIT, max_layers: int = 4) -> list:
+    """The shortest run of *candidates* (:class:`Grading`, e.g. the EN 13383 gradings) between the finer *base*
+    and the dam's *rock* such that every interface passes both filter rules (:func:`check_filter`): a
+    breadth-first search over the candidates coarser than the layer before; among the shortest runs the one
+    whose tightest interface has the largest margin (the smaller of
+    ``limit / retention`` and ``permeability / limit``). ``[]`` when *base* lies on the rock
+    directly. Raises :class:`~breachflow.errors.InputError` beginning "no seal designable" with the ratios of the
+    nearest candidates against the rock when no run of at most *max_layers* layers exists."""
+    cands = sorted({g.name: g for g in candidates}.values(), key=lambda g: (g.d15, g.d85))
+
+    def ok(b, f):
+        return _margin(b, f, retention_limit, permeability_limit) >= 1.0
+
+    if ok(base, rock):
+        return []
+    frontier, best = [[]], None
+    for _ in range(max_layers):
+        nxt = []
+        for run in frontier:
+            last = run[-1] if run else base
+            for g in cands:
+                if g.d15 > last.d15 and g not in run and ok(last, g):
+                    nxt.append(run + [g])
+        done = [r for r in nxt if ok(r[-1], rock)]
+        if done:
+            def worst(r):
+                chain = [base, *r, rock]
+                return min(_margin(b, f, retention_limit, permeability_limit) for b, f in zip(chain[:-1], chain[1:]))
+            best = max(done, key=worst)
+            break
+        frontier = nxt
+        if not frontier:
+            break
+    if best is not None:
+        return best
+    need = rock.d15 / retention_limit
+    near = []
+    for g in cands:
+        ret, perm = filter_ratios(g, rock)
+        near.append((abs(math.log(g.d85 / need)) + abs(math.log(g.d15 / need)), g.name, ret, perm))
+    rows = "; ".join(f"{name}: retention {ret:.3g}{' > ' if ret > retention_limit else ' <= '}{retention_limit:g}, "
+                     f"permeability {perm:.3g}{' < ' if perm < permeability_limit else ' >= '}{permeability_limit:g}"
+                     for _, name, ret, perm in sorted(near)[:3])
+    onrock = [g.name for g in cands if ok(g, rock)]
+    if onrock:
+        rows += (f" ({', '.join(onrock)} would lie on the rock, but no run of the gradings from {base.name} reaches "
+                 f"{'it' if len(onrock) == 1 else 'them'} within the rules)")
+    raise InputError(
+        f"no seal designable: no run of at most {max_layers} of the gradings {', '.join(g.name for g in cands)} "
+        f"leads from {base.name} to {rock.name} (D15 {rock.d15:.3g} m) within the filter rules; the layer on the "
+        f"rock needs D85 >= {rock.d15 / retention_limit:.3g} m (retention D15_rock/D85 <= {retention_limit:g}) and "
+        f"D15 <= {rock.d15 / permeability_limit:.3g} m (permeability D15_rock/D15 >= {permeability_limit:g}); "
+        f"nearest: {rows}")
+
+
+def standard_filter_gradings() -> list:
+    """The EN 13383 gradings of the materials registry as filter layers (:meth:`Grading.from_rock`: their
+    D_n15, D_n50, D_n85 and porosity), the candidates of ``seal = [..., "auto"]``."""
+    from . import _load_builtins, get_material
+    from .rock import STANDARD_GRADINGS
+
+    _load_builtins()
+    return [Grading.from_rock(get_material(name)) for name in STANDARD_GRADINGS]
+
+
 def series_unit_discharge(head: float, height: float, layers) -> float:
     """Unit discharge ``q`` (m²/s) through layers ``[(length m, a s/m, b s²/m²), ...]`` in series over a
     saturated height *height* (m) under a head *head* (m): the root of ``sum L_k (a_k V + b_k V^2) = H``,
