@@ -19,28 +19,24 @@ from pathlib import Path
 import numpy as np
 
 
-def main(argv=None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("run", type=Path)
-    ap.add_argument("cycle", type=int)
-    ap.add_argument("--times", type=float, nargs="+", default=[30.0, 60.0, 120.0, 180.0])
-    a = ap.parse_args(argv)
-
+def cycle_state(run: Path, flow_cycle: int, pile_cycle: int):
+    """``(setup, flow, domain, obstacles)`` of a finished closure-in-time run: the flow of cycle *flow_cycle*
+    (its cycle file, particle variables dropped), and the domain of cycle *pile_cycle* (its resting masses as the
+    porous pile, the timeline levels of its operation time as the boundaries, its emergent cells as obstacles)."""
     from breachflow.cycle.config import closure_setup
-    from breachflow.cycle.criteria import gap_section_speeds, section_discharge
     from breachflow.cycle.remap import porous_pile
     from breachflow.io.rundir import RunDirectory
     from breachflow.scenario import parse_scenario
-    from breachflow.swe import SWESimulation
     from breachflow.swe.domain import _copy_spacing
 
-    s = closure_setup(parse_scenario((a.run / "scenario.toml").read_text(), path=a.run / "scenario.toml"))
+    s = closure_setup(parse_scenario((run / "scenario.toml").read_text(), path=run / "scenario.toml"))
     if s.timeline is None:
         raise SystemExit("the run is not a closure in time ([closure] method)")
-    rd = RunDirectory(a.run)
-    rec, snap = rd.load_restart(a.cycle), rd.open_cycle(a.cycle)
+    rd = RunDirectory(run)
+    snap = rd.open_cycle(flow_cycle)
     snap = snap[[v for v in snap.data_vars if "particle" not in snap[v].dims and v != "scour_depth"]]
-    s.timeline.restore(rd.manifest()["cycles"][a.cycle - 1]["summary"]["timeline"])
+    rec = rd.load_restart(pile_cycle)
+    s.timeline.restore(rd.manifest()["cycles"][pile_cycle - 1]["summary"]["timeline"])
     dom = s.domain
     pos, radius = np.asarray(rec["dem.state.pos"], float), np.asarray(rec["dem.state.radius"], float)
     resting = np.asarray(rec["resting"], bool)
@@ -48,7 +44,21 @@ def main(argv=None) -> None:
     porous = dom.with_porous(porous_pile(dom.x, dom.y, dom.bed, pos[:m], radius[:m], resting[:m], law=s.porous_law))
     d = replace(porous, boundaries=s.solver.boundaries(porous))
     _copy_spacing(porous, d)
-    obstacles = np.asarray(snap["obstacle"].values, bool) & ~np.asarray(dom.obstacle, bool)
+    obstacles = np.asarray(rd.open_cycle(pile_cycle)["obstacle"].values, bool) & ~np.asarray(dom.obstacle, bool)
+    return s, snap, d, obstacles
+
+
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("run", type=Path)
+    ap.add_argument("cycle", type=int)
+    ap.add_argument("--times", type=float, nargs="+", default=[30.0, 60.0, 120.0, 180.0])
+    a = ap.parse_args(argv)
+
+    from breachflow.cycle.criteria import gap_section_speeds, section_discharge
+    from breachflow.swe import SWESimulation
+
+    s, snap, d, obstacles = cycle_state(a.run, a.cycle, a.cycle)
 
     def show(label, ds):
         q = section_discharge(ds, s.breach_x, s.levee_y, s.flow_sign)

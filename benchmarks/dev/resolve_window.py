@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import argparse
 import time
-from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -32,31 +31,12 @@ def main(argv=None) -> None:
     ap.add_argument("--t-max", type=float, default=900.0)
     a = ap.parse_args(argv)
 
-    from breachflow.cycle.config import closure_setup
     from breachflow.cycle.criteria import gap_section_speeds, section_discharge
-    from breachflow.cycle.remap import porous_pile
-    from breachflow.io.rundir import RunDirectory
-    from breachflow.scenario import parse_scenario
     from breachflow.swe import SWESimulation
-    from breachflow.swe.domain import _copy_spacing
+    from march_cycle import cycle_state  # this folder
 
     window = a.window if a.window == "auto" else float(a.window)
-    s = closure_setup(parse_scenario((a.run / "scenario.toml").read_text(), path=a.run / "scenario.toml"))
-    if s.timeline is None:
-        raise SystemExit("the run is not a closure in time ([closure] method)")
-    rd = RunDirectory(a.run)
-    snap = rd.open_cycle(a.flow_cycle)
-    snap = snap[[v for v in snap.data_vars if "particle" not in snap[v].dims and v != "scour_depth"]]
-    rec = rd.load_restart(a.pile_cycle)
-    s.timeline.restore(rd.manifest()["cycles"][a.pile_cycle - 1]["summary"]["timeline"])
-    dom = s.domain
-    pos, radius = np.asarray(rec["dem.state.pos"], float), np.asarray(rec["dem.state.radius"], float)
-    resting = np.asarray(rec["resting"], bool)
-    m = min(len(pos), len(radius), len(resting))
-    porous = dom.with_porous(porous_pile(dom.x, dom.y, dom.bed, pos[:m], radius[:m], resting[:m], law=s.porous_law))
-    d = replace(porous, boundaries=s.solver.boundaries(porous))
-    _copy_spacing(porous, d)
-    obstacles = np.asarray(rd.open_cycle(a.pile_cycle)["obstacle"].values, bool) & ~np.asarray(dom.obstacle, bool)
+    s, snap, d, obstacles = cycle_state(a.run, a.flow_cycle, a.pile_cycle)
     warm = s.solver.inner.warm
 
     def show(label, ds, c0):
