@@ -97,8 +97,6 @@ class ConvergenceHistory:
     window: float = 0.0
     window_range: list = field(default_factory=list)
     window_remaining: list = field(default_factory=list)
-    #: the section discharge of the state the run began from (the first value of the window)
-    window_q0: float = float("nan")
 
 
 class SWESimulation:
@@ -361,7 +359,7 @@ class SWESimulation:
         hist.tolerance = tolerance
         hist.window = window
         t_start = self.t
-        hist.window_q0 = self.section_discharge(section) if section is not None else math.nan
+        q_begin = self.section_discharge(section) if window > 0.0 else math.nan  # the window's first value
         n_hist0 = len(hist.time)
         wall0 = _time.perf_counter()
         h_prev = self.depth[sel]
@@ -428,7 +426,7 @@ class SWESimulation:
             held = True
             if window > 0.0:
                 rng, remaining = window_change_estimate(hist.time[n_hist0:], hist.section_discharge[n_hist0:],
-                                                        t_start, hist.window_q0, window)
+                                                        t_start, q_begin, window)
                 hist.window_range.append(rng)
                 hist.window_remaining.append(remaining)
                 held = max(rng, remaining) <= window_change * abs(qs)

@@ -51,7 +51,7 @@ class HydroSection:
     (:mod:`breachflow.hydro.nested`) the closure runs on. ``cold_start`` (``cold`` | ``coarse``): the first
     ``swe`` solve from the initial state on the run's grid, or from the steady state of a grid twice as
     coarse (:mod:`breachflow.hydro.coarse_start`; docs/verdict-check.md). ``steady_window`` (a time, ``"auto"``
-    — one long-wave crossing of the domain's shorter side, :meth:`~breachflow.swe.solver.SWESimulation.crossing_time`
+    — one long-wave crossing of the domain along the flow through the breach, :meth:`~breachflow.swe.solver.SWESimulation.crossing_time`
     — or ``"0 s"``: off; default ``"auto"``) and ``steady_window_change`` (default 0.01, :data:`~breachflow.swe.solver.WINDOW_CHANGE`): a ``swe`` solve is
     steady only after marching at least the window, with the breach discharge within that relative range over
     its last window (``run_to_steady(window=...)``; docs/verdict-check.md, *Re-solves that settle*)."""
