@@ -71,3 +71,55 @@ def test_refined_grid_carries_the_timeline(refined):
     q_nested = section_discharge(drowned, s.breach_x, s.levee_y)
     q_coarse = section_discharge(s.solver._regional, s.breach_x, s.levee_y)
     assert q_nested == pytest.approx(q_coarse, rel=0.03), (q_nested, q_coarse)
+
+
+@pytest.fixture(scope="module")
+def drifting():
+    """The embedded default on a 2 m grid with a 1 m nested grid at the breach, its polder filled 1 m, and
+    the coarse field's flood side drifting at 0.5 m/s along the levee (a river flowing past the breach:
+    the water then leaves the box through the flood side of its east edge)."""
+    text = files("breachflow.data").joinpath("closure_default.toml").read_text()
+    text = text.replace('start = "1 h"\n', 'start = "0 h"\n')
+    text = text.replace('resolution = "1 m"', 'resolution = "2 m"\nrefine = "1 m"')
+    s = closure_setup(parse_scenario(text))
+    s.timeline.begin()
+    s.timeline.polder_level = s.timeline.ground + 1.0
+    regional = s.solver._regional.copy(deep=True)
+    flood = (regional.y < s.levee_y) & (regional.depth > 0.01)
+    regional["u"] = regional.u.where(~flood, regional.u + 0.5)
+    return s, regional
+
+
+@pytest.mark.parametrize("hold", [True, False])
+def test_the_flood_side_does_not_drain_out_of_a_nested_box(drifting, hold):
+    """Water leaving the nested box on the flood side keeps the coarse field's level; only the polder side
+    takes the polder's level. Before, a slow drift out of a side made that edge a free outflow, which the
+    timeline then set to the polder's level: the flood channel ran out of the box through it (the typical
+    breach's flood side at 5-6 m/s and 2 m under the flood at its nested box's east edge)."""
+    from functools import partial
+
+    from breachflow.cycle.timeline import tailwater_relaxation, with_tailwater
+    from breachflow.hydro.nested import NestedSolver, levee_side
+
+    s, regional = drifting
+    n = s.solver.nested
+    ns = NestedSolver([regional], n.box, n.spacing, manning=s.solver.manning, tolerance=n.tolerance,
+                      t_max_initial=120.0, terrain=n.terrain,
+                      flood_side=partial(levee_side, levee_y=s.levee_y) if hold else None)
+    tail, flood = s.timeline.tailwater, s.timeline.flood_level
+    assert tail == pytest.approx(s.timeline.ground + 1.0) and flood - tail > 1.5
+    east = ns.domain.boundaries["east"]
+    y = ns.domain.y
+    on_flood_side = [b for b in east if b.kind != "wall" and b.stop < s.levee_y]
+    assert on_flood_side and y[0] < s.levee_y
+    ns.domain.boundaries = with_tailwater(ns.domain.boundaries, tail, tailwater_relaxation(ns.domain, tail))
+    snap = ns.solve()
+    ws, wet = snap.water_surface.values, snap.wet.values.astype(bool)
+    edge = wet[:, -1] & (y < s.levee_y)
+    lowest = float(np.min(ws[edge, -1]))
+    if hold:
+        assert all(b.kind == "level" for b in on_flood_side)
+        assert lowest == pytest.approx(flood, abs=0.05), (lowest, flood)
+    else:  # the rule without the flood side: the east edge's flood side drains to the polder's level
+        assert any(b.kind == "outflow" for b in on_flood_side)
+        assert lowest < flood - 0.3, (lowest, flood)

@@ -64,6 +64,14 @@ def test_method_refuses_units_and_positions_it_cannot_place():
     delivery_method("split_barge").check_placement(small)
     with pytest.raises(InputError, match="end_dumping' places masses by horizontal only"):
         delivery_method("end_dumping").check_placement(small)
+    # a material's grading is named as the scenario gave it, with the range its grading reaches (EN 13383's
+    # HMA 10000-15000 reaches above 15 t, the split barge's largest unit)
+    graded = PlacementPlan(material="HMA_10000_15000", positions="line", start=(-1, 0), stop=(1, 0))
+    with pytest.raises(InputError, match=r"\[placement\] material = 'HMA_10000_15000': its grading gives units of "
+                                         r"[0-9.]+–(1[5-9]|2[0-9])\.?[0-9]* t, but the delivery method 'split_barge' "
+                                         r"handles [0-9.]+–15 t units") as err:
+        delivery_method("split_barge").check_placement(graded)
+    assert "diameter/density" not in str(err.value)
 
 
 # --- polder balance against independent integrations -----------------------------------------------------

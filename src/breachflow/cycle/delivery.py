@@ -105,7 +105,10 @@ class DeliveryMethod:
         m = np.pi / 6.0 * d ** 3 * rho
         lo, hi = float(m.min()), float(m.max())
         if lo < self.unit_mass[0] * (1 - 1e-9) or hi > self.unit_mass[1] * (1 + 1e-9):
-            raise InputError(f"[placement] diameter/density: units of {lo / TONNE:.3g}–{hi / TONNE:.3g} t, but the "
+            mix = getattr(plan, "mix", None)
+            what = ("[placement] diameter/density: units of" if mix is None else
+                    f"[placement] material = {_material_label(plan.material)}: its grading gives units of")
+            raise InputError(f"{what} {lo / TONNE:.3g}–{hi / TONNE:.3g} t, but the "
                              f"delivery method {self.name!r} handles {self.unit_mass[0] / TONNE:g}–"
                              f"{self.unit_mass[1] / TONNE:g} t units ([closure] unit_mass overrides)")
 
@@ -113,6 +116,13 @@ class DeliveryMethod:
         return (f"{self.name}: {self.capacity * HOUR / TONNE:,.0f} t/h, units {self.unit_mass[0] / TONNE:g}–"
                 f"{self.unit_mass[1] / TONNE:g} t, {self.working_hours / HOUR:g} h/day, wind limit {self.wind_limit:g} m/s, "
                 f"{self.closure} closure ({', '.join(self.positions)})")
+
+
+def _material_label(material) -> str:
+    """A closure material as the scenario names it: a name, a table's ``name``, or a list of them."""
+    items = material if isinstance(material, (list, tuple)) else [material]
+    names = [m.get("name", "?") if isinstance(m, dict) else getattr(m, "name", m) for m in items]
+    return repr(names[0]) if len(names) == 1 else "[" + ", ".join(map(repr, names)) + "]"
 
 
 def _builtin(name, **defaults):

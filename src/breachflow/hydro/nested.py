@@ -16,7 +16,11 @@ grid snapshot of our own solver). Around the breach a local structured-grid mode
   "free"``, the default: a level held where the open breach's jet left would keep the polder at the
   open-breach state and drive water back in once the pile shuts the breach) or, with ``leaving =
   "level"``, the regional level where it leaves subcritically; dry edge cells free outflow; outside the
-  regional field, wall. The
+  regional field, wall. On the flood side of the levee (``flood_side``, :func:`levee_side`) water that
+  leaves subcritically keeps the regional level whatever *leaving* says: the flood channel beyond the box
+  is a water body whose level the regional field sets, and a free outflow there lets it drain out of the
+  box (a slow drift of 0.1 m/s along the channel made the typical breach's flood side run out of its nested
+  box at 5-6 m/s, 2 m below the flood, once the polder's level was put on the free outflows). The
   levels are absorbing (relaxation ``4 L / sqrt(g h_max)``, L the box size, as the typical breach's
   flood source): an exact level reflects every wave and the local basin would ring;
 * the nested box (:func:`breach_box`): the breach ± (B/2 + 3 B) along the levee and ± 3 B across, its
@@ -152,8 +156,15 @@ def _regional_obstacle(regional: xr.Dataset, X, Y) -> np.ndarray:
     return regional["obstacle"].values.astype(bool)[j, i]
 
 
+def levee_side(X, Y, levee_y: float, polder_sign: float = 1.0) -> np.ndarray:
+    """True at the points ``(X, Y)`` (grid coordinates, the levee along x at *levee_y*) on the flood side:
+    ``(Y - levee_y) * polder_sign < 0``, *polder_sign* the direction of the flow through the breach
+    (:func:`~breachflow.swe.section.flow_sign`: +1 when the polder lies at larger y)."""
+    return (np.asarray(Y, float) - float(levee_y)) * float(polder_sign) < 0.0
+
+
 def nested_domain(regional: xr.Dataset, box, resolution: float, manning=0.025, *, name: str = "nested",
-                  leaving: str = "free", frame=None, terrain=None):
+                  leaving: str = "free", frame=None, terrain=None, flood_side=None):
     """The local :class:`~breachflow.swe.domain.Domain` in *box* ``(x0, x1, y0, y1)`` at *resolution* and its initial state
     ``(h, hu, hv)`` from *regional*; boundary conditions from the regional field (module docstring). With
     *frame* (:class:`~breachflow.site.frame.GridFrame`) the box and the domain are in its grid coordinates
@@ -163,7 +174,11 @@ def nested_domain(regional: xr.Dataset, box, resolution: float, manning=0.025, *
     (box coordinates): the analytic geometry of a preset or scene (:func:`breachflow.swe.domain.breach_terrain`)
     or a site's terrain file (:meth:`breachflow.site.domain.Site.terrain_at`). The local bed and no-flow cells are
     then its own, not the regional bed interpolated (which smears a breach wall over the regional cells next to
-    it); the initial depth is the regional water surface over the local bed. None: the regional bed."""
+    it); the initial depth is the regional water surface over the local bed. None: the regional bed.
+
+    *flood_side*: ``flood_side(X, Y) -> bool`` at the local cell centres, True on the flood side of the levee
+    (e.g. :func:`levee_side` with :func:`functools.partial`); there water leaving subcritically keeps the
+    regional level (module docstring). None: *leaving* everywhere."""
     x0, x1, y0, y1 = map(float, box)
     regional = with_no_flow(regional)  # a raster without a no-flow mask (ESRI grids): dry cells it held dry
     dom = uniform_grid(x0, x1, y0, y1, resolution)
@@ -209,7 +224,10 @@ def nested_domain(regional: xr.Dataset, box, resolution: float, manning=0.025, *
     relaxation = 4.0 * max(x1 - x0, y1 - y0) / np.sqrt(GRAVITY * max(hmax, 1e-3))
     if leaving not in ("free", "level"):
         raise InputError(f"nested solver: leaving = {leaving!r}; use 'free' or 'level'")
-    dom.boundaries = _edge_conditions(bed, h, u, v, inside, dom, relaxation, leaving == "level")
+    hold = np.full(dom.shape, leaving == "level")
+    if flood_side is not None:
+        hold |= np.asarray(flood_side(X, Y), bool).reshape(dom.shape)
+    dom.boundaries = _edge_conditions(bed, h, u, v, inside, dom, relaxation, hold)
     return dom, (h, h * u, h * v)
 
 
@@ -235,25 +253,27 @@ def frame_snapshot(snapshot: xr.Dataset, domain: Domain, frame) -> xr.Dataset:
     return frame.georeference(ds)
 
 
-def edge_conditions(bed, h, u, v, inside, dom: Domain, relaxation=None, leaving_level: bool = False) -> dict:
+def edge_conditions(bed, h, u, v, inside, dom: Domain, relaxation=None, leaving_level=False) -> dict:
     """Boundary conditions per side of *dom* from a surrounding field on its edge cells (bed, depth, velocity
     ``(ny, nx)`` arrays; *inside* False = wall): where water enters the absorbing level (supercritical: level
-    and unit discharge), where it leaves free outflow (or, *leaving_level*, the level when subcritical), dry
-    cells free outflow (module docstring). Also the edges of the region re-solve (:mod:`~breachflow.hydro.resolve_region`)."""
+    and unit discharge), where it leaves free outflow (or, *leaving_level*, the level when subcritical; a bool,
+    or a ``(ny, nx)`` mask of the cells where it holds), dry cells free outflow (module docstring). Also the
+    edges of the region re-solve (:mod:`~breachflow.hydro.resolve_region`)."""
     return _edge_conditions(bed, h, u, v, inside, dom, relaxation, leaving_level)
 
 
-def _edge_conditions(bed, h, u, v, inside, dom: Domain, relaxation=None, leaving_level: bool = False) -> dict:
+def _edge_conditions(bed, h, u, v, inside, dom: Domain, relaxation=None, leaving_level=False) -> dict:
     edges = {  # side: (cells along it, inward normal velocity, along-side coordinate)
         "west": (np.s_[:, 0], u[:, 0], dom.y), "east": (np.s_[:, -1], -u[:, -1], dom.y),
         "south": (np.s_[0, :], v[0, :], dom.x), "north": (np.s_[-1, :], -v[-1, :], dom.x),
     }
+    hold = np.broadcast_to(np.asarray(leaving_level, bool), h.shape)
     out = {}
     for side, (sl, un_in, s) in edges.items():
         hh, ins = h[sl], inside[sl]
         level = bed[sl] + hh
         c = np.sqrt(GRAVITY * np.maximum(hh, 1e-12))
-        leaving = (un_in < -c) if leaving_level else (un_in < 0.0)
+        leaving = np.where(hold[sl], un_in < -c, un_in < 0.0)
         kind = np.where(~ins, "wall", np.where(hh <= 1e-3, "outflow",
                         np.where(leaving, "outflow", np.where(un_in > c, "discharge", "level"))))
         bcs = []
@@ -295,6 +315,8 @@ class NestedSolver:
     regional state; every later one from the previous local state (warm start).
 
     *terrain*: the local grid's terrain from its finest source (:func:`nested_domain`); None: the regional bed.
+    *flood_side*: the flood side of the levee at the local cells (:func:`nested_domain`); None: *leaving* on
+    every edge.
 
     *frame*: the :class:`~breachflow.site.frame.GridFrame` of a site whose levee runs in any direction:
     *box*, the domain, the solutions and the DEM's positions are in its grid coordinates, the regional
@@ -305,7 +327,8 @@ class NestedSolver:
 
     def __init__(self, snapshots=None, box=None, resolution: float = 4.0, manning=0.025, *, order: int = 2,
                  courant: float = 0.45, tolerance: float = 2e-3, t_max_initial: float = 300.0, t_max: float = 60.0,
-                 region=None, threads: int | None = 1, leaving: str = "free", frame=None, terrain=None):
+                 region=None, threads: int | None = 1, leaving: str = "free", frame=None, terrain=None,
+                 flood_side=None):
         if snapshots is None or box is None:
             raise InputError("nested solver: give snapshots= (the ingested regional field) and box=(x0, x1, y0, y1)")
         self.regional = load_regional(snapshots)
@@ -328,10 +351,11 @@ class NestedSolver:
         if not (self.box[1] > self.box[0] and self.box[3] > self.box[2]):
             raise InputError(f"nested box {w} does not overlap the regional field "
                              f"(x {np.min(bx):g}..{np.max(bx):g}, y {np.min(by):g}..{np.max(by):g})")
-        #: the local grid's terrain source and the edges' leaving rule, kept for a rebuild on a new regional field
-        self.terrain, self.leaving = terrain, leaving
+        #: the local grid's terrain source and the edges' leaving rules, kept for a rebuild on a new regional field
+        self.terrain, self.leaving, self.flood_side = terrain, leaving, flood_side
         self.domain, self.initial_state = nested_domain(self.regional, self.box, resolution, manning,
-                                                        leaving=leaving, frame=self.frame, terrain=terrain)
+                                                        leaving=leaving, frame=self.frame, terrain=terrain,
+                                                        flood_side=flood_side)
         from ..swe.solver import SWEOptions
 
         self.options = SWEOptions(order=order, courant=courant, threads=threads)

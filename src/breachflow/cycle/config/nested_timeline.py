@@ -60,7 +60,7 @@ class NestedTimelineSolver:
         # the nested grid's own cell size: the breach's ends lie on its cell faces, so it is the refine
         # length only when that divides the breach length
         dom, init = nested_domain(n.regional, n.box, n.spacing, self.manning, leaving=n.leaving, frame=n.frame,
-                                  terrain=n.terrain)
+                                  terrain=n.terrain, flood_side=n.flood_side)
         n.initial_state = init
         from ...swe.domain import _copy_spacing
 

@@ -4,6 +4,7 @@ warm-start, stage-hydrograph and nested wrappers), the DEM settings, placement, 
 from __future__ import annotations
 
 from dataclasses import replace
+from functools import partial
 
 import numpy as np
 
@@ -59,7 +60,7 @@ def closure_setup(scenario, *, overrides: dict | None = None):
         bottom = scene.ground_elevation + scene.levee.height - scene.breach.depth - scene.breach.scour_depth
     nested = coarse = None  # coarse: (domain, solver) of a refine's coarse model
     if hydro.solver == "nested" or hydro.refine is not None:
-        from ...hydro.nested import NestedSolver, breach_box
+        from ...hydro.nested import NestedSolver, breach_box, levee_side
 
         fine = hydro.resolution if hydro.refine is None else hydro.refine
         regional = hydro.snapshots
@@ -89,9 +90,13 @@ def closure_setup(scenario, *, overrides: dict | None = None):
                 from ...swe.domain import breach_terrain
 
                 terrain = breach_terrain(scene)
+        # water leaving the box on the flood side keeps the regional level: the flood channel does not drain
+        # out of the box (hydro/nested.py)
+        flood_side = partial(levee_side, levee_y=yc, polder_sign=flow_sign(built.flood_sign) if built is not None else 1.0)
         nested = NestedSolver(regional, box, spacing, manning=float(np.mean(dom.manning)),
                               order=hydro.order, courant=hydro.courant, tolerance=hydro.tolerance,
-                              t_max_initial=hydro.t_max_initial, t_max=hydro.t_max, frame=frame, terrain=terrain)
+                              t_max_initial=hydro.t_max_initial, t_max=hydro.t_max, frame=frame, terrain=terrain,
+                              flood_side=flood_side)
         nested.window, nested.window_change = hydro.steady_window, hydro.steady_window_change
         if nested.domain.crs_wkt is None:  # regional files without a CRS (e.g. ADH without its .prj): the site's
             nested.domain.crs_wkt = dom.crs_wkt
