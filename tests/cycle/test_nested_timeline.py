@@ -123,3 +123,33 @@ def test_the_flood_side_does_not_drain_out_of_a_nested_box(drifting, hold):
     else:  # the rule without the flood side: the east edge's flood side drains to the polder's level
         assert any(b.kind == "outflow" for b in on_flood_side)
         assert lowest < flood - 0.3, (lowest, flood)
+
+
+def test_the_polder_side_of_a_nested_box_takes_the_polder_level(drifting, monkeypatch):
+    """Once the polder holds water, every open stretch of the nested box's polder side is held at the polder's
+    level, as a uniform grid's protected edges are, and no stretch of its flood side is. Before, only the free
+    outflows took it: the stretches where the coarse open breach's eddies came back into the box kept that
+    field's levels, and once the pile had shut the breach they drove water in and out of the box's polder
+    corners (the typical breach's nested 2 m grid at 9-10 m/s there from its third cycle on, 2026-11-28)."""
+    from breachflow.hydro.nested import edge_on_flood_side
+
+    s, _ = drifting
+    tail = s.timeline.tailwater
+    assert tail == pytest.approx(s.timeline.ground + 1.0)
+    seen = {}
+    monkeypatch.setattr(s.solver.nested, "solve", lambda d, obstacles=None, initial=None: seen.setdefault("d", d))
+    s.solver.solve(s.domain)
+    given, dom = seen["d"].boundaries, s.solver.nested.domain
+    # the coarse open breach's polder side has water coming back into the box (stretches of kind "level" there)
+    built = [(side, bc) for side, lst in dom.boundaries.items() for bc in lst if bc.kind != "wall"]
+    polder = [(side, bc) for side, bc in built if not edge_on_flood_side(side, bc, dom, s.solver.nested.flood_side)]
+    assert any(bc.kind == "level" for _, bc in polder) and any(bc.kind == "outflow" for _, bc in polder)
+    assert {side for side, _ in polder} == {"west", "east", "north"}
+    for side, lst in given.items():
+        for bc, orig in zip(lst, dom.boundaries[side]):
+            if orig.kind == "wall":
+                assert bc.kind == "wall"
+            elif edge_on_flood_side(side, orig, dom, s.solver.nested.flood_side):
+                assert bc is orig  # the coarse field's level where water enters or leaves the flood side
+            else:
+                assert bc.kind == "level" and np.all(np.asarray(bc.level) == tail) and bc.absorbing > 0

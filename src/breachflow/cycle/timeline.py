@@ -456,18 +456,27 @@ def tailwater_relaxation(domain, tail: float | None) -> float | None:
     return 4.0 * span / math.sqrt(9.81 * depth)
 
 
-def with_tailwater(boundaries: dict, tail: float | None, relaxation: float | None = None) -> dict:
+def with_tailwater(boundaries: dict, tail: float | None, relaxation: float | None = None, protected=None) -> dict:
     """*boundaries* with every free-outflow edge turned into the prescribed polder level *tail* (m); unchanged
     while the polder is (nearly) dry (*tail* None). The protected side of a flow model then stands at the
     polder's level, as the polder balance has it, instead of draining freely. The level is absorbing with
     *relaxation* (s; :func:`tailwater_relaxation`): an exactly imposed level reflects every wave, and the basin
-    between it, the levee and the side walls would ring for hours (:class:`~breachflow.swe.domain.BoundaryCondition`)."""
+    between it, the levee and the side walls would ring for hours (:class:`~breachflow.swe.domain.BoundaryCondition`).
+
+    *protected* ``(side, bc) -> bool``: the stretches on the polder side; then exactly those (every kind but
+    walls) take the polder's level, and a free outflow elsewhere stays free. A nested grid's edges come from a
+    coarse field solved without the pile: on the polder side they would hold the open breach's levels (where its
+    jet leaves, where eddies come back in) against a pile that has shut it."""
     from ..swe.domain import BoundaryCondition
 
     if tail is None:
         return boundaries
+
+    def polder(side, bc):
+        return bc.kind == "outflow" if protected is None else (bc.kind != "wall" and protected(side, bc))
+
     return {side: [BoundaryCondition.water_level(tail, start=bc.start, stop=bc.stop, absorbing=relaxation)
-                   if bc.kind == "outflow" else bc for bc in lst] for side, lst in boundaries.items()}
+                   if polder(side, bc) else bc for bc in lst] for side, lst in boundaries.items()}
 
 
 class TimelineSolver:

@@ -225,9 +225,11 @@ def nested_domain(regional: xr.Dataset, box, resolution: float, manning=0.025, *
     if leaving not in ("free", "level"):
         raise InputError(f"nested solver: leaving = {leaving!r}; use 'free' or 'level'")
     hold = np.full(dom.shape, leaving == "level")
+    flood = None
     if flood_side is not None:
-        hold |= np.asarray(flood_side(X, Y), bool).reshape(dom.shape)
-    dom.boundaries = _edge_conditions(bed, h, u, v, inside, dom, relaxation, hold)
+        flood = np.asarray(flood_side(X, Y), bool).reshape(dom.shape)
+        hold |= flood
+    dom.boundaries = _edge_conditions(bed, h, u, v, inside, dom, relaxation, hold, flood)
     return dom, (h, h * u, h * v)
 
 
@@ -262,7 +264,9 @@ def edge_conditions(bed, h, u, v, inside, dom: Domain, relaxation=None, leaving_
     return _edge_conditions(bed, h, u, v, inside, dom, relaxation, leaving_level)
 
 
-def _edge_conditions(bed, h, u, v, inside, dom: Domain, relaxation=None, leaving_level=False) -> dict:
+def _edge_conditions(bed, h, u, v, inside, dom: Domain, relaxation=None, leaving_level=False, flood=None) -> dict:
+    # flood: (ny, nx) mask of the flood side; a stretch of one kind is split where it crosses the levee, so that
+    # each stretch lies on one side (:func:`edge_on_flood_side`)
     edges = {  # side: (cells along it, inward normal velocity, along-side coordinate)
         "west": (np.s_[:, 0], u[:, 0], dom.y), "east": (np.s_[:, -1], -u[:, -1], dom.y),
         "south": (np.s_[0, :], v[0, :], dom.x), "north": (np.s_[-1, :], -v[-1, :], dom.x),
@@ -276,10 +280,11 @@ def _edge_conditions(bed, h, u, v, inside, dom: Domain, relaxation=None, leaving
         leaving = np.where(hold[sl], un_in < -c, un_in < 0.0)
         kind = np.where(~ins, "wall", np.where(hh <= 1e-3, "outflow",
                         np.where(leaving, "outflow", np.where(un_in > c, "discharge", "level"))))
+        side_of = np.zeros(s.size, bool) if flood is None else flood[sl]
         bcs = []
         start = 0
         for k in range(1, s.size + 1):
-            if k < s.size and kind[k] == kind[start]:
+            if k < s.size and kind[k] == kind[start] and side_of[k] == side_of[start]:
                 continue
             sel = slice(start, k)
             a, b = float(s[start]), float(s[k - 1])
@@ -295,6 +300,19 @@ def _edge_conditions(bed, h, u, v, inside, dom: Domain, relaxation=None, leaving
             start = k
         out[side] = bcs
     return out
+
+
+def edge_on_flood_side(side: str, bc, domain: Domain, flood_side) -> bool:
+    """Whether the stretch *bc* of edge *side* (``"west"``, ...) of *domain* lies on the flood side
+    (``flood_side(X, Y)``, :func:`levee_side`): judged at its middle cell; the stretches of a nested domain built
+    with that *flood_side* lie on one side each (:func:`nested_domain`)."""
+    x, y = np.asarray(domain.x, float), np.asarray(domain.y, float)
+    along = y if side in ("west", "east") else x
+    a = along[0] if bc.start is None else float(bc.start)
+    b = along[-1] if bc.stop is None else float(bc.stop)
+    mid = 0.5 * (a + b)
+    px, py = {"west": (x[0], mid), "east": (x[-1], mid), "south": (mid, y[0]), "north": (mid, y[-1])}[side]
+    return bool(np.asarray(flood_side(np.array([px]), np.array([py])), bool)[0])
 
 
 def breach_box(xc: float, yc: float, length: float, resolution: float, along: float = 3.0, across: float = 3.0):

@@ -71,15 +71,21 @@ class NestedTimelineSolver:
     def solve(self, domain=None, obstacles=None, initial=None):
         from ...swe.domain import _copy_spacing
 
+        from ...hydro.nested import edge_on_flood_side
         from ..timeline import tailwater_relaxation, with_tailwater
 
         self._follow()
         domain = self.nested.domain if domain is None else domain
-        # the edges of the coarse state; where water leaves them towards a filled polder, the polder's level
-        # (as on a uniform grid under the timeline), not a free outflow that would let the gap flow run
-        # supercritical into an empty polder
+        # the edges of the coarse state; on the polder side, once it holds water, the polder's level (as on a
+        # uniform grid under the timeline): not a free outflow that would let the gap flow run supercritical
+        # into an empty polder, nor the coarse open breach's levels, which would drive water in and out of the
+        # box's polder corners once the pile has shut the breach. With the flood side known, only the polder
+        # side's stretches (hydro/nested.py)
         tail = self.timeline.tailwater
+        fs = getattr(self.nested, "flood_side", None)
+        protected = None if fs is None else (
+            lambda side, bc, dom=self.nested.domain: not edge_on_flood_side(side, bc, dom, fs))
         d = replace(domain, boundaries=with_tailwater(self.nested.domain.boundaries, tail,
-                                                      tailwater_relaxation(domain, tail)))
+                                                      tailwater_relaxation(domain, tail), protected))
         _copy_spacing(domain, d)
         return self.nested.solve(d, obstacles=obstacles, initial=initial)
