@@ -177,7 +177,7 @@ def nested_domain(regional: xr.Dataset, box, resolution: float, manning=0.025, *
     it); the initial depth is the regional water surface over the local bed. None: the regional bed.
 
     *flood_side*: ``flood_side(X, Y) -> bool`` at the local cell centres, True on the flood side of the levee
-    (e.g. :func:`levee_side` with :func:`functools.partial`); there water leaving subcritically keeps the
+    (e.g. :func:`levee_side` bound with ``functools.partial``); there water leaving subcritically keeps the
     regional level (module docstring). None: *leaving* everywhere."""
     x0, x1, y0, y1 = map(float, box)
     regional = with_no_flow(regional)  # a raster without a no-flow mask (ESRI grids): dry cells it held dry
