@@ -16,6 +16,24 @@ DATA = Path(__file__).resolve().parent / "data"
 ADH = ["adh_demo.3dm", "adh_demo_dep.dat", "adh_demo_vel.dat", "adh_demo.bc"]
 
 
+@pytest.fixture(autouse=True)
+def one_clock(monkeypatch):
+    """Every snapshot of a test stamped at the same time: the ``history`` attribute holds the time a snapshot
+    was made, and two readings a second apart would differ in it alone (``assert_identical`` compares attributes)."""
+    from datetime import datetime, timezone
+
+    import breachflow.field.snapshot as snapshot
+
+    fixed = datetime(2026, 1, 1, tzinfo=timezone.utc)
+
+    class Clock(datetime):
+        @classmethod
+        def now(cls, tz=None):
+            return fixed if tz is not None else fixed.replace(tzinfo=None)
+
+    monkeypatch.setattr(snapshot, "datetime", Clock)
+
+
 def test_the_engine_is_registered_through_the_entry_point():
     engines = xr.backends.list_engines()
     assert isinstance(engines["breachflow"], BreachflowBackendEntrypoint)
