@@ -1,5 +1,6 @@
 """When the rock stage of a sealed closure may end (breachflow.cycle.rock_end): only on a steady re-solve, and
-only with the pile's crest above the flood level in every gap column. The crests against hand arithmetic; a
+only with the pile's crest, read from the masses, above the flood level all along the gap. The crests against
+hand arithmetic and on three grids; a
 re-solve cut off before its steady state and a submerged crest are never "held", on the embedded solver."""
 from __future__ import annotations
 
@@ -19,41 +20,84 @@ from breachflow.swe.porous import PorousPile
 from breachflow.swe.solver import SWESolver
 
 
-def test_gap_crests_are_the_highest_pile_top_of_each_gap_column_by_hand():
-    """Columns x = 0..9 m (1 m cells), the levee row y = 1; the gap x in [2, 7] where the levee row's ground is
-    below the flood (5 m); x = 2 is a levee head (ground 6 m) and not a gap column. Pile rows 0 and 1."""
-    x = np.arange(10.0)
+def test_gap_crests_are_the_highest_unit_top_over_each_point_by_hand():
+    """The levee row (y = 1) of a 1 m grid has ground 0 m over x = 0..7 and rises to a head of 6 m at x = 8: it
+    crosses the flood (5 m) at x = 7 + 5/6. Resting units: A at x = 2 (r 1 m, top 5 m) covers 1..3, B at x = 5
+    (r 1.5 m, top 5 m) covers 3.5..6.5; C (top 11 m over x = 3.2) is not resting. By hand: the crest is 5 m
+    over A and B, the ground elsewhere, and the gap's water part ends at x = 7.83."""
+    x = np.arange(11.0)
     y = np.arange(4.0)
-    bed = np.zeros((4, 10))
-    bed[1, 2] = 6.0  # levee head in the breach section
-    h = np.zeros((4, 10))
-    h[0, 3:8] = [5.5, 4.0, 5.0, 1.0, 7.0]
-    h[1, 3:8] = [4.0, 4.5, 3.0, 4.9, 2.0]
-    xs, crest = gap_crests(x, y, bed, h, (2.0, 7.0), 1.0, 5.0)
-    np.testing.assert_array_equal(xs, [3.0, 4.0, 5.0, 6.0, 7.0])
-    np.testing.assert_allclose(crest, [5.5, 4.5, 5.0, 4.9, 7.0])
-    # no pile at all: the levee row's ground, all below the flood
-    xs, crest = gap_crests(x, y, bed, None, (2.0, 7.0), 1.0, 5.0)
-    np.testing.assert_allclose(crest, np.zeros(5))
+    bed = np.zeros((4, 11))
+    bed[1, 8:] = 6.0
+    pos = np.array([[2.0, 1.0, 4.0], [5.0, 0.0, 3.5], [3.2, 1.0, 10.0]])
+    radius = np.array([1.0, 1.5, 1.0])
+    resting = np.array([True, True, False])
+    xs, crest = gap_crests(pos, radius, resting, x, y, bed, (0.0, 8.0), 1.0, 5.0)
+    step = xs[1] - xs[0]
+    assert step == pytest.approx(0.05) and xs[0] == 0.0 and xs[-1] == pytest.approx(7.8)  # 7.85: ground 5.1 m
+    at = lambda v: crest[np.argmin(np.abs(xs - v))]  # noqa: E731
+    assert at(1.0) == at(2.0) == at(3.0) == at(3.5) == at(5.0) == at(6.5) == 5.0
+    assert at(0.5) == at(3.25) == at(6.75) == 0.0 and at(7.5) == pytest.approx(3.0)  # ground, linear 7..8
+    # three stretches below the flood: 0..1, 3..3.5 and 6.5..7.83 m, each read within a step
+    end = judge("emergent", True, 900.0, 1, xs, crest, 5.0, overflow_ok=False)
+    assert end.openings == 3 and end.notches == 0 and not end.held and not end.emergent
+    assert end.widest_opening == pytest.approx(7 + 5 / 6 - 6.5, abs=step)
+    assert end.submerged_width == pytest.approx(1.0 + 0.5 + 7 + 5 / 6 - 6.5, abs=3 * step)
+    assert end.gap_width == pytest.approx(7 + 5 / 6, abs=step)
+    # stretches narrower than a unit are notches: a 1.2 m unit leaves one opening, a 1.4 m unit none
+    end = judge("emergent", True, 900.0, 1, xs, crest, 5.0, overflow_ok=False, unit_diameter=1.2)
+    assert (end.openings, end.notches) == (1, 2) and not end.held and "1 opening(s) wider than a unit (1.20 m)" in end.reason()
+    end = judge("emergent", True, 900.0, 1, xs, crest, 5.0, overflow_ok=False, unit_diameter=1.4)
+    assert (end.openings, end.notches) == (0, 3) and end.emergent and end.held
+    # no unit at all: the ground, all below the flood
+    xs, crest = gap_crests(pos, radius, np.zeros(3, bool), x, y, bed, (0.0, 8.0), 1.0, 5.0)
+    np.testing.assert_allclose(crest, np.interp(xs, x, bed[1]))
+
+
+def test_the_crest_is_the_same_on_every_grid():
+    """The same units read on grids of 0.25, 1 and 4 m cells give the same crest over a flat floor: it is the
+    masses' (a 0.5 m notch between two 2 m units is seen on the 4 m grid). By hand: below the flood (2.9 m)
+    are 6..6.5 and 8.5..11 m (the third unit, top 3.5 m, covers 11..13), each read within a step (0.05 m)."""
+    pos = np.array([[5.0, 0.0, 2.0], [7.5, 0.0, 2.0], [12.0, 1.0, 2.5]])
+    radius = np.ones(3)
+    ends = []
+    for cells in (0.25, 1.0, 4.0):
+        x = np.arange(0.0, 20.01, cells)
+        y = np.arange(-4.0, 4.01, cells)
+        xs, crest = gap_crests(pos, radius, np.ones(3, bool), x, y, np.zeros((y.size, x.size)), (4.0, 13.0), 0.0, 2.9)
+        ends.append(judge("emergent", True, 1.0, 1, xs, crest, 2.9, overflow_ok=False, unit_diameter=0.4))
+    assert ends[0] == ends[1] == ends[2]
+    assert ends[0].openings == 2 and ends[0].widest_opening == pytest.approx(2.5, abs=0.05 + 1e-9)
+    assert ends[0].submerged_width == pytest.approx(3.0, abs=2 * 0.05 + 1e-9)
 
 
 @pytest.mark.parametrize("low", [4.99, 4.0, -1.0])
 def test_a_submerged_crest_is_not_held_even_steady_and_with_the_overflow_met(low):
+    xs = np.arange(4) * 0.05
     crests = np.array([5.2, 5.0, low, 6.0])
-    end = judge("emergent", True, 900.0, 3, crests, 5.0, overflow_ok=True)
-    assert not end.held and not end.emergent and end.submerged == 1 and end.columns == 4
-    assert "1 of 4 gap columns" in end.reason() and "not held" in end.statement()
+    end = judge("emergent", True, 900.0, 3, xs, crests, 5.0, overflow_ok=True)
+    assert not end.held and not end.emergent and end.openings == 1 and end.gap_width == pytest.approx(0.2)
+    assert "1 opening(s) wider than a unit (0.00 m)" in end.reason() and "not held" in end.statement()
     # the crest raised to the flood everywhere: held
-    assert judge("emergent", True, 900.0, 3, np.maximum(crests, 5.0), 5.0, overflow_ok=False).held
+    assert judge("emergent", True, 900.0, 3, xs, np.maximum(crests, 5.0), 5.0, overflow_ok=False).held
     # the overflow rule accepts a crest awash when the overflow criterion is met on a steady solve ...
-    assert judge("overflow", True, 900.0, 3, crests, 5.0, overflow_ok=True).held
-    assert not judge("overflow", True, 900.0, 3, crests, 5.0, overflow_ok=False).held
+    assert judge("overflow", True, 900.0, 3, xs, crests, 5.0, overflow_ok=True).held
+    assert not judge("overflow", True, 900.0, 3, xs, crests, 5.0, overflow_ok=False).held
     # ... but never on an unsteady one, and no rule holds on an unsteady one
     for rule in ("emergent", "overflow"):
-        end = judge(rule, False, 1800.0, 15, np.full(4, 9.0), 5.0, overflow_ok=True)
+        end = judge(rule, False, 1800.0, 15, xs, np.full(4, 9.0), 5.0, overflow_ok=True)
         assert not end.held and "not steady after 1,800 s" in end.reason()
     with pytest.raises(ValueError):
-        judge("awash", True, 1.0, 1, crests, 5.0, True)
+        judge("awash", True, 1.0, 1, xs, crests, 5.0, True)
+
+
+def test_a_summary_written_before_the_masses_crest_is_stated_by_its_reason():
+    """A run summary from before the crest was read from the masses (no ``openings``) is still rendered."""
+    from breachflow.cycle.rock_end import RockEnd
+
+    end = judge("emergent", True, 900.0, 3, [0.0, 0.05], [5.0, 4.0], 4.5, overflow_ok=False)
+    assert RockEnd.from_dict(end.as_dict()) == end
+    assert RockEnd.from_dict({"rule": "emergent", "columns": 4, "submerged": 1}) is None
 
 
 def test_the_rule_keys_are_checked():
@@ -111,10 +155,15 @@ def _judge_on_swe(height, t_max, cap):
             return True, [over], "overflow_discharge+polder_leakage"
 
     domain = dom.with_porous(pile)
-    setup = SimpleNamespace(solver=solver, criteria=Criteria(), domain=dom, breach_x=(0.0, 2.0), levee_y=15.0)
+    setup = SimpleNamespace(solver=solver, criteria=Criteria(), domain=dom, breach_x=(0.0, 2.0), levee_y=15.0,
+                            placement=SimpleNamespace(diameter=(0.5, 0.5)))
     fake = SimpleNamespace(setup=setup, _seepage=lambda snap, p: 0.0)
     snap = solver.solve(domain)
-    ctx = CycleContext(cycle=1, snapshot=snap, breach_x=(0.0, 2.0), levee_y=15.0, flood_level=3.0)
+    # the pile's top row: 0.5 m stones side by side across the gap, their tops at *height*
+    xs = np.arange(0.25, 2.0, 0.5)
+    pos = np.column_stack([xs, np.full(xs.size, 15.0), np.full(xs.size, height - 0.25)])
+    ctx = CycleContext(cycle=1, snapshot=snap, breach_x=(0.0, 2.0), levee_y=15.0, flood_level=3.0, pos=pos,
+                       radius=np.full(xs.size, 0.25), resting=np.ones(xs.size, bool))
     return ClosureRun._rock_end(fake, snap, ctx, pile, domain, None, True, [over], "overflow_discharge"), Criteria
 
 
@@ -134,7 +183,8 @@ def test_the_same_resolve_continued_to_steady_holds_and_a_submerged_crest_does_n
     assert end.resolves > 3 and end.simulated_s <= 3000.0 + 2.0
     # the crest 0.5 m under the flood (3 m): steady, the overflow criterion met, still not held
     (snap, ctx, closed, _, _, end), _ = _judge_on_swe(2.5, t_max=2.0, cap=3000.0)
-    assert end.steady and not end.held and not closed and end.submerged == end.columns == 2
+    assert end.steady and not end.held and not closed and end.openings == 1
+    assert end.submerged_width == pytest.approx(end.gap_width) == pytest.approx(2.05)
 
 
 @pytest.mark.parametrize("cut", [2.0, 5.0, 50.0])
@@ -146,10 +196,10 @@ def test_a_submerged_crest_is_judged_on_the_cut_resolve_without_continuing_it(cu
     assert rock_end.CONTINUE_SUBMERGED  # the default continues every judged re-solve
     monkeypatch.setattr(rock_end, "CONTINUE_SUBMERGED", False)
     (snap, ctx, closed, _, _, end), crit = _judge_on_swe(2.5, t_max=cut, cap=3000.0)
-    assert not end.held and not closed and not end.emergent and end.submerged == end.columns == 2
+    assert not end.held and not closed and not end.emergent and end.openings == 1
     assert end.resolves == 1 and end.simulated_s == pytest.approx(cut) and crit.evaluated == 0
     assert snap.attrs["simulated_time_s"] == pytest.approx(cut) and not end.steady
-    assert "2 of 2 gap columns have their crest below the flood level 3.00 m" in end.reason()
+    assert "1 opening(s) wider than a unit (0.50 m) below the flood level 3.00 m" in end.reason()
     assert "not steady" not in end.reason() and "NOT steady" in end.statement()
     # an emergent crest on the same cut solve is continued as before
     (snap, ctx, closed, _, _, end), crit = _judge_on_swe(10.0, t_max=cut, cap=3000.0)

@@ -175,6 +175,25 @@ def test_pile_view_of_a_sphere_on_a_flat_bed():
     np.testing.assert_allclose(view.crest[np.abs(view.s - 10.0) > 1.01], -1.0)
 
 
+@pytest.mark.parametrize("cells", [0.5, 4.0])
+def test_pile_view_from_the_masses_is_the_same_on_every_grid(cells):
+    """Read from the masses, the sill over a flat bed (-1 m) is a sphere's top z_c + r wherever its silhouette
+    covers the line (|s - s_c| <= r), the bed elsewhere, on a 0.5 m and a 4 m grid alike; a sphere farther than
+    the band from the line and one that is not a member are not part of the sill."""
+    x = np.arange(-10.0, 10.01, cells)
+    y = np.arange(-6.0, 6.01, cells)
+    bed = np.full((y.size, x.size), -1.0)
+    pos = np.array([[2.0, 0.5, 0.0], [-4.0, 5.0, 0.5], [-1.0, 0.0, 4.0], [4.5, -0.5, 0.3]])
+    rad = np.array([1.0, 1.0, 1.0, 0.5])
+    view = PileView.from_masses(x, y, bed, pos, rad, np.array([True, True, False, True]), (-8.0, 0.0), (8.0, 0.0),
+                                band=2.0, level=3.0)
+    assert view.s[0] == 0.0 and view.s[-1] == pytest.approx(16.0) and np.diff(view.s).max() <= 0.05 + 1e-12
+    x_of = view.s - 8.0
+    np.testing.assert_allclose(view.crest[np.abs(x_of - 2.0) <= 1.0], 1.0)
+    np.testing.assert_allclose(view.crest[np.abs(x_of - 4.5) <= 0.5], 0.8)
+    np.testing.assert_allclose(view.crest[(np.abs(x_of - 2.0) > 1.0) & (np.abs(x_of - 4.5) > 0.5)], -1.0)
+
+
 CI_CLOSURE = (Path(__file__).resolve().parents[1] / "data" / "ci_closure.toml").read_text()
 
 

@@ -565,18 +565,19 @@ class ClosureRun:
 
     def _pile_view(self, sim, rec) -> PileView:
         """The sill along the placement's gap line before this cycle's release, for the strategies that
-        read it: terrain and the masses that rest after the previous cycle (its restart record, so an
-        uninterrupted and a resumed run see the same), within the dam section
-        (:func:`~breachflow.cycle.strategies.band`) of the line; the level to reach is the flood level."""
+        read it, from the masses (:meth:`~breachflow.cycle.strategies.PileView.from_masses`): terrain and the
+        masses that rest after the previous cycle (its restart record, so an uninterrupted and a resumed run
+        see the same), within the dam section (:func:`~breachflow.cycle.strategies.band`) of the line; the
+        level to reach is the flood level."""
         s, p, st = self.setup, self.setup.placement, sim.state
         resting = np.zeros(len(st.radius), bool)
         prev = np.asarray(rec["resting"], bool)
         m = min(prev.size, resting.size)
         resting[:m] = prev[:m]
-        top = self._pile.update(st.pos, st.radius, resting)  # a no-op when the last cycle's update is current
         dom = s.domain
-        return PileView.from_grid(dom.x, dom.y, dom.bed, top, p.start, p.stop, band=strategy_band(p),
-                                  level=float(s.flood_level if s.timeline is None else s.timeline.flood_level))
+        return PileView.from_masses(dom.x, dom.y, dom.bed, st.pos, st.radius, resting & st.active[:resting.size],
+                                    p.start, p.stop, band=strategy_band(p),
+                                    level=float(s.flood_level if s.timeline is None else s.timeline.flood_level))
 
     def _stability(self, rec, resting, snapshot) -> float:
         """Criterion 5: the assembly, every mass awake, re-run in the new flow for ``stability_time``;
@@ -594,7 +595,8 @@ class ClosureRun:
         """The rock stage's end (:mod:`~breachflow.cycle.rock_end`) for a run sealed after the rock: continue a
         re-solve that stopped before its steady state (up to the criterion's ``steady_cap``), judge the criteria
         again on it, and let the dam hold only when the solve is steady and the crest stands above the flood
-        level across the gap (or, with ``rock_end = "overflow"``, the overflow criterion is met)."""
+        level all along the gap, read from the resting masses (or, with ``rock_end = "overflow"``, the overflow
+        criterion is met)."""
         from dataclasses import replace as _replace
 
         from . import rock_end as R
@@ -605,8 +607,11 @@ class ClosureRun:
         if crit is None:
             return snapshot, ctx, closed, results, governing, None
         flood = float(ctx.flood_level)
-        _, crests = R.gap_crests(s.domain.x, s.domain.y, s.domain.bed, pile.height, s.breach_x, s.levee_y, flood)
-        if crit.rock_end == "emergent" and not R.CONTINUE_SUBMERGED and not (crests >= flood).all():
+        xs, crests = R.gap_crests(ctx.pos, ctx.radius, ctx.resting, s.domain.x, s.domain.y, s.domain.bed,
+                                  s.breach_x, s.levee_y, flood)
+        unit = float(np.mean(s.placement.diameter))
+        emergent = R.judge(crit.rock_end, True, 0.0, 1, xs, crests, flood, False, unit).emergent
+        if crit.rock_end == "emergent" and not R.CONTINUE_SUBMERGED and not emergent:
             # a crest below the flood cannot hold whatever the flow: the re-solve is not continued
             steady, sim_t, n = R.is_steady(snapshot), R.simulated_time(snapshot), 1
         else:
@@ -616,7 +621,7 @@ class ClosureRun:
             ctx = _replace(ctx, snapshot=snapshot, seepage_discharge=self._seepage(snapshot, pile))
             closed, results, governing = s.criteria.evaluate(ctx)
         over = next((r.satisfied for r in results if r.name == "overflow_discharge"), False)
-        end = R.judge(crit.rock_end, steady, sim_t, n, crests, flood, over)
+        end = R.judge(crit.rock_end, steady, sim_t, n, xs, crests, flood, over, unit)
         if not end.held:
             closed, governing = False, ""
         return snapshot, ctx, closed, results, governing, end

@@ -26,8 +26,8 @@ the verdict "no seal designable" (:func:`undesignable_seal`).
 When the rock dam is closed this way, the seal is placed in the flow model's pile and re-solved until the
 leakage read from the flow meets the criterion (:mod:`breachflow.cycle.sealing`; keys ``seal_method``,
 ``seal_capacity``, ``seal_available``, ``seal_steps``, ``seal_leakage``); the run is closed only if it does.
-The rock stage ends only on a steady re-solve with the pile's crest above the flood level in every gap column
-(:mod:`breachflow.cycle.rock_end`; keys ``rock_end`` and ``steady_cap``).
+The rock stage ends only on a steady re-solve with the pile's crest, read from the units, above the flood
+level all along the gap (:mod:`breachflow.cycle.rock_end`; keys ``rock_end`` and ``steady_cap``).
 """
 from __future__ import annotations
 

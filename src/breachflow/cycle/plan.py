@@ -201,8 +201,9 @@ def plan_lines(plan: dict) -> list[str]:
     if re_:
         from .rock_end import RockEnd
 
-        fields = {k: re_[k] for k in RockEnd.__dataclass_fields__}
-        lines.append(f"  rock    cycle {re_['cycle']}: " + RockEnd(**fields).statement())
+        end = RockEnd.from_dict(re_)
+        lines.append(f"  rock    cycle {re_['cycle']}: " + (end.statement() if end is not None else
+                                                            "rock stage end: " + (re_.get("reason") or "held")))
     sl = plan.get("seal")
     if sl:
         layers = ", ".join(f"{k} {v:,.0f} t" for k, v in sl["tonnage_t"].items())

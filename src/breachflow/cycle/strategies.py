@@ -36,6 +36,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..registry import Registry
+from .crest import CREST_STEP, crest_profile, stations
 
 #: registry of placement strategies (entry-point group ``breachflow.placement_strategies``)
 placement_strategies: Registry = Registry("placement strategy", "breachflow.placement_strategies")
@@ -86,6 +87,30 @@ class PileView:
         for i in np.flatnonzero(~np.isfinite(crest)):  # empty bins: nearest filled sample
             filled = np.flatnonzero(np.isfinite(crest))
             crest[i] = crest[filled[np.argmin(np.abs(filled - i))]]
+        return cls(s, crest, float(level))
+
+    @classmethod
+    def from_masses(cls, x, y, bed, pos, radius, members, start, stop, band: float, level: float,
+                    step: float = CREST_STEP) -> "PileView":
+        """The sill along *start*→*stop* read from the masses (:func:`~breachflow.cycle.crest.crest_profile`):
+        every *step* m, the highest top ``z + r`` of a member (*pos* (n, 3), *radius* (n,), *members* (n,) bool)
+        centred within *band* (m) of the line whose silhouette covers the point, or the terrain there
+        (:meth:`from_grid` of *bed* alone, linear between its samples) where that is higher. The same reading
+        whatever the grid's cells: a notch narrower than a cell is seen."""
+        terrain = cls.from_grid(x, y, bed, np.full(np.shape(bed), -np.inf), start, stop, band, level)
+        start, stop = np.asarray(start, float), np.asarray(stop, float)
+        length = float(np.hypot(*(stop - start)))
+        if length == 0.0:
+            return terrain
+        u = (stop - start) / length
+        s = stations(length, step)
+        pos = np.asarray(pos, float).reshape(-1, 3)
+        m = min(len(pos), len(radius), len(members))
+        pos, r = pos[:m], np.asarray(radius, float)[:m]
+        along = (pos[:, 0] - start[0]) * u[0] + (pos[:, 1] - start[1]) * u[1]
+        across = -(pos[:, 0] - start[0]) * u[1] + (pos[:, 1] - start[1]) * u[0]
+        near = np.asarray(members[:m], bool) & np.isfinite(pos).all(axis=1) & (np.abs(across) <= band)
+        crest = crest_profile(s, np.interp(s, terrain.s, terrain.crest), along[near], pos[near, 2] + r[near], r[near])
         return cls(s, crest, float(level))
 
     def crest_at(self, s) -> np.ndarray:
