@@ -80,32 +80,83 @@ def reference_plane(idx, point, normal, wvel, wprops, hist, rhist, pos, vel, ome
     return nc
 
 
+def reference_terrain_contacts(x0, y0, hx, hy, bed, c, r, v, reach_t):
+    """The terrain's contacts of a sphere by the rule of ``walls.terrain_contacts``, written out: per patch
+    under the footprint, the nearest point (three steps to the tangent plane's foot, kept on the patch); faces
+    deepest first unless within 15 degrees of one taken; then the one deepest edge deeper than every face taken
+    and not within 15 degrees of a contact taken; the most upward normal first. Rows (normal, overlap)."""
+    nyb, nxb = bed.shape
+    xmax, ymax = x0 + (nxb - 1) * hx, y0 + (nyb - 1) * hy
+    if not (x0 <= c[0] <= xmax and y0 <= c[1] <= ymax):
+        return []
+    cols = range(min(max(math.floor((c[0] - r - x0) / hx), 0), nxb - 2), min(max(math.floor((c[0] + r - x0) / hx), 0), nxb - 2) + 1)
+    rows = range(min(max(math.floor((c[1] - r - y0) / hy), 0), nyb - 2), min(max(math.floor((c[1] + r - y0) / hy), 0), nyb - 2) + 1)
+    assert len(cols) <= 6 and len(rows) <= 6  # the case's footprints fit the kernel's scratch
+    above = c[2] >= walls._bilinear.py_func(x0, y0, hx, hy, bed, c[0], c[1])[0]
+    found = []
+    for iy in rows:
+        for ix in cols:
+            lo_, hi_ = np.array([x0 + ix * hx, y0 + iy * hy]), np.array([x0 + ix * hx + hx, y0 + iy * hy + hy])
+            s = np.minimum(np.maximum(c[:2], lo_), hi_)
+            for _ in range(3):
+                z, gx, gy = walls._patch.py_func(x0, y0, hx, hy, bed, ix, iy, s[0], s[1])
+                q = np.array([-gx, -gy, 1.0]) / math.sqrt(gx * gx + gy * gy + 1.0)
+                d = (c[0] - s[0]) * q[0] + (c[1] - s[1]) * q[1] + (c[2] - z) * q[2]
+                t = np.array([c[0] - d * q[0], c[1] - d * q[1]])
+                s = np.minimum(np.maximum(t, lo_), hi_)
+                face = bool(np.all(s == t))
+            z, gx, gy = walls._patch.py_func(x0, y0, hx, hy, bed, ix, iy, s[0], s[1])
+            q = np.array([-gx, -gy, 1.0]) / math.sqrt(gx * gx + gy * gy + 1.0)
+            e = np.array([c[0] - s[0], c[1] - s[1], c[2] - z])
+            d = e[0] * q[0] + e[1] * q[1] + e[2] * q[2]
+            if not face and above:
+                le = math.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])
+                if le > 0.0:
+                    q, d = e / le, le
+            ov = r - d
+            if ov <= 0.0 and ov + reach_t * abs(v[0] * q[0] + v[1] * q[1] + v[2] * q[2]) <= 0.0:
+                continue
+            found.append((q, ov, face))
+    taken = []
+    deepest_face = -math.inf
+    for want_face in (True, False):
+        for q, ov, face in sorted([f for f in found if f[2] is want_face], key=lambda f: -f[1]):
+            if not want_face and (ov <= deepest_face or sum(not t[2] for t in taken) == 1):
+                continue
+            if any(q[0] * t[0][0] + q[1] * t[0][1] + q[2] * t[0][2] > walls.SAME_CONTACT_COS for t in taken):
+                continue
+            if len(taken) < walls.MAX_TERRAIN_CONTACTS:
+                taken.append((q, ov, face))
+                if face:
+                    deepest_face = max(deepest_face, ov)
+    if taken:
+        top = max(range(len(taken)), key=lambda k: (taken[k][0][2], -k))
+        taken[0], taken[top] = taken[top], taken[0]
+    return [(q, ov) for q, ov, _ in taken]
+
+
 def reference_heightfield(idx, x0, y0, hx, hy, bed, wprops, hist, rhist, pos, vel, omega, radius, mass, inertia,
                           props, dt, force, torque, lo, hi, vel_h, omega_h, law):
     reach_t = max(-lo, hi) if law == STEP_AVERAGED else 0.0
-    xmax, ymax = x0 + (bed.shape[1] - 1) * hx, y0 + (bed.shape[0] - 1) * hy
     nc = 0
     for i in map(int, idx):
-        px, py, pz = pos[i]
-        if px < x0 or px > xmax or py < y0 or py > ymax:
+        contacts = reference_terrain_contacts(x0, y0, hx, hy, bed, pos[i], radius[i], vel[i], reach_t)
+        if not contacts:
             hist[i] = 0.0
             rhist[i] = 0.0
             continue
-        qx, qy = px, py
-        for _ in range(3):
-            z, gx, gy = walls._bilinear.py_func(x0, y0, hx, hy, bed, min(max(qx, x0), xmax), min(max(qy, y0), ymax))
-            norm = math.sqrt(gx * gx + gy * gy + 1.0)
-            nu = np.array([-gx / norm, -gy / norm, 1.0 / norm])
-            dist = (px - qx) * nu[0] + (py - qy) * nu[1] + (pz - z) * nu[2]
-            qx, qy = px - dist * nu[0], py - dist * nu[1]
-        overlap = radius[i] - dist
-        if overlap <= 0.0 and overlap + reach_t * abs(vel[i, 0] * nu[0] + vel[i, 1] * nu[1] + vel[i, 2] * nu[2]) <= 0.0:
-            hist[i] = 0.0
-            rhist[i] = 0.0
-            continue
-        nc += overlap > 0.0
-        _contact(i, -nu, overlap, np.zeros(3), hist, rhist, vel, omega, vel_h, omega_h, radius, mass, inertia,
-                 props[i], wprops, dt, lo, hi, law, force, torque)
+        for k, (q, overlap) in enumerate(contacts):
+            nc += overlap > 0.0
+            if k == 0:  # the first keeps the histories
+                _contact(i, -q, overlap, np.zeros(3), hist, rhist, vel, omega, vel_h, omega_h, radius, mass, inertia,
+                         props[i], wprops, dt, lo, hi, law, force, torque)
+            else:  # a further contact: no history, no rolling resistance
+                h, rh = hist.copy(), rhist.copy()
+                h[i] = 0.0
+                wp = wprops.copy()
+                wp[7] = 0.0
+                _contact(i, -q, overlap, np.zeros(3), h, rh, vel, omega, vel_h, omega_h, radius, mass, inertia,
+                         props[i], wp, dt, lo, hi, law, force, torque)
     return nc
 
 
@@ -217,10 +268,30 @@ def heightfield_case(seed):
     return c, pos, vel, bed, (x[0], y[0], 0.5, 0.5)
 
 
+def heightfield_wall_case(seed):
+    """A wall 0.8 m high over one 0.5 m cell (58 degrees) along y = 1.5 and a valley across it, particles
+    near the wall's foot, on its face and by its crest: floor-and-wall and ridge contacts."""
+    rng = np.random.default_rng(200 + seed)
+    x = np.arange(0.0, 8.01, 0.5)
+    y = np.arange(-2.0, 4.01, 0.5)
+    X, Y = np.meshgrid(x, y)
+    bed = np.where(Y < 1.5, 0.0, 0.8) + 0.3 * np.abs(X - 4.0) + rng.normal(0, 0.01, X.shape)
+    c = particles(seed, None)
+    n = c["radius"].size
+    px = rng.uniform(2.5, 5.5, n)
+    py = rng.uniform(0.5, 2.5, n)
+    z = np.array([walls._bilinear.py_func(x[0], y[0], 0.5, 0.5, bed, a, b)[0] for a, b in zip(px, py)])
+    pos = np.column_stack([px, py, z + c["radius"] + c["gap"]])
+    vel = c["vt"].copy()
+    vel[:, 2] = c["vn"]
+    return c, pos, vel, bed, (x[0], y[0], 0.5, 0.5)
+
+
+@pytest.mark.parametrize("case", [heightfield_case, heightfield_wall_case])
 @pytest.mark.parametrize("seed", [0, 1])
 @pytest.mark.parametrize("law, split", [(STEP_AVERAGED, True), (STEP_AVERAGED, False), (HOOKE_HISTORY, True)])
-def test_heightfield_loop_matches_the_python_reference_bit_for_bit(seed, law, split):
-    c, pos, vel, bed, (x0, y0, hx, hy) = heightfield_case(seed)
+def test_heightfield_loop_matches_the_python_reference_bit_for_bit(seed, law, split, case):
+    c, pos, vel, bed, (x0, y0, hx, hy) = case(seed)
     lo, hi = (-0.5 * DT, 0.5 * DT) if law == STEP_AVERAGED else (0.0, 0.0)
     vel_h, omega_h = (vel + c["dv"], c["omega"] + c["dw"]) if split else (vel, c["omega"])
 
@@ -238,3 +309,7 @@ def test_heightfield_loop_matches_the_python_reference_bit_for_bit(seed, law, sp
     outside = (pos[:, 0] < x0) | (pos[:, 0] > x0 + (bed.shape[1] - 1) * hx)
     assert 0 < touched.sum() and not np.any(touched & outside)
     assert np.all(ref["hist"][c["idx"][outside[c["idx"]]]] == 0.0)  # cleared outside the grid
+    if case is heightfield_wall_case:  # the case holds particles with two and three contacts
+        counts = [len(reference_terrain_contacts(x0, y0, hx, hy, bed, pos[i], c["radius"][i], vel[i], max(-lo, hi)))
+                  for i in c["idx"]]
+        assert max(counts) >= 2 and sum(k >= 2 for k in counts) >= 5
