@@ -210,8 +210,12 @@ SAME_CONTACT_COS = 0.9659258262890683
 def _patch(x0, y0, hx, hy, bed, ix, iy, px, py):
     """Elevation and gradient at (px, py) of the bilinear patch (ix, iy) (between cell centres ix, ix + 1 and
     iy, iy + 1), whatever patch the point's own coordinates fall in."""
-    tx = (px - (x0 + ix * hx)) / hx
-    ty = (py - (y0 + iy * hy)) / hy
+    return _on_patch(bed, ix, iy, (px - (x0 + ix * hx)) / hx, (py - (y0 + iy * hy)) / hy, hx, hy)
+
+
+@numba.njit(cache=True, inline="always", error_model="numpy")
+def _on_patch(bed, ix, iy, tx, ty, hx, hy):
+    """Elevation and gradient of the bilinear patch (ix, iy) at its local coordinates (tx, ty) (0..1)."""
     z00 = bed[iy, ix]
     z10 = bed[iy, ix + 1]
     z01 = bed[iy + 1, ix]
@@ -373,16 +377,7 @@ def _bilinear(x0, y0, hx, hy, bed, px, py):
     fy = (py - y0) / hy
     ix = min(max(int(math.floor(fx)), 0), nx - 2)
     iy = min(max(int(math.floor(fy)), 0), ny - 2)
-    tx = fx - ix
-    ty = fy - iy
-    z00 = bed[iy, ix]
-    z10 = bed[iy, ix + 1]
-    z01 = bed[iy + 1, ix]
-    z11 = bed[iy + 1, ix + 1]
-    z = (z00 * (1 - tx) * (1 - ty) + z10 * tx * (1 - ty) + z01 * (1 - tx) * ty + z11 * tx * ty)
-    gx = ((z10 - z00) * (1 - ty) + (z11 - z01) * ty) / hx
-    gy = ((z01 - z00) * (1 - tx) + (z11 - z10) * tx) / hy
-    return z, gx, gy
+    return _on_patch(bed, ix, iy, fx - ix, fy - iy, hx, hy)
 
 
 
