@@ -9,7 +9,8 @@ where the ground is higher::
 
 It is read every :data:`CREST_STEP` m, the same reading whatever the flow grid's cells: a crest taken as the
 highest pile top of each grid cell hides every notch narrower than a cell, so a coarse grid sees a closed crest
-where a fine one sees openings (docs/verdict-check.md, *The nested grid's edges*).
+where a fine one sees openings (docs/verdict-check.md,
+*The crest from the units, and rock at the breach heads*).
 
 A stretch where the crest stays below a water level is an *opening*. One narrower than a unit is a void of the
 crest between units that stand above the water: no further unit fits into it.

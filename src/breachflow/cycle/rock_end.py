@@ -23,8 +23,8 @@ its rock stage ("the dam held") only when both hold on the cycle's re-solve:
 
    The crest is the masses', not the flow grid's: it is the same reading whatever the cell size. A crest
    read as the highest pile top of each grid column hid openings narrower than a cell, so a coarse grid
-   ended its rock stage earlier, on a lower crest, than a fine one (docs/verdict-check.md, *The nested
-   grid's edges*).
+   ended its rock stage earlier, on a lower crest, than a fine one (docs/verdict-check.md, *The crest
+   from the units, and rock at the breach heads*).
 
 With ``rock_end = "emergent"`` the crest is known before the flow is: it is the pile's, not the solve's. A
 cycle whose crest leaves an opening cannot hold whatever the re-solve gives; with
