@@ -35,9 +35,10 @@ def plane_forces(idx, point, normal, wvel, wprops, hist, rhist, pos, vel, omega,
     geom = (point[0], point[1], point[2], normal[0], normal[1], normal[2], wvel[0], wvel[1], wvel[2])
     if law == HOOKE_HISTORY:
         return _wall_loop(idx, geom, hist, wprops, hist, rhist, pos, vel, omega, radius, mass, inertia, props, dt,
-                          force, torque, reaction, lo, hi, vel_h, omega_h, HOOKE_HISTORY, PLANE)
+                          force, torque, reaction, lo, hi, vel_h, omega_h, HOOKE_HISTORY, PLANE, hist, hist)
+    # the terrain's scratch arrays are not used on a plane: the histories stand in (no allocation per call)
     return _wall_loop(idx, geom, hist, wprops, hist, rhist, pos, vel, omega, radius, mass, inertia, props, dt, force,
-                      torque, reaction, lo, hi, vel_h, omega_h, STEP_AVERAGED, PLANE)
+                      torque, reaction, lo, hi, vel_h, omega_h, STEP_AVERAGED, PLANE, hist, hist)
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -52,12 +53,13 @@ def heightfield_forces(idx, x0, y0, hx, hy, bed, wprops, hist, rhist, pos, vel, 
     """
     geom = (x0, y0, hx, hy, 0.0, 0.0, 0.0, 0.0, 0.0)
     return _wall_loop(idx, geom, bed, wprops, hist, rhist, pos, vel, omega, radius, mass, inertia, props, dt, force,
-                      torque, np.zeros(3), lo, hi, vel_h, omega_h, law, HEIGHT_FIELD)
+                      torque, np.zeros(3), lo, hi, vel_h, omega_h, law, HEIGHT_FIELD,
+                      np.empty((MAX_TERRAIN_CONTACTS, 4)), np.empty((MAX_TERRAIN_CANDIDATES, 5)))
 
 
 @numba.njit(cache=True, inline="always", error_model="numpy")
 def _wall_loop(idx, geom, bed, wprops, hist, rhist, pos, vel, omega, radius, mass, inertia, props, dt, force, torque,
-               reaction, lo, hi, vel_h, omega_h, law, kind):
+               reaction, lo, hi, vel_h, omega_h, law, kind, cts, found):
     """Contacts of particles *idx* with one boundary: a plane (*kind* PLANE, *geom* = point, unit normal into
     the domain, velocity; *bed* unused; the reaction added to *reaction*) or the height field *bed* (*kind*
     HEIGHT_FIELD, *geom* = x0, y0, hx, hy, ...; at rest). Returns #contacts (overlapping now).
@@ -93,12 +95,8 @@ def _wall_loop(idx, geom, bed, wprops, hist, rhist, pos, vel, omega, radius, mas
     d_bed = wprops[8] if rough else 0.0
     z_star = wprops[9] if rough else 0.0
     rx, ry, rz = reaction[0], reaction[1], reaction[2]  # the plane's reaction, summed in registers
-    # the terrain's contacts of one particle (:func:`terrain_contacts`; rows nx, ny, nz, overlap; the first
-    # keeps the particle's histories) and the scratch histories of its further contacts
-    cts = np.empty((MAX_TERRAIN_CONTACTS, 4)) if kind == HEIGHT_FIELD else np.empty((1, 4))
-    found = np.empty((MAX_TERRAIN_CANDIDATES, 5)) if kind == HEIGHT_FIELD else np.empty((1, 5))
-    hs = np.zeros((1, 3))
-    rs = np.zeros((1, 3))
+    # height field: *cts* the terrain's contacts of one particle (:func:`terrain_contacts`; rows nx, ny, nz,
+    # overlap; the first keeps the particle's histories), *found* its scratch
     for k in range(idx.shape[0]):
         i = np.uint64(idx[k])  # unsigned: no negative-index wraparound test on each access
         ri = radius[i]
@@ -127,13 +125,12 @@ def _wall_loop(idx, geom, bed, wprops, hist, rhist, pos, vel, omega, radius, mas
                 qx, qy, qz, overlap = cts[c, 0], cts[c, 1], cts[c, 2], cts[c, 3]
             # the first contact keeps the particle's shear and rolling histories; a further one (a wall beside
             # the floor it rests on) starts from none each step: its normal force and its friction within the
-            # step, no elastic shear memory
-            hh, rh, hp = hist, rhist, i
+            # step, no elastic shear memory (the particle's row is set aside while it is computed)
             if c > 0:
-                hs[0, 0] = 0.0
-                hs[0, 1] = 0.0
-                hs[0, 2] = 0.0
-                hh, rh, hp = hs, rs, np.uint64(0)
+                s0, s1, s2 = hist[i, 0], hist[i, 1], hist[i, 2]
+                hist[i, 0] = 0.0
+                hist[i, 1] = 0.0
+                hist[i, 2] = 0.0
             if overlap > 0.0:
                 n += 1
             nx, ny, nz = -qx, -qy, -qz
@@ -159,19 +156,24 @@ def _wall_loop(idx, geom, bed, wprops, hist, rhist, pos, vel, omega, radius, mas
                 beta = max(beta, pocket)
                 mu_r = max(mu_r, pocket) if c == 0 else 0.0
             if law == HOOKE_HISTORY:
-                phi, fx, fy, fz, ftx, fty, ftz, fn = hooke_history(nx, ny, nz, overlap, vx, vy, vz, gx, gy, gz, hh,
-                                                                   hp, kn, min(props[i, 3], ks_w),
+                phi, fx, fy, fz, ftx, fty, ftz, fn = hooke_history(nx, ny, nz, overlap, vx, vy, vz, gx, gy, gz, hist,
+                                                                   i, kn, min(props[i, 3], ks_w),
                                                                    min(props[i, 4], ccn_w), min(props[i, 5], ccs_w),
                                                                    min(props[i, 0], al_w), beta, dt)
             else:
-                phi, fx, fy, fz, ftx, fty, ftz, fn = contact_law(nx, ny, nz, overlap, vx, vy, vz, gx, gy, gz, hh, hp,
+                phi, fx, fy, fz, ftx, fty, ftz, fn = contact_law(nx, ny, nz, overlap, vx, vy, vz, gx, gy, gz, hist, i,
                                                                  kn, min(props[i, 3], ks_w), min(props[i, 4], ccn_w),
                                                                  min(props[i, 5], ccs_w), min(props[i, 6], ccf_w),
                                                                  min(props[i, 0], al_w), beta, dt, lo, hi)
-            if overlap <= 0.0:  # touching only within the interval: no rolling contact now
-                rh[hp, 0] = 0.0
-                rh[hp, 1] = 0.0
-                rh[hp, 2] = 0.0
+            if c > 0:
+                hist[i, 0] = s0
+                hist[i, 1] = s1
+                hist[i, 2] = s2
+            elif overlap <= 0.0:  # touching only within the interval: no rolling contact now
+                rhist[i, 0] = 0.0
+                rhist[i, 1] = 0.0
+                rhist[i, 2] = 0.0
+            if overlap <= 0.0:
                 if phi <= 0.0:
                     continue
             force[i, 0] += fx
@@ -181,7 +183,7 @@ def _wall_loop(idx, geom, bed, wprops, hist, rhist, pos, vel, omega, radius, mas
             torque[i, 1] += ri * (nz * ftx - nx * ftz)
             torque[i, 2] += ri * (nx * fty - ny * ftx)
             if mu_r > 0.0 and overlap > 0.0:
-                rolling_law(nx, ny, nz, o0, o1, o2, fn, ri, mu_r, kn, inertia[i] + mass[i] * ri * ri, rh, hp, dt, mr)
+                rolling_law(nx, ny, nz, o0, o1, o2, fn, ri, mu_r, kn, inertia[i] + mass[i] * ri * ri, rhist, i, dt, mr)
                 torque[i, 0] += mr[0]
                 torque[i, 1] += mr[1]
                 torque[i, 2] += mr[2]
