@@ -149,7 +149,7 @@ def test_seepage_split_partial_pile():
         prev = qs
     assert prev == pytest.approx(q)  # fully porous column: everything seeps
     # check the split directly: both parts at the same gradient
-    Q, qs = column_discharge(0.01, h, 1.5, A, B, n)
+    Q, qs = column_discharge(0.01, h, 1.5, np.array([A]), np.array([B]), n)
     assert Q - qs == pytest.approx((h - 1.5) ** (5 / 3) * 0.1 / n)
 
 

@@ -93,6 +93,8 @@ def pile_top(x, y, bed, pos, radius, use):
 
 #: sub-points per cell side for the cell quantities of the pile (``no_flow``, ``raised_bed``), at least
 SUB = 32
+#: layers of the porous pile's column (:func:`porous_pile`, :mod:`breachflow.swe.porous`)
+PILE_LAYERS = 4
 
 
 def subpoints(dx: float, dy: float, r_min: float, cap: int = 64) -> int:
@@ -359,6 +361,46 @@ def pile_columns(x, y, bed, pos, radius, use, sub, top, solid, dsum):
                             dsum[j, i] += w * c * 2.0 * r
 
 
+@numba.njit(cache=True)
+def pile_layer_solids(x, y, bed, pos, radius, use, sub, height, solid):
+    """Per cell, the mean solid chord length (m) of the spheres *use* inside each of the ``K =
+    solid.shape[2]`` equal layers between the bed and the pile height *height* (bottom first), over
+    ``sub × sub`` sub-points: ``solid[j, i, k] / (height / K)`` is the layer's solid fraction."""
+    ny, nx = bed.shape
+    K = solid.shape[2]
+    dx = x[1] - x[0] if nx > 1 else 1.0
+    dy = y[1] - y[0] if ny > 1 else 1.0
+    w = 1.0 / (sub * sub)
+    for p in range(pos.shape[0]):
+        if not use[p]:
+            continue
+        r = radius[p]
+        i0 = max(int(np.floor((pos[p, 0] - r - x[0]) / dx + 0.5)), 0)
+        i1 = min(int(np.floor((pos[p, 0] + r - x[0]) / dx + 0.5)), nx - 1)
+        j0 = max(int(np.floor((pos[p, 1] - r - y[0]) / dy + 0.5)), 0)
+        j1 = min(int(np.floor((pos[p, 1] + r - y[0]) / dy + 0.5)), ny - 1)
+        for j in range(j0, j1 + 1):
+            for i in range(i0, i1 + 1):
+                H = height[j, i]
+                if H <= 0.0:
+                    continue
+                t = H / K
+                b = bed[j, i]
+                for a in range(sub):
+                    px = _sub_point(x[i], a, sub, dx)
+                    for c in range(sub):
+                        py = _sub_point(y[j], c, sub, dy)
+                        d2 = (px - pos[p, 0]) ** 2 + (py - pos[p, 1]) ** 2
+                        if d2 < r * r:
+                            half = np.sqrt(r * r - d2)
+                            hi = pos[p, 2] + half - b
+                            lo = max(pos[p, 2] - half - b, 0.0)
+                            for k in range(K):
+                                ov = min(hi, (k + 1) * t) - max(lo, k * t)
+                                if ov > 0.0:
+                                    solid[j, i, k] += w * ov
+
+
 def _rev_average(a, sy, sx):
     """Gaussian-weighted sum of *a* around each cell (standard deviations *sy*, *sx* in cells, truncated at
     3 sigma, nothing outside the grid); *a* unchanged for sigmas below a tenth of a cell."""
@@ -370,7 +412,7 @@ def _rev_average(a, sy, sx):
 
 
 def porous_pile(x, y, bed, pos, radius, resting, law: str = "ergun", sub: int = 8, min_porosity: float = 0.2,
-                rev: float | None = None):
+                rev: float | None = None, layers: int = PILE_LAYERS):
     """The :class:`~breachflow.swe.porous.PorousPile` of the resting spheres (see the module docstring).
 
     Porosity and stone size are volume averages over a representative elementary volume (Bear 1972,
@@ -381,7 +423,9 @@ def porous_pile(x, y, bed, pos, radius, resting, law: str = "ergun", sub: int = 
     stone is not such a volume: it holds the middle of one sphere (``n`` -> 0) or the void between two
     (``n`` -> 1), and Forchheimer's ``(1 - n) / n^3`` turns that into impervious cells beside nearly
     frictionless lanes (a pile of 2 m spheres on 1 m cells then passed 5.6-22 % less than the
-    Dupuit-Forchheimer discharge of its packing, ``tests/swe/test_porous.py``). The porosity is then
+    Dupuit-Forchheimer discharge of its packing, ``tests/swe/test_porous.py``). The porosity is taken so
+    for each of the column's *layers* equal layers between the bed and the pile height
+    (:mod:`breachflow.swe.porous`; ``V_pile`` the layer's volume, ``V_solid`` the spheres' inside it) and
     clipped to ``[min_porosity, 0.95]``. The pile height stays per cell (the crest the water flows over).
     """
     from ..swe.porous import PorousPile
@@ -393,12 +437,22 @@ def porous_pile(x, y, bed, pos, radius, resting, law: str = "ergun", sub: int = 
     pile_columns(x, y, bed, pos, radius, resting, int(sub), top, solid, dsum)
     height = np.where(np.isfinite(top), np.maximum(top - bed, 0.0), 0.0)
     has = (height > 0) & (solid > 0)
+    height = np.where(has, height, 0.0)
+    layer_solid = np.zeros(bed.shape + (int(layers),))
+    pile_layer_solids(x, y, bed, pos, radius, resting, int(sub), height, layer_solid)
     if rev is None:
         r = radius[resting[:radius.size]] if radius.size else radius
         rev = float(np.sum(2 * r * r ** 3) / np.sum(r ** 3)) if r.size else 0.0
     dx = abs(x[1] - x[0]) if x.size > 1 else 1.0
     dy = abs(y[1] - y[0]) if y.size > 1 else 1.0
-    vol, sol, dsm = (_rev_average(np.where(has, a, 0.0), 0.5 * rev / dy, 0.5 * rev / dx) for a in (height, solid, dsum))
-    porosity = np.where(has, 1.0 - sol / np.where(has, vol, 1.0), 1.0)
+
+    def rev_average(a):
+        return _rev_average(np.where(has, a, 0.0), 0.5 * rev / dy, 0.5 * rev / dx)
+
+    vol = rev_average(height / layers)  # every layer's volume per unit area
+    porosity = np.stack([np.where(has, 1.0 - rev_average(layer_solid[..., k]) / np.where(has, vol, 1.0), 1.0)
+                         for k in range(int(layers))], axis=-1)
+    sol, dsm = rev_average(solid), rev_average(dsum)
     diameter = np.where(has, dsm / np.where(has & (sol > 0), sol, 1.0), 1.0)
-    return PorousPile.build(np.where(has, height, 0.0), porosity, diameter, law=law, min_porosity=min_porosity)
+    return PorousPile.build(height, porosity.mean(axis=-1), diameter, law=law, min_porosity=min_porosity,
+                            layer_porosity=porosity)

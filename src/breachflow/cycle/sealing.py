@@ -90,6 +90,7 @@ def seal_pile(pile, y, layers, side: int = -1, x=None, x_range=None, dx: float |
         raise InputError(f"seal: every layer needs a thickness > 0 m, got {[t for _, t, _, _ in coef]}")
     edges = np.concatenate([[0.0], np.cumsum([t for _, t, _, _ in coef])])
     A, B = pile.A.copy(), pile.B.copy()
+    LA, LB = pile.layer_A.copy(), pile.layer_B.copy()
     hgt = np.asarray(pile.height, float)
     cap = hgt if height_cap is None else np.minimum(hgt, np.broadcast_to(np.asarray(height_cap, float), hgt.shape))
     tons = {g.name: 0.0 for g, *_ in coef}
@@ -115,8 +116,11 @@ def seal_pile(pile, y, layers, side: int = -1, x=None, x_range=None, dx: float |
         rest = np.clip(rest, 0.0, None)
         A[jj, i] = (rest * pile.A[jj, i] + a_sum) / dy
         B[jj, i] = (rest * pile.B[jj, i] + b_sum) / dy
+        # every layer of the column (swe/porous.py) in series with the seal over the same stretch
+        LA[jj, i] = (rest[:, None] * pile.layer_A[jj, i] + a_sum[:, None]) / dy
+        LB[jj, i] = (rest[:, None] * pile.layer_B[jj, i] + b_sum[:, None]) / dy
     sealed = PorousPile(height=pile.height, porosity=pile.porosity, diameter=pile.diameter, A=A, B=B,
-                        law=pile.law)
+                        law=pile.law, layer_porosity=pile.layer_porosity, layer_A=LA, layer_B=LB)
     return sealed, tons
 
 

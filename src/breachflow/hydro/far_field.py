@@ -73,8 +73,8 @@ def coarse_domain(dom: Domain, factor: int) -> tuple[Domain, tuple[np.ndarray, n
     """*dom* on cells about *factor* times larger covering the same extent, and the coarse cell index
     ``(jy, ix)`` of every fine row / column. Bed: mean over the block's open fine cells; no-flow where at
     least half the block is (a wall one fine cell thick stays watertight at *factor* 2, not beyond); Manning n: block mean; the same boundary conditions (per-cell values
-    interpolated along the side); a porous pile: height averaged over the block, porosity and stone size
-    averaged over its pile cells."""
+    interpolated along the side); a porous pile: height averaged over the block, porosity (each layer's) and
+    stone size averaged over its pile cells."""
     from ..swe.domain import uniform_grid
 
     ny, nx = dom.shape
@@ -109,8 +109,10 @@ def coarse_domain(dom: Domain, factor: int) -> tuple[Domain, tuple[np.ndarray, n
         where = pile.height > 0
         n_pile = block_sum(where)
         mean_on_pile = lambda a: block_sum(np.where(where, a, 0.0)) / np.maximum(n_pile, 1)
+        layers = np.stack([mean_on_pile(pile.layer_porosity[..., k]) for k in range(pile.layer_porosity.shape[-1])],
+                          axis=-1)
         c.porous = PorousPile.build(block_sum(pile.height) / count, mean_on_pile(pile.porosity),
-                                    mean_on_pile(pile.diameter), law=pile.law)
+                                    mean_on_pile(pile.diameter), law=pile.law, layer_porosity=layers)
     return c, (jy, ix)
 
 

@@ -83,7 +83,8 @@ def region_domain(domain: Domain, previous: xr.Dataset, box, *, name: str = "reg
     if pile is not None:
         from ..swe.porous import PorousPile
 
-        sub.porous = PorousPile(**{k: getattr(pile, k)[sl] for k in ("height", "porosity", "diameter", "A", "B")},
+        sub.porous = PorousPile(**{k: getattr(pile, k)[sl] for k in ("height", "porosity", "diameter", "A", "B",
+                                                                     "layer_porosity", "layer_A", "layer_B")},
                                 law=pile.law)
     bed0 = np.asarray(previous["bed_elevation"].values, float)[sl]
     h = np.asarray(previous["depth"].values, float)[sl]

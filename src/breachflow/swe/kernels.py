@@ -45,8 +45,9 @@ def advance(h, hu, hv, z, obst, manning, bed_dz, kinds, times, levels, discharge
     *skip_quiet*: quiet cells (:func:`.step.activity`, relative tolerance *quiet_tol*; 0: only cells
     whose update is exactly zero, same results) skip the flux work; *blocks*: blocks of rows run in
     parallel (the numba thread count). With a non-empty *pile_box* ``(j0, j1, i0, i1)`` (padded indices)
-    the porous pile's resistance (:func:`.porous.porous_resistance_box` with the pile arrays *pile_h*,
-    *pile_A*, *pile_B* and the free-surface Manning *pile_n*) is applied after every step (Lie splitting).
+    the porous pile's resistance (:func:`.porous.porous_resistance_box` with the pile height *pile_h*, its
+    layers' *pile_A*, *pile_B* ``(ny, nx, K)`` and the free-surface Manning *pile_n*) is applied after every
+    step (Lie splitting).
     Returns ``(t, steps, status)``; status 0 = reached t_stop,
     1 = step limit, 2 = non-finite state or a time step below *dt_min* (runaway).
     ``stats[0] += clipped depth``, ``stats[1] = min dt``, ``stats[2] = max dt``, ``stats[3] +=``

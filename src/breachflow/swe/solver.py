@@ -151,12 +151,16 @@ class SWESimulation:
         # the pile's resistance is applied inside the time loop (kernels.advance) on the box holding it
         self.pile_box = np.zeros(4, np.int64)
         if self.porous is None:
-            self.pile = {k: np.zeros((1, 1)) for k in ("height", "A", "B", "n_free")}
+            self.pile = {k: np.zeros((1, 1)) for k in ("height", "n_free")}
+            self.pile.update({k: np.zeros((1, 1, 1)) for k in ("A", "B")})
             return
         P = K.G
-        self.pile = {k: np.zeros(shape) for k in ("height", "A", "B", "n_free")}
-        for k in ("height", "A", "B"):
-            self.pile[k][P:-P, P:-P] = getattr(pile, k)
+        self.pile = {k: np.zeros(shape) for k in ("height", "n_free")}
+        self.pile["height"][P:-P, P:-P] = pile.height
+        for k in ("A", "B"):  # the layers' coefficients
+            layers = getattr(pile, "layer_" + k)
+            self.pile[k] = np.zeros(shape + (layers.shape[-1],))
+            self.pile[k][P:-P, P:-P] = layers
         self.pile["n_free"][P:-P, P:-P] = d.manning
         self.pile["height"][self.obst != 0] = 0.0
         self.manning[self.pile["height"] > 0] = 0.0
