@@ -33,9 +33,10 @@ Modes, chosen by name:
 * ``"porous"``: the pile stays in the water column: per cell its height above the bed (the highest
   sphere top over k × k sub-points of the cell; a maximum, so it shares the centre sample's jumps: up to
   1.21 m when one of four 2 m spheres on 1 m cells moves 3 cm — the cell average instead left the default
-  run "not closable" after 15 cycles, issue 16), its porosity ``n = 1 - V_solid / V_pile`` from the DEM
-  packing (``V_solid`` the sphere volume inside the cell's column, by the mean chord length over the
-  sub-points; ``V_pile = height dx dy``), both summed over the pile cells within one stone diameter
+  run "not closable" after 15 cycles, issue 16), the column cut into :data:`PILE_LAYERS` equal layers, each
+  with its porosity ``n = 1 - V_solid / V_pile`` from the DEM packing (``V_solid`` the sphere volume inside
+  the layer, by the chord lengths over the sub-points; ``V_pile = height dx dy / layers``), both summed
+  over the pile cells within one stone diameter
   (a representative volume: a cell smaller than a stone is either almost solid or almost void), and its
   volume-weighted stone diameter give a
   :class:`~breachflow.swe.porous.PorousPile`; the ``swe`` solver makes the flow pass through it with

@@ -8,7 +8,7 @@ layer's volume (the whole cell's area times its thickness) not taken by the unit
 their tops uneven, so a cell larger than a unit (2 m units on 4 m cells) holds a dense core low down and
 sparse crowns with open water between them near its top; one porosity for the whole column (``K = 1``)
 counted the open water between the crowns as pores of the core and let a heap of 2 m units on 4 m cells
-pass far more than on fine cells (docs/theory.md, *The porous pile*; ``tests/swe/test_porous_layers.py``).
+pass far more than on fine cells (docs/theory.md, *Porous flow through the pile*; ``tests/swe/test_porous_layers.py``).
 All layers feel the same free-surface gradient ``S`` (quasi-steady split):
 
 * through layer ``k``, the superficial (Darcy) velocity ``V_k`` obeys Forchheimer's law
