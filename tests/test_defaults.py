@@ -8,8 +8,9 @@ from pathlib import Path
 
 import pytest
 
+from breachflow.cycle.config.closure import ClosureSection
 from breachflow.cycle.config.dem import FluidSection
-from breachflow.cycle.driver import DemSettings
+from breachflow.cycle.driver import ClosureSetup, DemSettings
 from breachflow.dem.integrators import integrators
 from breachflow.dem.simulation import DemSimulation
 from breachflow.field.sampling import SAMPLING_METHODS, FieldSampler
@@ -20,6 +21,8 @@ from breachflow.fluid.profile import DEFAULT_PROFILE, velocity_profiles
 from breachflow.scenario.config import BreachSection, parse_scenario
 from breachflow.scenario.geometry import BreachGeometry
 from breachflow.site.domain import SiteSpec
+from breachflow.swe.porous import PorousPile
+from breachflow.swe.porous_laws import POROUS_LAWS
 
 SCHEMA = json.loads((Path(__file__).resolve().parents[1] / "data_schemas" / "scenario.json").read_text())
 
@@ -45,18 +48,27 @@ def schema_default(section, key):
                                     (FieldSampler, "method"), (as_field, "sampling"), ("fluid", "sampling")]),
     (integrators, "predicted_verlet", [(DemSimulation, "integrator"), (DemSettings, "integrator"),
                                        ("dem", "integrator")]),
+    (POROUS_LAWS, "ergun", [(ClosureSection, "porous_law"), (ClosureSetup, "porous_law"),
+                            ("closure", "porous_law")]),
 ])
 def test_a_choice_defaults_to_its_registry_default_everywhere(registry, value, uses):
     assert registry.default == value and value in registry
     for where, name in uses:
         if isinstance(where, str):
             got = schema_default(where, name)
-        elif where in (DemSettings, FluidSection):
+        elif where in (DemSettings, FluidSection, ClosureSection, ClosureSetup):
             got = field_default(where, name)
         else:
             got = param_default(where, name)
         assert got == registry.default, (where, name, got)
     assert DEFAULT_PROFILE is velocity_profiles.default
+
+
+def test_a_pile_without_a_law_takes_the_registry_default():
+    pile = PorousPile.build([[1.0]], [[0.45]], [[1.5]])
+    A, B = POROUS_LAWS.create(POROUS_LAWS.default).coefficients(0.45, 1.5)
+    assert (pile.A[0, 0], pile.B[0, 0]) == (A, B)
+    assert pile.layer_B[0, 0, 0] == B
 
 
 def test_a_scenario_without_the_keys_runs_the_registry_defaults():

@@ -27,6 +27,7 @@ REGISTRIES = [
     ("breachflow.cycle.rest", "REST_RULES"), ("breachflow.cycle.strategies", "placement_strategies"),
     ("breachflow.ensemble.runners", "member_runners"), ("breachflow.scenario.config", "sections"),
     ("breachflow.scenario.growth", "growth_equations"), ("breachflow.scenario.growth", "max_length_equations"),
+    ("breachflow.swe.porous_laws", "POROUS_LAWS"),
 ]
 
 

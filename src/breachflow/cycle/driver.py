@@ -34,6 +34,7 @@ from ..fluid.profile import DEFAULT_PROFILE
 from ..fluid.profile import factors as profile_factors
 from ..field.sampling import SAMPLING_METHODS, FieldSampler
 from ..schemas import validate
+from ..swe.porous_laws import POROUS_LAWS
 from ..io import RunDirectory, particles_dataset, trajectories_dataset
 from ..io.cf import pad_particles
 from ..io.cycle_variables import cycle_coordinate, cycle_variables
@@ -115,8 +116,8 @@ class ClosureSetup:
     remap_mode: str = "no_flow"
     #: how the pile enters ``no_flow`` / ``raised_bed``: ``centre`` | ``cell_average`` (:mod:`~breachflow.cycle.remap`)
     pile_sampling: str = "centre"
-    #: Forchheimer coefficients of a porous pile (``ergun`` | ``van_gent``, hydro/swe/porous.py)
-    porous_law: str = "ergun"
+    #: flow law of a porous pile (a name of ``swe.porous_laws.POROUS_LAWS``; None: its default)
+    porous_law: str = POROUS_LAWS.default
     seed: int = 0
     breach_x: tuple = (0.0, 0.0)
     levee_y: float = 0.0

@@ -112,7 +112,7 @@ class PolderLeakage(Criterion):
     description = "net polder rise per day from the leakage through the dam (pumping deducted)"
 
     def __init__(self, threshold=f"{DEFAULT_ALLOWED_RISE} m/day", area=None, pump_capacity=None, seal=None,
-                 filter_thickness="0.5 m", max_seal_thickness="2 m", face_slope=None, law="ergun",
+                 filter_thickness="0.5 m", max_seal_thickness="2 m", face_slope=None, law=None,
                  seal_method=None, seal_capacity=None, seal_available=None, seal_steps=6,
                  seal_leakage="series", seal_compare=False, rock_end="emergent", steady_cap=None,
                  fallback_fraction=FALLBACK_SEEPAGE_FRACTION, retention_limit=None, permeability_limit=None,
@@ -214,7 +214,7 @@ class PolderLeakage(Criterion):
                                              "upstream of it (Terzaghi)"),
         "permeability_limit": ("dimensionless", "filter rule: smallest D15 of a layer / D15 of the finer layer "
                                                 "upstream of it (Terzaghi)"),
-        "law": ("string", "Forchheimer coefficients of the layers: ergun | van_gent"),
+        "law": ("string", "porous flow law of the layers (breachflow.porous_laws): ergun | van_gent | ergun_dilute"),
         "seal_method": ("string", "delivery method of the seal material"),
         "seal_capacity": ("kg/s", "delivery capacity of the seal material (e.g. \"300 t/hr\")"),
         "seal_available": ("mass", "seal material available"),

@@ -412,7 +412,7 @@ def _rev_average(a, sy, sx):
     return gaussian_filter(a, sigma=(sy, sx), mode="constant", cval=0.0, truncate=3.0)
 
 
-def porous_pile(x, y, bed, pos, radius, resting, law: str = "ergun", sub: int = 8, min_porosity: float = 0.2,
+def porous_pile(x, y, bed, pos, radius, resting, law: str | None = None, sub: int = 8, min_porosity: float = 0.2,
                 rev: float | None = None, layers: int = PILE_LAYERS):
     """The :class:`~breachflow.swe.porous.PorousPile` of the resting spheres (see the module docstring).
 

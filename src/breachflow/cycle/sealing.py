@@ -66,7 +66,7 @@ def flood_side(snapshot, breach_x, levee_y) -> int:
 
 
 def seal_pile(pile, y, layers, side: int = -1, x=None, x_range=None, dx: float | None = None,
-              law: str = "ergun", height_cap=None):
+              law: str | None = None, height_cap=None):
     """The pile *pile* (:class:`~breachflow.swe.porous.PorousPile`, arrays ``(ny, nx)`` on the cell centres
     *y*) with the seal *layers* ``[(Grading, thickness m), ...]`` (from the water downstream) on its upstream
     face; *side* -1 when the flood is at low y. *x_range* (with *x*) limits the sealed columns.
@@ -185,7 +185,7 @@ def still_water(snapshot, bed, reach, flood_level: float, tailwater: float | Non
     return out
 
 
-def series_leakage(snapshot, pile, layers, side, x_range, law="ergun", columns=None) -> float:
+def series_leakage(snapshot, pile, layers, side, x_range, law=None, columns=None) -> float:
     """Seepage (m³/s) through the sealed pile by the 1-D model of layers in series
     (:func:`~breachflow.materials.seal.series_unit_discharge`) column by column, with the head and the
     saturated height read from the re-solved field *snapshot*: the water level of the open cell just

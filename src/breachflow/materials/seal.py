@@ -64,7 +64,7 @@ class Grading:
         d = rock.diameter_at_fraction([0.15, 0.5, 0.85])
         return cls(rock.name, float(d[0]), float(d[1]), float(d[2]), rock.porosity, rock.density)
 
-    def forchheimer(self, law: str = "ergun") -> tuple[float, float]:
+    def forchheimer(self, law: str | None = None) -> tuple[float, float]:
         """``(a, b)`` of ``i = a V + b V|V|`` for this layer (D50 as the grain size)."""
         a, b = forchheimer_coefficients(self.porosity, self.d50, law)
         return float(a), float(b)
@@ -200,7 +200,7 @@ class SealDesign:
     thickness: float
     rock: Grading
     filters: tuple = ()
-    law: str = "ergun"
+    law: str | None = None
     retention_limit: float = RETENTION_LIMIT
     permeability_limit: float = PERMEABILITY_LIMIT
 

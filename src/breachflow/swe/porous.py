@@ -12,11 +12,9 @@ pass far more than on fine cells (docs/theory.md, *Porous flow through the pile*
 All layers feel the same free-surface gradient ``S`` (quasi-steady split):
 
 * through layer ``k``, the superficial (Darcy) velocity ``V_k`` obeys Forchheimer's law
-  ``S = A_k V_k + B_k V_k |V_k|`` with ``A = alpha nu (1-n)^2 / (g n^3 d^2)`` and
-  ``B = beta (1-n) / (g n^3 d)`` (``n`` porosity, ``d`` stone diameter). Coefficients
-  :data:`FORCHHEIMER_LAWS`: Ergun (1952) ``alpha = 150, beta = 1.75``; van Gent (1995, *Wave interaction
-  with permeable coastal structures*, PhD TU Delft; stationary flow through rock) ``alpha = 1000,
-  beta = 1.1`` (both as compiled in Burcharth & Andersen 1995, Coastal Eng. 24:233–257);
+  ``S = A_k V_k + B_k V_k |V_k|``, the coefficients of the layer's porosity ``n`` and stone diameter ``d``
+  by a flow law of :mod:`breachflow.swe.porous_laws` (Ergun's by default:
+  ``A = 150 nu (1-n)^2 / (g n^3 d^2)``, ``B = 1.75 (1-n) / (g n^3 d)``);
 * over the crest, Manning ``q_o = (h - H)^(5/3) S^(1/2) / n_M``.
 
 The unit discharge of the column is ``Q(S) = sum_k t_k V_k(S) + q_o(S)``, ``t_k`` the wetted thickness of
@@ -47,34 +45,21 @@ import numba
 import numpy as np
 
 from ..errors import InputError
-
-#: Forchheimer laws by name: (alpha, beta) of A = alpha nu (1-n)^2/(g n^3 d^2), B = beta (1-n)/(g n^3 d)
-FORCHHEIMER_LAWS = {"ergun": (150.0, 1.75), "van_gent": (1000.0, 1.1)}
-
-NU_WATER = 1.0e-6
-GRAVITY = 9.81
+from .porous_laws import GRAVITY, NU_WATER, porous_law
 
 
-def forchheimer_coefficients(porosity, diameter, law="ergun", nu=NU_WATER, g=GRAVITY):
+def forchheimer_coefficients(porosity, diameter, law=None, nu=NU_WATER, g=GRAVITY):
     """``(A, B)`` (s/m, s²/m²) of the hydraulic gradient ``I = A V + B V|V|`` for porosity *n* and stone
-    diameter *d* (m) by *law* (``ergun`` | ``van_gent``); arrays broadcast."""
-    if law not in FORCHHEIMER_LAWS:
-        raise InputError(f"Forchheimer law {law!r} unknown; use one of {sorted(FORCHHEIMER_LAWS)}")
-    alpha, beta = FORCHHEIMER_LAWS[law]
-    n = np.asarray(porosity, float)
-    d = np.asarray(diameter, float)
-    if np.any((n <= 0) | (n >= 1)) or np.any(d <= 0):
-        raise InputError("porosity must be in (0, 1) and the stone diameter > 0")
-    A = alpha * nu * (1 - n) ** 2 / (g * n ** 3 * d ** 2)
-    B = beta * (1 - n) / (g * n ** 3 * d)
-    return A, B
+    diameter *d* (m) by *law* (a name of :data:`~breachflow.swe.porous_laws.POROUS_LAWS` or an instance;
+    None: the default); arrays broadcast."""
+    return porous_law(law).coefficients(porosity, diameter, nu, g)
 
 
 @dataclass
 class PorousPile:
     """Per-cell pile of a domain (arrays ``(ny, nx)``): ``height`` above the bed (m, 0 = no pile),
     ``porosity`` (-, of the whole column), ``diameter`` (m, volume-weighted stone size), Forchheimer ``A``,
-    ``B`` (of the whole column's porosity); ``law``; ``layer_porosity``, ``layer_A``, ``layer_B``
+    ``B`` (of the whole column's porosity); ``law`` (the flow law's name, None: the default); ``layer_porosity``, ``layer_A``, ``layer_B``
     ``(ny, nx, K)`` of the column's ``K`` equal layers, bottom first (module docstring; None: one layer,
     the column's)."""
 
@@ -83,7 +68,7 @@ class PorousPile:
     diameter: np.ndarray
     A: np.ndarray
     B: np.ndarray
-    law: str = "ergun"
+    law: str | None = None
     layer_porosity: np.ndarray | None = None
     layer_A: np.ndarray | None = None
     layer_B: np.ndarray | None = None
@@ -98,7 +83,7 @@ class PorousPile:
                 raise InputError(f"PorousPile: {name} shape {np.shape(value)} is not the height's {shape} + (K,)")
 
     @classmethod
-    def build(cls, height, porosity, diameter, law="ergun", min_porosity=0.2, max_porosity=0.95,
+    def build(cls, height, porosity, diameter, law=None, min_porosity=0.2, max_porosity=0.95,
               layer_porosity=None):
         """Clip the porosity to ``[min_porosity, max_porosity]`` and compute ``A``, ``B`` where the pile is;
         *layer_porosity* ``(ny, nx, K)`` (bottom first) gives each layer its own (*porosity* is then their

@@ -6,6 +6,7 @@ from dataclasses import dataclass, field
 
 from ...errors import BreachflowError
 from ...scenario.config import register_section
+from ...swe.porous_laws import POROUS_LAWS
 from ..criteria import EndCriteria
 from ..losses import LOSS_LIMIT
 from ..placement import POSITION_MODES, PlacementPlan
@@ -154,8 +155,8 @@ class CriteriaSection:
 @dataclass
 class ClosureSection:
     """``[closure]``: ``remap`` (``porous``, the default: a leaky rock-fill pile | ``raised_bed`` |
-    ``no_flow``), ``seed``, ``porous_law`` (``ergun`` | ``van_gent``: Forchheimer coefficients of a porous
-    pile), ``area`` (the breach area ``[x0, x1, y0, y1]`` outside which masses count as carried away
+    ``no_flow``), ``seed``, ``porous_law`` (the flow law of a porous pile, :mod:`~breachflow.swe.porous_laws`:
+    ``ergun``, the default | ``van_gent`` | ``ergun_dilute``), ``area`` (the breach area ``[x0, x1, y0, y1]`` outside which masses count as carried away
     and where ``max_speed`` judges the flow; default from the scene, see
     :mod:`~breachflow.cycle.losses`), ``loss_limit`` (fraction of a cycle's placement whose loss — whenever its masses
     leave — in a flow faster than the masses withstand ends the run with a "not closable" verdict; also
@@ -171,7 +172,7 @@ class ClosureSection:
     seed: int = 0
     area: tuple | None = None
     loss_limit: float = LOSS_LIMIT
-    porous_law: str = "ergun"
+    porous_law: str = POROUS_LAWS.default
     pile_sampling: str = "centre"
     timeline: TimelineKeys = field(default_factory=TimelineKeys)
 
@@ -194,9 +195,8 @@ class ClosureSection:
         loss = ctx.quantity(table, "loss_limit", "dimensionless", default=LOSS_LIMIT, default_unit="",
                             positive=True)
         out = cls(ctx.raw(table, "remap", default="porous"), ctx.raw(table, "seed", types=(int,), default=0),
-                  area, float(loss), ctx.raw(table, "porous_law", default="ergun"),
+                  area, float(loss), ctx.raw(table, "porous_law", default=POROUS_LAWS.default),
                   ctx.raw(table, "pile_sampling", default="centre"))
-        from ...swe.porous import FORCHHEIMER_LAWS
         from ..remap import PILE_SAMPLINGS, REMAP_MODES
 
         if out.pile_sampling not in PILE_SAMPLINGS:
@@ -204,7 +204,7 @@ class ClosureSection:
 
         if out.remap not in REMAP_MODES:
             raise ctx.error(f"remap must be one of {REMAP_MODES}", "remap")
-        if out.porous_law not in FORCHHEIMER_LAWS:
-            raise ctx.error(f"porous_law must be one of {sorted(FORCHHEIMER_LAWS)}", "porous_law")
+        if out.porous_law not in POROUS_LAWS:
+            raise ctx.error(f"porous_law must be one of {POROUS_LAWS.available()}", "porous_law")
         out.timeline = TimelineKeys.from_table(table, ctx)
         return out
