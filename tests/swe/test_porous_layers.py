@@ -92,13 +92,13 @@ def heap(n, seed, x0=18.0, x1=30.0, width=24.0, tries=12):
     return pos, rad
 
 
-def heap_discharge(pos, rad, dx, layers, length=48.0, width=24.0, up=3.0, down=1.5):
+def heap_discharge(pos, rad, dx, layers=PILE_LAYERS, length=48.0, width=24.0, up=3.0, down=1.5, law=None):
     """Steady discharge (m³/s) through the heap in a channel with water levels *up* / *down* at its ends
-    (Manning 0.025), the median over the cross-sections upstream of the heap."""
+    (Manning 0.025), the median over the cross-sections upstream of the heap; *law* the pile's flow law."""
     dom = uniform_grid(0, length, 0, width, dx, manning=0.025,
                        boundaries={"west": BC("level", level=up), "east": BC("level", level=down)})
     dom.initial_surface = up + (down - up) * (dom.x[None, :] * np.ones(dom.shape)) / length
-    pile = porous_pile(dom.x, dom.y, dom.bed, pos, rad, np.ones(rad.size, bool), layers=layers)
+    pile = porous_pile(dom.x, dom.y, dom.bed, pos, rad, np.ones(rad.size, bool), layers=layers, law=law)
     sim = SWESimulation(dom.with_porous(pile), SWEOptions(order=2))
     assert sim.run_to_steady(tolerance=1e-5, t_max=900).converged
     q = sim.discharge[0].sum(axis=0) * (width / dom.shape[0])
@@ -135,14 +135,18 @@ def test_heap_discharge_on_2_and_1_m_cells(n, seed):
 
 
 if __name__ == "__main__":  # the table of the docs: discharge per heap, column model and cell size
-    # (arguments: cell sizes "4,2,1", heaps "units:seed,..." e.g. "25:1" for a sparse scatter)
+    # (arguments: cell sizes "4,2,1", heaps "units:seed,..." e.g. "25:1" for a sparse scatter, flow laws
+    # "ergun,ergun_dilute" — given, the layered column only)
     import sys
 
     grids = [float(v) for v in (sys.argv[1].split(",") if len(sys.argv) > 1 else ("4", "2", "1"))]
     heaps = [tuple(int(v) for v in h.split(":")) for h in sys.argv[2].split(",")] if len(sys.argv) > 2 else HEAPS
-    print("units seed layers " + " ".join(f"{g:>8g} m" for g in grids))
+    laws = sys.argv[3].split(",") if len(sys.argv) > 3 else [None]
+    models = [(1, None), (PILE_LAYERS, None)] if len(sys.argv) <= 3 else [(PILE_LAYERS, law) for law in laws]
+    print("units seed layers law          " + " ".join(f"{g:>8g} m" for g in grids))
     for n, seed in heaps:
         pos, rad = heap(n, seed)
-        for layers in (1, PILE_LAYERS):
-            qs = [heap_discharge(pos, rad, g, layers) for g in grids]
-            print(f"{n:5d} {seed:4d} {layers:6d} " + " ".join(f"{v:10.2f}" for v in qs), flush=True)
+        for layers, law in models:
+            qs = [heap_discharge(pos, rad, g, layers, law=law) for g in grids]
+            print(f"{n:5d} {seed:4d} {layers:6d} {law or 'default':12s} " + " ".join(f"{v:10.2f}" for v in qs),
+                  flush=True)
