@@ -389,23 +389,20 @@ def compile_cost(a) -> int:
 
 
 def _old_contacts(src):
-    """dem/pair_contacts.py (dem/contacts.py in older trees) of another source tree (*src*: its ``src`` directory), imported under another name
-    (with the other modules of its ``dem`` package beside it, for the ones it imports: .contact_law,
-    .neighbours, .bins, ...)."""
+    """dem/pair_contacts.py (dem/contacts.py in older trees) of another source tree (*src*: its ``src``
+    directory), imported under another name: the tree's whole ``breachflow`` package is copied as
+    ``old_breachflow``, so that its relative imports (``.contact_law``, ``..registry``, ...) find the old
+    modules beside it."""
     import importlib
     import shutil
     import tempfile
 
     tmp = Path(tempfile.mkdtemp())
-    pkg = tmp / "old_breachflow_dem"
-    pkg.mkdir()
-    (pkg / "__init__.py").write_text("")
-    for f in (Path(src) / "breachflow" / "dem").glob("*.py"):  # the modules contacts.py imports, and the rest
-        if f.name != "__init__.py":
-            shutil.copy(f, pkg / f.name)
+    shutil.copytree(Path(src) / "breachflow", tmp / "old_breachflow", ignore=shutil.ignore_patterns("__pycache__"))
     sys.path.insert(0, str(tmp))
-    name = "pair_contacts" if (pkg / "pair_contacts.py").exists() else "contacts"
-    return importlib.import_module(f"old_breachflow_dem.{name}")
+    dem = tmp / "old_breachflow" / "dem"
+    name = "pair_contacts" if (dem / "pair_contacts.py").exists() else "contacts"
+    return importlib.import_module(f"old_breachflow.dem.{name}")
 
 
 if __name__ == "__main__":

@@ -92,12 +92,18 @@ def heap(n, seed, x0=18.0, x1=30.0, width=24.0, tries=12):
     return pos, rad
 
 
-def heap_discharge(pos, rad, dx, layers=PILE_LAYERS, length=48.0, width=24.0, up=3.0, down=1.5, law=None):
-    """Steady discharge (m³/s) through the heap in a channel with water levels *up* / *down* at its ends
-    (Manning 0.025), the median over the cross-sections upstream of the heap; *law* the pile's flow law."""
+def channel(dx, length=48.0, width=24.0, up=3.0, down=1.5):
+    """The channel of the heaps on cells of *dx*: water levels *up* / *down* at its ends, Manning 0.025."""
     dom = uniform_grid(0, length, 0, width, dx, manning=0.025,
                        boundaries={"west": BC("level", level=up), "east": BC("level", level=down)})
     dom.initial_surface = up + (down - up) * (dom.x[None, :] * np.ones(dom.shape)) / length
+    return dom
+
+
+def heap_discharge(pos, rad, dx, layers=PILE_LAYERS, width=24.0, law=None):
+    """Steady discharge (m³/s) through the heap in the :func:`channel`, the median over the cross-sections
+    upstream of the heap; *law* the pile's flow law."""
+    dom = channel(dx, width=width)
     pile = porous_pile(dom.x, dom.y, dom.bed, pos, rad, np.ones(rad.size, bool), layers=layers, law=law)
     sim = SWESimulation(dom.with_porous(pile), SWEOptions(order=2))
     assert sim.run_to_steady(tolerance=1e-5, t_max=900).converged
@@ -150,3 +156,9 @@ if __name__ == "__main__":  # the table of the docs: discharge per heap, column 
             qs = [heap_discharge(pos, rad, g, layers, law=law) for g in grids]
             print(f"{n:5d} {seed:4d} {layers:6d} {law or 'default':12s} " + " ".join(f"{v:10.2f}" for v in qs),
                   flush=True)
+        median = []
+        for g in grids:
+            dom = channel(g)
+            pile = porous_pile(dom.x, dom.y, dom.bed, pos, rad, np.ones(rad.size, bool))
+            median.append(np.median(pile.layer_porosity[pile.height > 0]))
+        print(f"{n:5d} {seed:4d} median layer porosity " + " ".join(f"{v:10.2f}" for v in median))
