@@ -7,7 +7,10 @@ import math
 import numpy as np
 import pytest
 
-from breachflow.errors import InputError
+from breachflow.cycle.config import closure_setup
+from breachflow.errors import InputError, ParseError
+from breachflow.scenario.config import parse_scenario
+from breachflow.scenario.toml import scenario_with
 from breachflow.swe.porous import PorousPile, forchheimer_coefficients
 from breachflow.swe.porous_laws import POROUS_LAWS, ErgunDiluteLaw, ForchheimerLaw, VanGentLaw, porous_law
 
@@ -91,6 +94,17 @@ def test_dilute_law_holds_a_suspension_at_richardson_zakis_velocity(n):
     V = u_t * n ** 2.39
     _, B = ErgunDiluteLaw().coefficients(n, d)
     assert RHO * G * B * V ** 2 == pytest.approx((1 - n) * (rho_s - RHO) * G, rel=1e-9)
+
+
+SCENE = (__import__("pathlib").Path(__file__).resolve().parents[1] / "data" / "ci_closure.toml").read_text()
+
+
+def test_a_scenario_chooses_the_law_by_name_and_a_bad_name_is_named():
+    assert closure_setup(parse_scenario(SCENE)).porous_law == "ergun"
+    setup = closure_setup(parse_scenario(scenario_with(SCENE, {"closure.porous_law": "ergun_dilute"})))
+    assert setup.porous_law == "ergun_dilute"
+    with pytest.raises(ParseError, match=r"\[closure\] porous_law: 'darcy' unknown.*ergun_dilute"):
+        parse_scenario(scenario_with(SCENE, {"closure.porous_law": "darcy"}))
 
 
 # scatters of units on the channel floor, the placement seed swept

@@ -200,11 +200,12 @@ class ClosureSection:
         from ..remap import PILE_SAMPLINGS, REMAP_MODES
 
         if out.pile_sampling not in PILE_SAMPLINGS:
-            raise ctx.error(f"pile_sampling must be one of {PILE_SAMPLINGS}", "pile_sampling")
+            raise ctx.error(f"{out.pile_sampling!r} unknown; pile_sampling must be one of {PILE_SAMPLINGS}", "pile_sampling")
 
         if out.remap not in REMAP_MODES:
-            raise ctx.error(f"remap must be one of {REMAP_MODES}", "remap")
+            raise ctx.error(f"{out.remap!r} unknown; remap must be one of {REMAP_MODES}", "remap")
         if out.porous_law not in POROUS_LAWS:
-            raise ctx.error(f"porous_law must be one of {POROUS_LAWS.available()}", "porous_law")
+            raise ctx.error(f"{out.porous_law!r} unknown; porous_law must be one of {POROUS_LAWS.available()}",
+                            "porous_law")
         out.timeline = TimelineKeys.from_table(table, ctx)
         return out
