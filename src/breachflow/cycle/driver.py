@@ -116,7 +116,7 @@ class ClosureSetup:
     remap_mode: str = "no_flow"
     #: how the pile enters ``no_flow`` / ``raised_bed``: ``centre`` | ``cell_average`` (:mod:`~breachflow.cycle.remap`)
     pile_sampling: str = "centre"
-    #: flow law of a porous pile (a name of ``swe.porous_laws.POROUS_LAWS``; None: its default)
+    #: flow law of a porous pile (a name of ``swe.porous_laws.POROUS_LAWS``)
     porous_law: str = POROUS_LAWS.default
     seed: int = 0
     breach_x: tuple = (0.0, 0.0)

@@ -156,8 +156,8 @@ class CriteriaSection:
 class ClosureSection:
     """``[closure]``: ``remap`` (``porous``, the default: a leaky rock-fill pile | ``raised_bed`` |
     ``no_flow``), ``seed``, ``porous_law`` (the flow law of a porous pile, :mod:`~breachflow.swe.porous_laws`:
-    ``ergun``, the default | ``van_gent`` | ``ergun_dilute``), ``area`` (the breach area ``[x0, x1, y0, y1]`` outside which masses count as carried away
-    and where ``max_speed`` judges the flow; default from the scene, see
+    ``ergun``, the default | ``van_gent`` | ``ergun_dilute``), ``area`` (the breach area ``[x0, x1, y0, y1]``
+    outside which masses count as carried away and where ``max_speed`` judges the flow; default from the scene, see
     :mod:`~breachflow.cycle.losses`), ``loss_limit`` (fraction of a cycle's placement whose loss — whenever its masses
     leave — in a flow faster than the masses withstand ends the run with a "not closable" verdict; also
     the fraction of all placed tonnage above which the losses are flagged; default 0.5), ``pile_sampling`` (how the pile enters ``raised_bed`` / ``no_flow``:
@@ -200,7 +200,8 @@ class ClosureSection:
         from ..remap import PILE_SAMPLINGS, REMAP_MODES
 
         if out.pile_sampling not in PILE_SAMPLINGS:
-            raise ctx.error(f"{out.pile_sampling!r} unknown; pile_sampling must be one of {PILE_SAMPLINGS}", "pile_sampling")
+            raise ctx.error(f"{out.pile_sampling!r} unknown; pile_sampling must be one of {PILE_SAMPLINGS}",
+                            "pile_sampling")
 
         if out.remap not in REMAP_MODES:
             raise ctx.error(f"{out.remap!r} unknown; remap must be one of {REMAP_MODES}", "remap")
