@@ -6,7 +6,7 @@
 
 Builds ``bench_dem.poured_pile(n)`` (the scene of ``tasks.py bench dem``) and times ``DemSimulation.pairs.rebuild``
 (the driver's rebuild: on older trees hash grid + search + numpy sort / searchsorted of the keys; here
-``neighbours.relist``, ``neighbours.rebuild`` without sleepers, the function the compiled loop calls) and, where it exists, the pair search alone
+``neighbours.rebuild`` without sleepers, the function the compiled loop calls) and, where it exists, the pair search alone
 (``neighbours.search_awake``), in ms per rebuild (``time.process_time``, mean ± sd of 5 blocks).
 
     .venv/bin/python benchmarks/bench_dem_rebuild.py --count [--n 1000,10000] [--steps 500]

@@ -114,9 +114,11 @@ def test_shear_history_follows_rigid_rotation_of_the_pair():
         vel = np.array([[0.5 * s * omega, -0.5 * c * omega, 0.0], [-0.5 * s * omega, 0.5 * c * omega, 0.0]])
         w = np.array([[0, 0, omega], [0, 0, omega]], float)
         f[:] = 0
-        contacts.pair_forces(np.array([0]), np.array([1]), hist, np.zeros(1, bool), pos, vel, w, np.full(2, r),
-                             props, np.ones(2, bool), np.ones(2, bool), geom, periodic, dt, 1e9, f, t,
-                             np.zeros(2, bool), np.zeros(2, np.int64), np.zeros(1, np.int64))
+        # the driver's kernel with the driver's argument types (a wrapper would compile a copy of it)
+        contacts.pair_forces_interval(np.array([0]), np.array([1]), hist, np.zeros((1, 3)), np.zeros(1, bool), pos,
+                                      vel, w, vel, w, False, np.full(2, r), np.ones(2), np.ones(2), props,
+                                      np.ones(2, bool), np.ones(2, bool), geom, periodic, dt, 1e9, f, t,
+                                      np.zeros(2, bool), np.zeros(2, np.int64), np.zeros(1, np.int64), 0.0, 0.0, 0)
     n = pos[1] - pos[0]
     n /= np.linalg.norm(n)
     h = hist[0]
@@ -172,6 +174,10 @@ def test_sort_and_carry_equals_a_global_sort_and_key_lookup(seed):
     assert 0 < np.isin(new_keys, old_keys).sum() < n  # carried and new pairs both present
 
 
+#: an empty sleeping grid (start, entry particle, entry code, table bits), as ``PairList.grid`` gives it
+NO_SLEEPERS = (np.zeros(1, np.int64), np.zeros(0, np.int64), np.zeros(0, np.int64), 0)
+
+
 def test_relist_grows_its_buffers_and_alternates_them():
     """From empty buffers the capacity grows to hold the list, later rebuilds reuse it (no new arrays), the
     new list never lives in the buffer the old one is read from, and histories carry over."""
@@ -186,7 +192,9 @@ def test_relist_grows_its_buffers_and_alternates_them():
     lst = (np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, 3)), np.zeros((0, 3)))
     ids = []
     for it in range(6):
-        *new, touch, bufs = neighbours.relist(idx, pos, radius, 0.5 * skin, geom, per, ncell, *lst, pb_, bufs)
+        # the driver's rebuild of awake particles alone (PairList.relist): one cell each, empty sleeping grid
+        *new, touch, bufs = neighbours.rebuild(idx, pos, radius, 0.5 * skin, geom, per, ncell, True, NO_SLEEPERS,
+                                               *lst, pb_, bufs)
         keys = (new[0] << 32) | new[1]
         assert set(zip(new[0].tolist(), new[1].tolist())) == brute_pairs(pos, radius, skin)
         assert np.all(np.diff(keys) > 0) and not touch.any()

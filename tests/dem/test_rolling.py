@@ -166,10 +166,12 @@ def test_pair_rolling_moment_is_an_elastic_plastic_spring_on_the_relative_spin()
 
     def step(om):
         f, t = np.zeros((2, 3)), np.zeros((2, 3))
-        contacts.pair_forces_rolling(np.array([0]), np.array([1]), hist, rhist, np.zeros(1, bool), pos, vel, om,
-                                     radius, mass, inertia, props, np.ones(2, bool), np.ones(2, bool),
-                                     np.array([0, 0, 0, 1.0, 1.0, 1.0, 1.0, 1.0]), np.zeros(2, np.int64), dt,
-                                     1e9, f, t, np.zeros(2, bool), np.zeros(2, np.int64), np.zeros(1, np.int64))
+        # the driver's kernel with its argument types; the same velocities for dashpots and shear increments
+        contacts.pair_forces_interval(np.array([0]), np.array([1]), hist, rhist, np.zeros(1, bool), pos, vel, om,
+                                      vel, om, False, radius, mass, inertia, props, np.ones(2, bool),
+                                      np.ones(2, bool), np.array([0, 0, 0, 1.0, 1.0, 1.0, 1.0, 1.0]),
+                                      np.zeros(2, np.int64), dt, 1e9, f, t, np.zeros(2, bool), np.zeros(2, np.int64),
+                                      np.zeros(1, np.int64), 0.0, 0.0, 0)
         return t
 
     step(omega)

@@ -71,6 +71,9 @@ def bumpy_plateau(seed, slope, lo=-0.8, hi=1.0, dx=1.0, angle_deg=0.0):
                                     "north": [BC.wall()], "south": [BC.wall()]})
 
 
+#: cell sizes of the pile scenes: the 0.5 m cells (4x the cost) in the slow suite (``tasks.py test --slow``)
+DX = [1.0, pytest.param(0.5, marks=pytest.mark.slow)]
+
 CASES = [(seed, slope, 0.0) for seed in (0, 1, 2, 3) for slope in (0.0, 0.1, 0.2)] + \
         [(seed, 0.1, angle) for seed in (0, 1) for angle in (20.0, 45.0)]
 
@@ -139,7 +142,7 @@ def pile_column(z_up, z_c, drop, dx, row, axis):
 
 
 @pytest.mark.parametrize("axis", [0, 1])
-@pytest.mark.parametrize("dx", [1.0, 0.5])
+@pytest.mark.parametrize("dx", DX)
 @pytest.mark.parametrize("row", [0, 2])
 @pytest.mark.parametrize("z_up, z_c, drop", [(2.45, 1.87, 0.2), (2.6, 1.87, 0.5), (2.45, 1.5, 0.5)])
 def test_a_pile_column_spilling_onto_a_dry_cell_gains_no_head(z_up, z_c, drop, dx, row, axis):
@@ -189,7 +192,7 @@ def foot_of_fall(z_d, open_cols, dx, axis):
 
 
 @pytest.mark.parametrize("axis", [0, 1])
-@pytest.mark.parametrize("dx", [1.0, 0.5])
+@pytest.mark.parametrize("dx", DX)
 @pytest.mark.parametrize("open_cols", [(), (5, 6), (0, 6)])
 @pytest.mark.parametrize("z_d", [1.59, 1.2])
 def test_a_pile_cell_at_the_foot_of_a_fall_gains_no_head(z_d, open_cols, dx, axis):

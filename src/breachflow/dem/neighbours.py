@@ -339,18 +339,10 @@ def sort_and_carry(n, cand_a, cand_b, pa, pb, hist, rhist, npart, new_a, new_b, 
 
 
 def empty_buffers():
-    """Zero-capacity pair buffers for :func:`rebuild` / :func:`relist`: (candidates a, b; spare list a, b, shear, rolling,
+    """Zero-capacity pair buffers for :func:`rebuild`: (candidates a, b; spare list a, b, shear, rolling,
     touch; other list a, b, shear, rolling, touch)."""
     i, f, t = np.zeros(0, np.int64), np.zeros((0, 3)), np.zeros(0, np.bool_)
     return (i, i.copy(), i.copy(), i.copy(), f, f.copy(), t, i.copy(), i.copy(), f.copy(), f.copy(), t.copy())
-
-
-@numba.njit(cache=True, error_model="numpy")
-def relist(idx, pos, radius, half_skin, geom, periodic, ncell, pa, pb, hist, rhist, pos_build, bufs):
-    """:func:`rebuild` of a list of awake particles alone (one cell per particle, no sleeping grid)."""
-    return rebuild(idx, pos, radius, half_skin, geom, periodic, ncell, True,
-                   (np.zeros(1, np.int64), np.zeros(0, np.int64), np.zeros(0, np.int64), 0), pa, pb, hist, rhist,
-                   pos_build, bufs)
 
 
 @numba.njit(cache=True, error_model="numpy")

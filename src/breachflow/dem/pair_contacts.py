@@ -23,27 +23,6 @@ from .wall_contacts import _bilinear, heightfield_forces, plane_candidates, plan
 U1, U2, U3 = np.uint64(1), np.uint64(2), np.uint64(3)
 
 
-@numba.njit(cache=True, error_model="numpy")
-def pair_forces(pa, pb, hist, touching, pos, vel, omega, radius, props, awake, active, geom, periodic,
-                dt, wake_speed, force, torque, wake, wake_ids, n_wake, lo=0.0, hi=0.0):
-    """:func:`pair_forces_rolling` without rolling histories (rolling resistance ignored)."""
-    rhist = np.zeros((pa.shape[0], 3))
-    ones = np.ones(radius.shape[0])
-    p = props.copy()
-    p[:, 7] = 0.0
-    return pair_forces_rolling(pa, pb, hist, rhist, touching, pos, vel, omega, radius, ones, ones, p, awake,
-                               active, geom, periodic, dt, wake_speed, force, torque, wake, wake_ids, n_wake, lo, hi)
-
-
-@numba.njit(cache=True, error_model="numpy")
-def pair_forces_rolling(pa, pb, hist, rhist, touching, pos, vel, omega, radius, mass, inertia, props, awake,
-                        active, geom, periodic, dt, wake_speed, force, torque, wake, wake_ids, n_wake, lo=0.0, hi=0.0):
-    """:func:`pair_forces_interval` with the same velocities for dashpots and shear increments."""
-    return pair_forces_interval(pa, pb, hist, rhist, touching, pos, vel, omega, vel, omega, False, radius, mass,
-                              inertia, props, awake, active, geom, periodic, dt, wake_speed, force, torque, wake,
-                              wake_ids, n_wake, lo, hi)
-
-
 @numba.njit(cache=True, error_model="numpy", fastmath={"contract"})
 def pair_forces_interval(pa, pb, hist, rhist, touching, pos, vel, omega, vel_h, omega_h, split, radius, mass, inertia,
                        props, awake, active, geom, periodic, dt, wake_speed, force, torque, wake, wake_ids, n_wake, lo,
