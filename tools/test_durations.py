@@ -1,7 +1,7 @@
 """Where the test suite spends its time: seconds and test counts per test directory.
 
 Reads what pytest writes with ``--junitxml=FILE`` (or the text of ``--durations=0``) and prints, per test
-directory (or per file with ``--by file``), the number of tests, their wall seconds and, when the run
+directory (or per file with ``--by file``, per test with ``--by test``), the number of tests, their wall seconds and, when the run
 recorded them, their CPU seconds, the largest first::
 
     PYTHONPATH=tools python3 tasks.py test -p test_durations --junitxml=junit.xml
@@ -9,8 +9,11 @@ recorded them, their CPU seconds, the largest first::
 
 Loaded as a pytest plugin (``-p test_durations`` with ``tools`` on ``PYTHONPATH``) this module records
 each test's CPU seconds (setup, call and teardown: user + system time of the test process and of the child
-processes it waited for, e.g. ``gdalinfo``) as the junit property ``cpu_s``; it works with pytest-xdist,
-each worker timing its own tests. Without the plugin only wall seconds are known: pytest's junit ``time``
+processes it waited for, e.g. ``gdalinfo``) as the junit property ``cpu_s`` and, when numba is installed,
+the wall seconds the test spent compiling numba kernels as ``compile_s`` (numba's ``numba:compile`` events,
+outermost only; a kernel loaded from the on-disk cache fires none); it works with pytest-xdist, each worker
+timing its own tests. A test that compiles a kernel the warmed cache does not hold (another argument type,
+a test-only wrapper) shows up in the ``compile s`` column. Without the plugin only wall seconds are known: pytest's junit ``time``
 (setup + call + teardown) or the ``--durations`` lines.
 
 Wall seconds of a test are the time its worker was busy with it; summed over a directory they are the
@@ -28,6 +31,7 @@ from collections import defaultdict
 from pathlib import PurePosixPath
 
 CPU_PROPERTY = "cpu_s"
+COMPILE_PROPERTY = "compile_s"
 
 
 # ------------------------------------------------------------------------------------------ pytest plugin
@@ -47,14 +51,54 @@ def _timed(item, phase):
         item.__dict__.setdefault("_cpu_s", {})[phase] = _cpu() - start
 
 
+class _CompileClock:
+    """Wall seconds inside outermost ``numba:compile`` events (a kernel's compile also compiles the kernels it
+    calls: nested events are not counted twice)."""
+
+    def __init__(self):
+        self.depth, self.start, self.total = 0, 0.0, 0.0
+
+    def on_start(self, event):
+        if self.depth == 0:
+            self.start = time.perf_counter()
+        self.depth += 1
+
+    def on_end(self, event):
+        self.depth -= 1
+        if self.depth == 0:
+            self.total += time.perf_counter() - self.start
+
+
+def _compile_clock():
+    """A :class:`_CompileClock` registered with numba's event API, or None without numba."""
+    try:
+        from numba.core import event
+    except ImportError:
+        return None
+
+    class Listener(_CompileClock, event.Listener):
+        pass
+
+    clock = Listener()
+    event.register("numba:compile", clock)
+    return clock
+
+
 try:
     import pytest
 except ImportError:  # the reader below needs no pytest
     pytest = None
 
 if pytest is not None:
+    _COMPILE = None
+
+    def pytest_configure(config):
+        global _COMPILE
+        _COMPILE = _compile_clock()
+
     @pytest.hookimpl(hookwrapper=True)
     def pytest_runtest_setup(item):
+        item.__dict__["_compile_s0"] = _COMPILE.total if _COMPILE is not None else 0.0
         yield from _timed(item, "setup")
 
     @pytest.hookimpl(hookwrapper=True)
@@ -71,6 +115,9 @@ if pytest is not None:
         report = outcome.get_result()
         if call.when == "teardown":
             report.user_properties.append((CPU_PROPERTY, f"{sum(item.__dict__.get('_cpu_s', {}).values()):.6f}"))
+            if _COMPILE is not None:
+                spent = _COMPILE.total - item.__dict__.get("_compile_s0", _COMPILE.total)
+                report.user_properties.append((COMPILE_PROPERTY, f"{spent:.6f}"))
 
 
 # ------------------------------------------------------------------------------------------ reading
@@ -86,8 +133,8 @@ def _module_path(classname: str, file: str | None) -> str:
 
 
 def read_junit(path) -> list[dict]:
-    """One record per test case of a junit XML file: ``file``, ``name``, ``wall`` (s), ``cpu`` (s or
-    None), ``outcome`` (passed, failed, error, skipped)."""
+    """One record per test case of a junit XML file: ``file``, ``name``, ``wall`` (s), ``cpu`` and
+    ``compile`` (s or None), ``outcome`` (passed, failed, error, skipped)."""
     rows = []
     for case in ET.parse(path).getroot().iter("testcase"):
         props = {p.get("name"): p.get("value") for p in case.iter("property")}
@@ -95,10 +142,10 @@ def read_junit(path) -> list[dict]:
         for tag in ("failure", "error", "skipped"):
             if case.find(tag) is not None:
                 outcome = {"failure": "failed"}.get(tag, tag)
-        cpu = props.get(CPU_PROPERTY)
+        cpu, comp = props.get(CPU_PROPERTY), props.get(COMPILE_PROPERTY)
         rows.append({"file": _module_path(case.get("classname", ""), case.get("file")), "name": case.get("name", ""),
                      "wall": float(case.get("time") or 0.0), "cpu": None if cpu is None else float(cpu),
-                     "outcome": outcome})
+                     "compile": None if comp is None else float(comp), "outcome": outcome})
     return rows
 
 
@@ -114,7 +161,8 @@ def read_durations(path) -> list[dict]:
             m = _DURATION.match(line)
             if m:
                 by_test[(m.group(3), m.group(4))] += float(m.group(1))
-    return [{"file": f, "name": n, "wall": w, "cpu": None, "outcome": "passed"} for (f, n), w in by_test.items()]
+    return [{"file": f, "name": n, "wall": w, "cpu": None, "compile": None, "outcome": "passed"}
+            for (f, n), w in by_test.items()]
 
 
 def read(path) -> list[dict]:
@@ -124,15 +172,19 @@ def read(path) -> list[dict]:
 
 
 def group(rows: list[dict], by: str = "dir") -> list[dict]:
-    """Totals per test directory (``by="dir"``) or per file (``by="file"``), the largest CPU (else wall)
-    first."""
+    """Totals per test directory (``by="dir"``), per file (``by="file"``) or per test (``by="test"``), the
+    largest CPU (else wall) first."""
     acc: dict[str, dict] = {}
     for r in rows:
-        key = r["file"] if by == "file" else (PurePosixPath(r["file"]).parent.as_posix() or ".")
+        key = {"file": r["file"], "test": f"{r['file']}::{r['name']}"}.get(
+            by, PurePosixPath(r["file"]).parent.as_posix() or ".")
         a = acc.setdefault(key, {"where": key, "tests": 0, "wall": 0.0, "cpu": 0.0, "cpu_known": 0,
-                                 "failed": 0, "skipped": 0})
+                                 "compile": 0.0, "compile_known": 0, "failed": 0, "skipped": 0})
         a["tests"] += 1
         a["wall"] += r["wall"]
+        if r.get("compile") is not None:
+            a["compile"] += r["compile"]
+            a["compile_known"] += 1
         if r["cpu"] is not None:
             a["cpu"] += r["cpu"]
             a["cpu_known"] += 1
@@ -151,12 +203,17 @@ def table(groups: list[dict]) -> str:
     head = f"{'where':<{width}}  {'tests':>6}  {'wall s':>9}  {'wall %':>6}"
     if has_cpu:
         head += f"  {'CPU s':>9}  {'CPU %':>6}"
+    has_compile = any(g.get("compile_known") for g in groups)
+    if has_compile:
+        head += f"  {'compile s':>9}"
     lines = [head + "  notes", "-" * (len(head) + 7)]
 
     def row(g):
         s = f"{g['where']:<{width}}  {g['tests']:>6}  {g['wall']:>9.1f}  {100 * g['wall'] / tot_wall:>6.1f}"
         if has_cpu:
             s += f"  {g['cpu']:>9.1f}  {100 * g['cpu'] / tot_cpu:>6.1f}"
+        if has_compile:
+            s += f"  {g['compile']:>9.1f}"
         notes = []
         if g["failed"]:
             notes.append(f"{g['failed']} failed")
@@ -169,6 +226,8 @@ def table(groups: list[dict]) -> str:
     lines += [row(g) for g in groups]
     total = {"where": "total", "tests": sum(g["tests"] for g in groups), "wall": sum(g["wall"] for g in groups),
              "cpu": sum(g["cpu"] for g in groups), "cpu_known": sum(g["cpu_known"] for g in groups),
+             "compile": sum(g.get("compile", 0.0) for g in groups),
+             "compile_known": sum(g.get("compile_known", 0) for g in groups),
              "failed": sum(g["failed"] for g in groups), "skipped": sum(g["skipped"] for g in groups)}
     lines += ["-" * (len(head) + 7), row(total)]
     return "\n".join(lines)
@@ -177,7 +236,8 @@ def table(groups: list[dict]) -> str:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("reports", nargs="+", help="pytest --junitxml files or saved --durations=0 output")
-    ap.add_argument("--by", choices=("dir", "file"), default="dir", help="group per test directory or per file")
+    ap.add_argument("--by", choices=("dir", "file", "test"), default="dir",
+                    help="group per test directory, per file or per test")
     ap.add_argument("--top", type=int, default=0, help="show only the N largest groups (the total is of all)")
     args = ap.parse_args(argv)
     rows = []
