@@ -1,8 +1,8 @@
 """Where the test suite spends its time: seconds and test counts per test directory.
 
 Reads what pytest writes with ``--junitxml=FILE`` (or the text of ``--durations=0``) and prints, per test
-directory (or per file with ``--by file``, per test with ``--by test``), the number of tests, their wall seconds and, when the run
-recorded them, their CPU seconds, the largest first::
+directory (or per file with ``--by file``, per test with ``--by test``), the number of tests, their wall
+seconds and, when the run recorded them, their CPU and numba compile seconds, the largest first::
 
     PYTHONPATH=tools python3 tasks.py test -p test_durations --junitxml=junit.xml
     python3 tools/test_durations.py junit.xml
@@ -13,8 +13,8 @@ processes it waited for, e.g. ``gdalinfo``) as the junit property ``cpu_s`` and,
 the wall seconds the test spent compiling numba kernels as ``compile_s`` (numba's ``numba:compile`` events,
 outermost only; a kernel loaded from the on-disk cache fires none); it works with pytest-xdist, each worker
 timing its own tests. A test that compiles a kernel the warmed cache does not hold (another argument type,
-a test-only wrapper) shows up in the ``compile s`` column. Without the plugin only wall seconds are known: pytest's junit ``time``
-(setup + call + teardown) or the ``--durations`` lines.
+a test-only wrapper) shows up in the ``compile s`` column. Without the plugin only wall seconds are known:
+pytest's junit ``time`` (setup + call + teardown) or the ``--durations`` lines.
 
 Wall seconds of a test are the time its worker was busy with it; summed over a directory they are the
 directory's share of the suite's worker time, not of the run's wall clock (the workers run in parallel).
@@ -51,35 +51,29 @@ def _timed(item, phase):
         item.__dict__.setdefault("_cpu_s", {})[phase] = _cpu() - start
 
 
-class _CompileClock:
-    """Wall seconds inside outermost ``numba:compile`` events (a kernel's compile also compiles the kernels it
-    calls: nested events are not counted twice)."""
-
-    def __init__(self):
-        self.depth, self.start, self.total = 0, 0.0, 0.0
-
-    def on_start(self, event):
-        if self.depth == 0:
-            self.start = time.perf_counter()
-        self.depth += 1
-
-    def on_end(self, event):
-        self.depth -= 1
-        if self.depth == 0:
-            self.total += time.perf_counter() - self.start
-
-
 def _compile_clock():
-    """A :class:`_CompileClock` registered with numba's event API, or None without numba."""
+    """A listener of numba's ``numba:compile`` events whose ``total`` is the wall seconds inside outermost events
+    (a kernel's compile also compiles the kernels it calls: nested events are not counted twice); None without
+    numba."""
     try:
         from numba.core import event
     except ImportError:
         return None
 
-    class Listener(_CompileClock, event.Listener):
-        pass
+    class CompileClock(event.Listener):
+        depth, start, total = 0, 0.0, 0.0
 
-    clock = Listener()
+        def on_start(self, ev):
+            if self.depth == 0:
+                self.start = time.perf_counter()
+            self.depth += 1
+
+        def on_end(self, ev):
+            self.depth -= 1
+            if self.depth == 0:
+                self.total += time.perf_counter() - self.start
+
+    clock = CompileClock()
     event.register("numba:compile", clock)
     return clock
 
@@ -182,7 +176,7 @@ def group(rows: list[dict], by: str = "dir") -> list[dict]:
                                  "compile": 0.0, "compile_known": 0, "failed": 0, "skipped": 0})
         a["tests"] += 1
         a["wall"] += r["wall"]
-        if r.get("compile") is not None:
+        if r["compile"] is not None:
             a["compile"] += r["compile"]
             a["compile_known"] += 1
         if r["cpu"] is not None:
@@ -203,7 +197,7 @@ def table(groups: list[dict]) -> str:
     head = f"{'where':<{width}}  {'tests':>6}  {'wall s':>9}  {'wall %':>6}"
     if has_cpu:
         head += f"  {'CPU s':>9}  {'CPU %':>6}"
-    has_compile = any(g.get("compile_known") for g in groups)
+    has_compile = any(g["compile_known"] for g in groups)
     if has_compile:
         head += f"  {'compile s':>9}"
     lines = [head + "  notes", "-" * (len(head) + 7)]
@@ -226,8 +220,7 @@ def table(groups: list[dict]) -> str:
     lines += [row(g) for g in groups]
     total = {"where": "total", "tests": sum(g["tests"] for g in groups), "wall": sum(g["wall"] for g in groups),
              "cpu": sum(g["cpu"] for g in groups), "cpu_known": sum(g["cpu_known"] for g in groups),
-             "compile": sum(g.get("compile", 0.0) for g in groups),
-             "compile_known": sum(g.get("compile_known", 0) for g in groups),
+             "compile": sum(g["compile"] for g in groups), "compile_known": sum(g["compile_known"] for g in groups),
              "failed": sum(g["failed"] for g in groups), "skipped": sum(g["skipped"] for g in groups)}
     lines += ["-" * (len(head) + 7), row(total)]
     return "\n".join(lines)
