@@ -20,7 +20,7 @@ def _edge_levels(snap):
 
 # 1 m divides the 12 m breach; 0.9 m does not, so the nested grid's cells are 12 / 13 m (the breach's ends on
 # cell faces) and the rebuilt edges must be laid on that grid, not on one of 0.9 m cells; the 1 m case (the
-# simpler one, ~40 s) runs in the slow suite
+# simpler one, 36 s in CI) runs in the slow suite
 @pytest.fixture(scope="module", params=[pytest.param("1 m", marks=pytest.mark.slow), "0.9 m"])
 def refined(request):
     text = files("breachflow.data").joinpath("closure_default.toml").read_text()

@@ -71,7 +71,7 @@ def bumpy_plateau(seed, slope, lo=-0.8, hi=1.0, dx=1.0, angle_deg=0.0):
                                     "north": [BC.wall()], "south": [BC.wall()]})
 
 
-#: cell sizes of the pile scenes: the 0.5 m cells (4x the cost) in the slow suite (``tasks.py test --slow``)
+#: cell sizes of the pile scenes: the 0.5 m cells (about 6x the 1 m cost) in the slow suite (``tasks.py test --slow``)
 DX = [1.0, pytest.param(0.5, marks=pytest.mark.slow)]
 
 CASES = [(seed, slope, 0.0) for seed in (0, 1, 2, 3) for slope in (0.0, 0.1, 0.2)] + \
