@@ -1,4 +1,6 @@
 """`breachflow run` (the README's main command) on the embedded default scenario, and `combine`."""
+from pathlib import Path
+
 import numpy as np
 import pytest
 import xarray as xr
@@ -67,6 +69,16 @@ def test_default_run_closes_the_breach_and_combines(default_run, tmp_path):
         assert ds.sizes["cycle"] == len(man["cycles"])
         assert ds.sizes["particle"] == last["masses"]
         np.testing.assert_allclose(ds.depth.isel(cycle=-1).values, rd.open_cycle(rd.last_cycle()).depth.values)
+    # the check's extra seed took the run's start state (the solves before cycle 1) instead of solving it again
+    # (breachflow.cycle.start_state; tests/cycle/test_start_state.py: the same cycles to the bit)
+    own = man["metadata"]["initial"]["start_state"]
+    assert own["solved"] and Path(own["file"]).is_file()
+    members = sorted((out / "check" / "seeds" / "members").glob("*/closure"))
+    assert members
+    for m in members:
+        initial = RunDirectory(m).manifest()["metadata"]["initial"]
+        assert initial["start_state"] == {**own, "solved": False}  # the run's own file, found from the member
+        assert initial["breach_discharge"] == q0
     # running the default again in the same place is allowed (it overwrites its own default run)
     res = runner.invoke(app, ["run", "--out", str(out), "--resume"])
     assert res.exit_code == 0, res.output

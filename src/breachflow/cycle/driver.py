@@ -218,8 +218,16 @@ class ClosureRun:
     """Drive a closure run in a run directory: ``ClosureRun(setup, run_dir, scenario_text).run()``."""
 
     def __init__(self, setup: ClosureSetup, run_dir, scenario_text: str, *, resume: bool = False,
-                 overwrite: bool = False, progress=None, metadata: dict | None = None):
+                 overwrite: bool = False, progress=None, metadata: dict | None = None, start_states=None):
         self.setup = setup
+        # the store of start states (breachflow.cycle.start_state): the run takes its start from it when one of
+        # its key is there, else writes its own there; None: the run solves its start and keeps it to itself
+        self.start_states = start_states
+        self._start_key = None
+        if start_states is not None:
+            from .start_state import reusable, start_key
+
+            self._start_key = start_key(scenario_text) if reusable(setup.solver) else None
         dom = setup.domain
         # everything is checked before the run directory is touched: a bad scenario leaves nothing behind
         setup.placement.check_inside((dom.x[0] - 0.5 * dom.dx, dom.x[-1] + 0.5 * dom.dx),
@@ -291,7 +299,16 @@ class ClosureRun:
             rec = self._initial_record()
             t0, c0 = _time.perf_counter(), _time.process_time()
             first, window_cpu = None, (None, None)
-            if s.timeline is not None:  # the breach grows and the polder fills until the start of the closure
+            stored = self._stored_start()
+            if stored is not None:  # the same start, solved by another run (breachflow.cycle.start_state)
+                from .start_state import restore_timeline
+
+                snapshot, saved = stored
+                restore_timeline(s.timeline, saved)
+                if s.timeline is not None:
+                    s.timeline.history.pop()  # its "start" record: written again below, as a run solving it does
+                    self._t_op = float(s.timeline.time)
+            elif s.timeline is not None:  # the breach grows and the polder fills until the start of the closure
                 s.timeline.begin()
                 self._t_op = float(s.timeline.time)  # an erodible bed's first flow time: the first delivery
                 # the closure window's weir, calibrated once on the open breach at its full size (the same for
@@ -302,8 +319,9 @@ class ClosureRun:
                                                                                    s.flow_sign))
                 # its CPU (with the start's own first solve when the start is the reference: handed on)
                 window_cpu = (_time.process_time() - cw, first is not None)
-            snapshot = first if first is not None else s.solver.solve(s.domain)
-            if s.timeline is not None:  # the pre-start weir calibrated on this open breach at the start
+            if stored is None:
+                snapshot = first if first is not None else s.solver.solve(s.domain)
+            if s.timeline is not None and stored is None:  # the pre-start weir calibrated on this open breach
                 snapshot = s.timeline.calibrate(snapshot, lambda prev: s.solver.solve(s.domain, initial=prev),
                                                 lambda snap: section_discharge(snap, s.breach_x, s.levee_y,
                                                                                s.flow_sign))
@@ -322,6 +340,10 @@ class ClosureRun:
                                                             "prestart": list(s.timeline.history),
                                                             "weir_calibration": list(s.timeline.calibration),
                                                             "window_calibration": dict(s.timeline.window_calibration)})
+            if stored is None and self._start_key is not None:
+                from .start_state import save
+
+                save(self.start_states, self._start_key, snapshot, s.timeline)
             self.rundir.update_metadata(initial={
                 "max_speed": MaxSpeed("0 m/s", region="domain").value(ctx0),
                 "discharge_proxy": DischargeProxy("0 m^3/s").value(ctx0),
@@ -330,7 +352,8 @@ class ClosureRun:
                 "gap_max_speed": gmax, "gap_mean_speed": gmean, "control_speed": vc if np.isfinite(vc) else None,
                 "control_y": yc if np.isfinite(yc) else None,
                 "solve_wall_time": self.initial_solve_time, "solve_cpu_time": initial_solve_cpu,
-                "window_calibration_cpu_time": window_cpu[0], "window_solve_is_start_solve": window_cpu[1]},
+                "window_calibration_cpu_time": window_cpu[0], "window_solve_is_start_solve": window_cpu[1],
+                "start_state": self._start_record(stored)},
                 warnings=list(s.warnings))
         from .leakage import undesignable_seal
 
@@ -360,6 +383,23 @@ class ClosureRun:
                             "losses_flagged": bool(last and last.losses_flagged),
                             **({"seal": self.seal.verdict} if self.seal is not None else {})})
         return self.reports
+
+    def _stored_start(self):
+        """``(snapshot, timeline state)`` of this run's start from the store of start states, or None."""
+        if self._start_key is None:
+            return None
+        from .start_state import load
+
+        return load(self.start_states, self._start_key)
+
+    def _start_record(self, stored) -> dict | None:
+        """The manifest's record of the start state: its key and file, and whether this run solved it."""
+        if self._start_key is None:
+            return None
+        from .start_state import path_of
+
+        return {"key": self._start_key, "file": str(path_of(self.start_states, self._start_key)),
+                "solved": stored is None}
 
     def _resume_seal(self, rec, snapshot) -> None:
         """The seal stage of a run whose rock dam closed without it (the run directory's final record is

@@ -16,7 +16,9 @@ therefore checks its answer (``[check]``, on by default; ``--no-check`` for a qu
 
 The extra closures are the members of an ensemble (:mod:`breachflow.ensemble`, member runner
 ``closure``, design ``members``) in ``RUN/check/``: resumed member by member, run in parallel with
-``workers > 1`` (dask), each in its own run directory. The summary — P(closure) with its Wilson 95 %
+``workers > 1`` (dask), each in its own run directory; the extra seeds take the run's start state (the
+solves before cycle 1, which do not depend on the seed) from ``RUN/check/start_states/``
+(:mod:`breachflow.cycle.start_state`) instead of solving it again. The summary — P(closure) with its Wilson 95 %
 interval, the tonnage in place over seeds × grids, the open breach's flow on both grids — is written to
 ``RUN/check.nc`` and to the manifest's ``metadata.check``; the statement says "closed" only when every
 run closed and the grids agree on the flow within ``tolerance``, and names the disagreement otherwise
@@ -36,6 +38,9 @@ import numpy as np
 from ..scenario.config import register_section
 
 GRIDS = ("uniform", "nested")
+#: the folder of ``RUN/check/`` holding the start states the run and its extra seeds share
+#: (:mod:`breachflow.cycle.start_state`; ``breachflow run`` writes the run's own there)
+START_STATES = "start_states"
 
 
 @register_section("check")
@@ -278,8 +283,10 @@ def run_check(run_dir, scenario_text: str, scenario_path=None, *, section: Check
     refine_allowed = solver == "swe" and refine is None
     coarse, fine, grid = check_members(section, res, seed, refine_allowed=refine_allowed)
     out_dir = run_dir / "check"
-    if fresh and out_dir.exists():
-        shutil.rmtree(out_dir)
+    if fresh and out_dir.exists():  # the members of an earlier check go; start states are keyed by what they solved
+        for p in out_dir.iterdir():
+            if p.name != START_STATES:
+                shutil.rmtree(p) if p.is_dir() else p.unlink()
     base = tomllib.loads(scenario_text)
     base.pop("check", None)
     half = 0.5 * res
@@ -288,8 +295,11 @@ def run_check(run_dir, scenario_text: str, scenario_path=None, *, section: Check
             continue
         table = {k: dict(v) for k, v in base.items()}
         table["hydro"] = {**table.get("hydro", {}), **hyd}
+        # the seeds share the run's start (its solves before cycle 1 do not depend on the seed)
+        options = {"start_states": f"../{START_STATES}"} if not hyd else {}
         spec = EnsembleSpec.from_dict({"ensemble": {"name": f"verdict check ({name})", "runner": "closure",
-                                                    "members": [{"closure": {"seed": s}} for s in seeds]}, **table},
+                                                    "members": [{"closure": {"seed": s}} for s in seeds],
+                                                    **({"options": options} if options else {})}, **table},
                                       path=Path(scenario_path) if scenario_path else None)
         records = _execute(spec, out_dir / name, section.workers, console)
         for s, rec in zip(seeds, records):

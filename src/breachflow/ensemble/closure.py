@@ -7,6 +7,7 @@ after, and the feasibility flag (closure achieved before the closure window ends
 """
 from __future__ import annotations
 
+import os
 from pathlib import Path
 from typing import Any, ClassVar
 
@@ -16,7 +17,10 @@ from ..units import Q_
 
 @member_runners.register("closure")
 class ClosureRunner:
-    """Closure simulation + closure window of one member (options: ``plots`` = false by default)."""
+    """Closure simulation + closure window of one member (options: ``plots`` = false by default;
+    ``start_states``: a directory where members that differ only in their placement seed share the solves
+    before their first cycle, :mod:`breachflow.cycle.start_state`; a relative path is taken from the
+    ensemble's output directory)."""
 
     sections = None
     #: the members' cycle files, whose per-cycle figures the ensemble result carries (breachflow.ensemble.cycles)
@@ -24,10 +28,11 @@ class ClosureRunner:
     outputs: ClassVar[dict[str, dict]] = {**ClosureWindowRunner.outputs, **CLOSURE_OUTPUTS}
     optional_outputs: ClassVar[frozenset[str]] = ClosureWindowRunner.optional_outputs
 
-    def __init__(self, plots: bool = False, **options):
+    def __init__(self, plots: bool = False, start_states: str | None = None, **options):
         if options:
-            raise InputError(f"member runner 'closure' takes only 'plots', got {sorted(options)}")
+            raise InputError(f"member runner 'closure' takes only 'plots' and 'start_states', got {sorted(options)}")
         self.plots = bool(plots)
+        self.start_states = None if start_states is None else str(start_states)
 
     def check(self, member: MemberScenario) -> list[str]:
         """Refuse a member whose closure scenario cannot work (``InputError`` from
@@ -67,7 +72,10 @@ class ClosureRunner:
         member.table = table
         path = member.write(run_dir / "closure_scenario.toml")
         out = run_dir / "closure"
-        res = run_closure(path, out, resume=(out / "manifest.json").exists(), plots=self.plots)
+        store = None
+        if self.start_states is not None:  # a member's directory is OUT/members/<key> (breachflow.ensemble.execute)
+            store = Path(os.path.normpath(run_dir.parent.parent / self.start_states))
+        res = run_closure(path, out, resume=(out / "manifest.json").exists(), plots=self.plots, start_states=store)
         scenario = member.scenario()
         results: dict[str, Any] = {}
         window = None

@@ -292,6 +292,12 @@ class _WarmStartSWE:
                                          far=hydro.resolve_far,
                                          far_factor=hydro.resolve_far_factor if hydro.resolve_far == "coarse" else None)
 
+    @property
+    def memoryless(self) -> bool:
+        """No state carried from one solve to the next (a run may take its start from another run's,
+        :mod:`breachflow.cycle.start_state`): true unless a region re-solve or a coarse start is set."""
+        return self.region is None and type(self.cold) is type(self.warm)
+
     def solve(self, domain, obstacles=None, initial=None):
         if initial is None:
             return self.cold.solve(domain, obstacles=obstacles, initial=initial)

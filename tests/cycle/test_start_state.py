@@ -1,0 +1,81 @@
+"""Runs that differ only in their placement seed share the solves before their first cycle
+(:mod:`breachflow.cycle.start_state`): a run that takes the stored start computes what it would have solved."""
+import json
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from breachflow.cycle.config import closure_setup
+from breachflow.cycle.main import default_scenario_text, run_closure
+from breachflow.cycle.start_state import load, path_of, reusable, start_key
+from breachflow.io import RunDirectory
+from breachflow.scenario import parse_scenario
+
+#: what a run records about its own execution, not about what it computed
+TIMING = {"wall_time", "time_dem", "time_solve", "time_output", "cpu_dem", "cpu_solve", "completed"}
+
+
+def _scenario(seed: int, cycles: int = 1) -> str:
+    text = default_scenario_text()
+    assert "max_cycles = 24\n" in text and "\nseed = 1\n" in text
+    return text.replace("max_cycles = 24\n", f"max_cycles = {cycles}\n").replace("\nseed = 1\n", f"\nseed = {seed}\n")
+
+
+def _summaries(rd):
+    return [{k: v for k, v in c["summary"].items() if k not in TIMING} for c in rd.manifest()["cycles"]]
+
+
+def test_a_run_from_the_stored_start_computes_what_it_would_have_solved(tmp_path):
+    """Seed 2 of the default scenario, one cycle: solved with the store (it writes its start there), then
+    again taking it from there. The start's flow, the timeline's pre-start history and calibrations, and the
+    cycle (its flow field, particles and summary) are the same to the bit."""
+    store = tmp_path / "starts"
+    text = _scenario(2)
+    for name in ("solved", "taken"):
+        (tmp_path / f"{name}.toml").write_text(text)
+        run_closure(tmp_path / f"{name}.toml", tmp_path / name, plots=False, start_states=store)
+    solved, taken = RunDirectory(tmp_path / "solved"), RunDirectory(tmp_path / "taken")
+    key = start_key(text)
+    assert [p.name for p in store.iterdir()] == [f"{key}.nc"]
+    meta_s, meta_t = solved.manifest()["metadata"], taken.manifest()["metadata"]
+    assert meta_s["initial"]["start_state"] == {"key": key, "file": str(path_of(store, key)), "solved": True}
+    assert meta_t["initial"]["start_state"]["solved"] is False
+    # the solves were not repeated: the set-up's CPU time is that of reading one file
+    assert meta_t["initial"]["solve_cpu_time"] < 0.1 * meta_s["initial"]["solve_cpu_time"]
+    for k in ("breach_discharge", "max_speed", "gap_mean_speed", "control_speed", "discharge_proxy"):
+        assert meta_t["initial"][k] == meta_s["initial"][k], k
+    assert meta_t["timeline_start"] == meta_s["timeline_start"]  # clock, polder, weirs, history, calibrations
+    assert _summaries(taken) == _summaries(solved)
+    with solved.open_cycle(1) as a, taken.open_cycle(1) as b:
+        assert sorted(a.data_vars) == sorted(b.data_vars)
+        for v in a.data_vars:
+            np.testing.assert_array_equal(a[v].values, b[v].values, err_msg=v)
+
+
+def test_the_key_ignores_the_seed_and_the_check_and_nothing_else():
+    text = default_scenario_text()
+    key = start_key(text)
+    assert start_key(text.replace("\nseed = 1\n", "\nseed = 7\n")) == key
+    assert start_key(text.replace("\nseeds = 2\n", "\nseeds = 3\n")) == key  # [check]
+    assert start_key(text.replace('resolution = "1 m"', 'resolution = "0.9 m"')) != key
+    assert start_key(text.replace("max_cycles = 24", "max_cycles = 23")) != key  # conservative: any other key
+
+
+def test_only_flow_models_without_memory_share_a_start():
+    text = default_scenario_text()
+    assert reusable(closure_setup(parse_scenario(text)).solver)
+    # a region re-solve keeps its region between solves
+    region = text.replace('resolution = "1 m"', 'resolution = "1 m"\nresolve = "region"')
+    assert not reusable(closure_setup(parse_scenario(region)).solver)
+
+
+def test_an_unreadable_or_foreign_start_file_is_not_taken(tmp_path):
+    key = "0" * 64
+    path_of(tmp_path, key).write_bytes(b"not a netcdf file")
+    assert load(tmp_path, key) is None
+    # a readable file written for another key (renamed): not taken
+    ds = xr.Dataset({"depth": (("y", "x"), np.zeros((2, 2)))}, attrs={"start_key": "1" * 64, "start_state": json.dumps(None)})
+    ds.to_netcdf(path_of(tmp_path, key))
+    assert load(tmp_path, key) is None
+    assert load(tmp_path, "2" * 64) is None  # no file
