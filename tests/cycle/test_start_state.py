@@ -7,6 +7,7 @@ import pytest
 import xarray as xr
 
 from breachflow.cycle.config import closure_setup
+from breachflow.cycle.driver import ClosureRun
 from breachflow.cycle.main import default_scenario_text, run_closure
 from breachflow.cycle.start_state import load, path_of, reusable, start_key
 from breachflow.io import RunDirectory
@@ -32,9 +33,9 @@ def test_a_run_from_the_stored_start_computes_what_it_would_have_solved(tmp_path
     cycle (its flow field, particles and summary) are the same to the bit."""
     store = tmp_path / "starts"
     text = _scenario(2)
-    for name in ("solved", "taken"):
+    for name, take in (("solved", False), ("taken", True)):  # the first as `breachflow run` does: solve, write
         (tmp_path / f"{name}.toml").write_text(text)
-        run_closure(tmp_path / f"{name}.toml", tmp_path / name, plots=False, start_states=store)
+        run_closure(tmp_path / f"{name}.toml", tmp_path / name, plots=False, start_states=store, take_start=take)
     solved, taken = RunDirectory(tmp_path / "solved"), RunDirectory(tmp_path / "taken")
     key = start_key(text)
     assert [p.name for p in store.iterdir()] == [f"{key}.nc"]
@@ -51,6 +52,12 @@ def test_a_run_from_the_stored_start_computes_what_it_would_have_solved(tmp_path
         assert sorted(a.data_vars) == sorted(b.data_vars)
         for v in a.data_vars:
             np.testing.assert_array_equal(a[v].values, b[v].values, err_msg=v)
+    # a run told not to take a start (`breachflow run` itself) does not, though its key is in the store
+    for take in (True, False):
+        run = ClosureRun(closure_setup(parse_scenario(text)), tmp_path / f"own_{take}", text, start_states=store,
+                         take_start=take)
+        assert (run._stored_start() is not None) is take
+        run.rundir.close()
 
 
 def test_the_key_ignores_the_seed_and_the_check_and_nothing_else():

@@ -188,11 +188,13 @@ def run_closure_cli(scenario: Path | None, out: Path, resume: bool, overwrite: b
 
     try:
         with first:
-            # with the check, the run's start state goes where the check's extra seeds take it from
+            # with the check, the run's start state goes where the check's extra seeds take it from; the run
+            # itself always solves it (a file the scenario names may have changed since an earlier run)
             from ..ensemble.check import START_STATES
 
             res = run_closure(scenario, out, resume=resume, overwrite=overwrite, progress=progress, plots=plots,
-                              on_start=on_start, start_states=Path(out) / "check" / START_STATES if check else None)
+                              on_start=on_start, start_states=Path(out) / "check" / START_STATES if check else None,
+                              take_start=False)
         rows = res.table_rows()
         checked = _check_cli(out, overwrite, console) if check else None
         if checked is not None:

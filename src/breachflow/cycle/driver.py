@@ -218,11 +218,14 @@ class ClosureRun:
     """Drive a closure run in a run directory: ``ClosureRun(setup, run_dir, scenario_text).run()``."""
 
     def __init__(self, setup: ClosureSetup, run_dir, scenario_text: str, *, resume: bool = False,
-                 overwrite: bool = False, progress=None, metadata: dict | None = None, start_states=None):
+                 overwrite: bool = False, progress=None, metadata: dict | None = None, start_states=None,
+                 take_start: bool = True):
         self.setup = setup
         # the store of start states (breachflow.cycle.start_state): the run takes its start from it when one of
-        # its key is there, else writes its own there; None: the run solves its start and keeps it to itself
+        # its key is there (unless *take_start* is false), else writes its own there; None: the run solves its
+        # start and keeps it to itself
         self.start_states = start_states
+        self.take_start = bool(take_start)
         self._start_key = None
         if start_states is not None:
             from .start_state import reusable, start_key
@@ -386,7 +389,7 @@ class ClosureRun:
 
     def _stored_start(self):
         """``(snapshot, timeline state)`` of this run's start from the store of start states, or None."""
-        if self._start_key is None:
+        if self._start_key is None or not self.take_start:
             return None
         from .start_state import load
 

@@ -119,7 +119,8 @@ class ClosureResult:
 
 
 def run_closure(scenario=None, out="runs/default", *, resume: bool = False, overwrite: bool = False,
-                progress=None, plots: bool = True, on_start=None, start_states=None) -> ClosureResult:
+                progress=None, plots: bool = True, on_start=None, start_states=None,
+                take_start: bool = True) -> ClosureResult:
     """Run the closure simulation of *scenario* (a TOML path, or None for the embedded default; with
     *resume* and no scenario, the ``scenario.toml`` stored in the run directory) in the run directory
     *out*; returns the :class:`ClosureResult`.
@@ -129,15 +130,17 @@ def run_closure(scenario=None, out="runs/default", *, resume: bool = False, over
     the scenario is parsed and checked in full before anything is written. *on_start(run)* is
     called with the :class:`~breachflow.cycle.driver.ClosureRun` once its directory is started or resumed, before any work.
     *start_states*: a directory of start states shared by runs that differ only in their placement seed
-    (:mod:`breachflow.cycle.start_state`)."""
+    (:mod:`breachflow.cycle.start_state`); with *take_start* false the run solves its start and only writes it
+    there."""
     from ..io import RunDirectory
 
     with RunDirectory(out).lock():  # held from before the first check until the plots are drawn
         return _run_closure_locked(scenario, out, resume=resume, overwrite=overwrite, progress=progress,
-                                   plots=plots, on_start=on_start, start_states=start_states)
+                                   plots=plots, on_start=on_start, start_states=start_states, take_start=take_start)
 
 
-def _run_closure_locked(scenario, out, *, resume, overwrite, progress, plots, on_start, start_states) -> ClosureResult:
+def _run_closure_locked(scenario, out, *, resume, overwrite, progress, plots, on_start, start_states,
+                        take_start) -> ClosureResult:
     from ..io import RunDirectory
 
     t0 = _time.perf_counter()
@@ -161,7 +164,7 @@ def _run_closure_locked(scenario, out, *, resume, overwrite, progress, plots, on
         source = str(path.resolve())
     setup = closure_setup(sc)
     run = ClosureRun(setup, out, text, resume=resume, overwrite=overwrite, progress=progress,
-                     metadata={"scenario_path": source}, start_states=start_states)
+                     metadata={"scenario_path": source}, start_states=start_states, take_start=take_start)
     if on_start is not None:
         on_start(run)
     run.run()
