@@ -50,10 +50,11 @@ def files(tmp_path_factory):
     """One file of every kind the package writes (name -> path)."""
     tmp = tmp_path_factory.mktemp("cfall")
     out = {}
-    run = ClosureRun(closure_setup(parse_scenario(SCENARIO)), tmp / "run", SCENARIO)
+    run = ClosureRun(closure_setup(parse_scenario(SCENARIO)), tmp / "run", SCENARIO, start_states=tmp / "starts")
     run.run()
     rd = run.rundir
     out["cycle file"] = rd.cycle_path(2)
+    (out["start state"],) = (tmp / "starts").glob("*.nc")  # breachflow.cycle.start_state
     out["trajectories"] = rd.trajectories_path(1)
     out["combine archive"] = rd.combine(tmp / "archive.nc")
 
@@ -166,7 +167,7 @@ batch = 10
     return write_result(ds, tmp / "ensemble.nc")
 
 
-KINDS = ["cycle file", "trajectories", "combine archive", "model-problem output", "settle output", "ensemble.nc",
+KINDS = ["cycle file", "start state", "trajectories", "combine archive", "model-problem output", "settle output", "ensemble.nc",
          "solve output", "window output", "check.nc", "atlas.nc"]
 
 
