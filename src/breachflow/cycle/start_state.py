@@ -20,8 +20,8 @@ there as ``<key>.nc``, and a run whose key is found there takes it instead of so
 
 A run that takes a start state computes what it would have computed: the snapshot and the timeline's state
 read back are the values it would have solved, to the bit (NetCDF float64 and JSON floats round-trip), so its
-cycles are the same (``tests/cycle/test_start_state.py``). A file that cannot be read is ignored (the run
-solves its start, and says so in its log).
+cycles are the same (``tests/cycle/test_start_state.py``). A file that cannot be read, or that holds another
+key, is not taken: the run solves its start (the manifest's ``metadata.initial.start_state.solved``).
 """
 from __future__ import annotations
 
