@@ -97,3 +97,19 @@ def test_an_unreadable_or_foreign_start_file_is_not_taken(tmp_path):
     ds.to_netcdf(path_of(tmp_path, key))
     assert load(tmp_path, key) is None
     assert load(tmp_path, "2" * 64) is None  # no file
+
+
+def test_a_run_whose_check_is_off_keeps_no_start_state(tmp_path):
+    """`breachflow run` keeps its start for the check's extra seeds; with `[check] enabled = false` no seed
+    takes it, and the run directory holds no `check/` folder."""
+    from typer.testing import CliRunner
+
+    from breachflow.cli import app
+
+    path = tmp_path / "tiny.toml"
+    path.write_text(_frozen(1) + "[check]\nenabled = false\n")
+    res = CliRunner().invoke(app, ["run", str(path), "--out", str(tmp_path / "run"), "--no-plots"])
+    assert res.exit_code == 0, res.output
+    man = RunDirectory(tmp_path / "run").manifest()
+    assert man["finished"] and man["metadata"]["initial"]["start_state"]["solved"]
+    assert not (tmp_path / "run" / "check").exists()

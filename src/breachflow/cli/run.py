@@ -197,6 +197,8 @@ def run_closure_cli(scenario: Path | None, out: Path, resume: bool, overwrite: b
                               take_start=False)
         rows = res.table_rows()
         checked = _check_cli(out, overwrite, console) if check else None
+        if check and checked is None:  # [check] enabled = false: no extra seed takes the run's start state
+            _drop_start_states(Path(out))
         if checked is not None:
             # the run's own "closed" stands only when the check confirms it (docs/verdict-check.md)
             # the run's own outcome is kept, but not called "closed" (docs/verdict-check.md)
@@ -220,6 +222,18 @@ def run_closure_cli(scenario: Path | None, out: Path, resume: bool, overwrite: b
         raise
     finally:
         console.detach_log()
+
+
+def _drop_start_states(out: Path) -> None:
+    """Remove the run's start state kept for a verdict check that does not run (and ``check/`` if it is
+    then empty)."""
+    import shutil
+
+    from ..ensemble.check import START_STATES
+
+    shutil.rmtree(out / "check" / START_STATES, ignore_errors=True)
+    if (out / "check").is_dir() and not any((out / "check").iterdir()):
+        (out / "check").rmdir()
 
 
 def _check_cli(out: Path, overwrite: bool, console):
