@@ -301,33 +301,11 @@ class ClosureRun:
             g0 = 0
             rec = self._initial_record()
             t0, c0 = _time.perf_counter(), _time.process_time()
-            first, window_cpu = None, (None, None)
             stored = self._stored_start()
             if stored is not None:  # the same start, solved by another run (breachflow.cycle.start_state)
-                from .start_state import restore_timeline
-
-                snapshot, saved = stored
-                restore_timeline(s.timeline, saved)
-                if s.timeline is not None:
-                    s.timeline.history.pop()  # its "start" record: written again below, as a run solving it does
-                    self._t_op = float(s.timeline.time)
-            elif s.timeline is not None:  # the breach grows and the polder fills until the start of the closure
-                s.timeline.begin()
-                self._t_op = float(s.timeline.time)  # an erodible bed's first flow time: the first delivery
-                # the closure window's weir, calibrated once on the open breach at its full size (the same for
-                # every start; first solved, so that no solve of this run's start comes before it)
-                cw = _time.process_time()
-                first = s.timeline.calibrate_window(lambda: s.solver.solve(s.domain),
-                                                    lambda snap: section_discharge(snap, s.breach_x, s.levee_y,
-                                                                                   s.flow_sign))
-                # its CPU (with the start's own first solve when the start is the reference: handed on)
-                window_cpu = (_time.process_time() - cw, first is not None)
-            if stored is None:
-                snapshot = first if first is not None else s.solver.solve(s.domain)
-            if s.timeline is not None and stored is None:  # the pre-start weir calibrated on this open breach
-                snapshot = s.timeline.calibrate(snapshot, lambda prev: s.solver.solve(s.domain, initial=prev),
-                                                lambda snap: section_discharge(snap, s.breach_x, s.levee_y,
-                                                                               s.flow_sign))
+                snapshot, window_cpu = self._take_start(stored), (None, None)
+            else:
+                snapshot, window_cpu = self._solve_start()
             self.initial_solve_time = _time.perf_counter() - t0
             initial_solve_cpu = _time.process_time() - c0
             from .criteria import DischargeProxy, MaxSpeed
@@ -386,6 +364,43 @@ class ClosureRun:
                             "losses_flagged": bool(last and last.losses_flagged),
                             **({"seal": self.seal.verdict} if self.seal is not None else {})})
         return self.reports
+
+    def _solve_start(self):
+        """The steady open breach the first cycle starts from, solved: under the closure in time the polder
+        filled to the start, the window's and the start's weir calibrations. Returns ``(snapshot, window_cpu)``
+        (the window calibration's CPU s and whether its solve was the start's, or Nones without a timeline)."""
+        s = self.setup
+        first, window_cpu = None, (None, None)
+        if s.timeline is not None:  # the breach grows and the polder fills until the start of the closure
+            s.timeline.begin()
+            self._t_op = float(s.timeline.time)  # an erodible bed's first flow time: the first delivery
+            # the closure window's weir, calibrated once on the open breach at its full size (the same for
+            # every start; first solved, so that no solve of this run's start comes before it)
+            cw = _time.process_time()
+            first = s.timeline.calibrate_window(lambda: s.solver.solve(s.domain),
+                                                lambda snap: section_discharge(snap, s.breach_x, s.levee_y,
+                                                                               s.flow_sign))
+            # its CPU (with the start's own first solve when the start is the reference: handed on)
+            window_cpu = (_time.process_time() - cw, first is not None)
+        snapshot = first if first is not None else s.solver.solve(s.domain)
+        if s.timeline is not None:  # the pre-start weir calibrated on this open breach at the start
+            snapshot = s.timeline.calibrate(snapshot, lambda prev: s.solver.solve(s.domain, initial=prev),
+                                            lambda snap: section_discharge(snap, s.breach_x, s.levee_y,
+                                                                           s.flow_sign))
+        return snapshot, window_cpu
+
+    def _take_start(self, stored):
+        """The start another run solved, *stored* = ``(snapshot, timeline state)``: the timeline set to its
+        state; returns the snapshot."""
+        from .start_state import restore_timeline
+
+        snapshot, saved = stored
+        tl = self.setup.timeline
+        restore_timeline(tl, saved)
+        if tl is not None:
+            tl.history.pop()  # its "start" record: written again by the caller, as for a start solved here
+            self._t_op = float(tl.time)
+        return snapshot
 
     def _stored_start(self):
         """``(snapshot, timeline state)`` of this run's start from the store of start states, or None."""
