@@ -196,6 +196,8 @@ def test_resume_without_a_scenario_uses_the_stored_one_sweeps_and_logs(tmp_path)
     res = runner.invoke(app, ["run", "--out", str(out), "--resume", "--no-plots"])
     assert res.exit_code == 0, res.output
     assert "resuming after cycle 1" in res.output and stray in res.output
+    # what runs until cycle 2 ends is cycle 2, not the set-up (its flow is read from cycle 1's file)
+    assert "cycle 2 (resumed after cycle 1): done" in res.output and "open breach (before cycle 1): done" not in res.output
     assert RunDirectory(out).completed_cycles() == [1, 2]
     assert not (out / stray).exists()
     log = (out / "run.log").read_text()

@@ -113,3 +113,57 @@ def test_a_run_whose_check_is_off_keeps_no_start_state(tmp_path):
     man = RunDirectory(tmp_path / "run").manifest()
     assert man["finished"] and man["metadata"]["initial"]["start_state"]["solved"]
     assert not (tmp_path / "run" / "check").exists()
+
+
+def test_the_finer_grid_calibrates_from_the_runs_weir_coefficient(tmp_path, monkeypatch):
+    """The verdict check's finer grid: the default scenario at 2 m calibrates its weir at the start; at 1 m the
+    calibration begins from that coefficient (``weir_coefficient``) instead of the report's, at the 2 m
+    start's polder level, and ends within the calibration's tolerance in one solve where from the report's
+    coefficient the 2 m run took more; such a run shares no start state. The check hands the run's coefficient to its
+    finer grid's closures and open-breach solve."""
+    from breachflow.cycle.timeline import CALIBRATION_TOLERANCE
+    from breachflow.ensemble import check as check_mod
+    from breachflow.ensemble.check import START_STATES, CheckSection, run_check
+    from breachflow.scenario.toml import scenario_with
+
+    coarse = scenario_with(_scenario(2), {"hydro.resolution": "2 m"})
+    fine = scenario_with(_scenario(2), {"hydro.resolution": "1 m"})
+    for name, text in (("coarse", coarse), ("fine", fine)):
+        (tmp_path / f"{name}.toml").write_text(text)
+    run_closure(tmp_path / "coarse.toml", tmp_path / "coarse", plots=False, start_states=tmp_path / "coarse" / "check" / START_STATES,
+                take_start=False)
+    start = RunDirectory(tmp_path / "coarse").manifest()["metadata"]["timeline_start"]
+    weir = start["weir_coefficient"]
+    assert weir != start["weir_calibration"][0]["weir_coefficient"]  # calibrated: not the report's
+
+    run_closure(tmp_path / "fine.toml", tmp_path / "seeded", plots=False, start_states=tmp_path / "other",
+                weir_coefficient=weir)
+    seeded = RunDirectory(tmp_path / "seeded").manifest()["metadata"]
+    steps = seeded["timeline_start"]["weir_calibration"]
+    assert steps[0]["weir_coefficient"] == weir and steps[0]["polder_level"] == start["polder_level"]
+    assert len(steps) == 1 < len(start["weir_calibration"])  # the 2 m run, from the report's: more solves
+    assert abs(steps[-1]["model_discharge"] / steps[-1]["weir_discharge"] - 1) <= CALIBRATION_TOLERANCE
+    assert seeded["initial"]["weir_calibration_from"] == weir
+    assert RunDirectory(tmp_path / "coarse").manifest()["metadata"]["initial"]["weir_calibration_from"] is None
+    assert seeded["initial"]["start_state"] is None and not (tmp_path / "other").exists()
+
+    # the check: its extra seeds take the run's start, the finer grid's closures calibrate from its coefficient
+    specs, solved = [], []
+    monkeypatch.setattr(check_mod, "_execute", lambda spec, out, workers, console: specs.append(spec) or
+                        [{"status": "error", "error_type": "Skipped", "error_message": "not run"}] * len(spec.member_values))
+    run_check(tmp_path / "coarse", coarse, section=CheckSection(seeds=2, refine_seeds=1, grid="uniform"))
+    assert [s.options for s in specs] == [{"start_states": f"../{START_STATES}"}, {"weir_coefficient": weir}]
+    monkeypatch.setattr(check_mod, "_open_breach_on", lambda sc, path, res, section, w=None: solved.append(w) or
+                        check_mod.CheckRun(label="1 m", cell_size=1.0, seed=-1, closed=None))
+    run_check(tmp_path / "coarse", coarse, section=CheckSection(seeds=1, refine_seeds=0, grid="nested"))
+    assert solved == [weir]
+
+
+@pytest.mark.parametrize("bad", [0.0, -1.37, float("nan")])
+def test_a_bad_weir_coefficient_is_refused_before_the_run_starts(tmp_path, bad):
+    from breachflow.errors import InputError
+
+    text = _scenario(2)
+    with pytest.raises(InputError, match="weir_coefficient: .* positive number"):
+        ClosureRun(closure_setup(parse_scenario(text)), tmp_path / "run", text, weir_coefficient=bad)
+    assert not (tmp_path / "run").exists()

@@ -183,6 +183,7 @@ def run_closure_cli(scenario: Path | None, out: Path, resume: bool, overwrite: b
                               "(--overwrite runs it again)", highlight=False)
             elif last:
                 console.print(f"resuming after cycle {last}", highlight=False)
+                first.label = f"cycle {last + 1} (resumed after cycle {last})"  # no set-up: its flow is stored
             else:
                 console.print("resuming: no cycle was complete, starting at cycle 1", highlight=False)
 

@@ -219,8 +219,16 @@ class ClosureRun:
 
     def __init__(self, setup: ClosureSetup, run_dir, scenario_text: str, *, resume: bool = False,
                  overwrite: bool = False, progress=None, metadata: dict | None = None, start_states=None,
-                 take_start: bool = True):
+                 take_start: bool = True, weir_coefficient: float | None = None):
         self.setup = setup
+        # the coefficient the weir calibrations begin from (the verdict check's finer grid: the run's own); a
+        # start calibrated from it is this run's own (its key does not hold the coefficient): not shared
+        self.weir_coefficient = None if weir_coefficient is None else float(weir_coefficient)
+        if self.weir_coefficient is not None:
+            if not (np.isfinite(self.weir_coefficient) and self.weir_coefficient > 0):
+                raise InputError(f"weir_coefficient: the coefficient the weir calibrations begin from must be a "
+                                 f"positive number (m^0.5/s), got {weir_coefficient!r}")
+            start_states = None
         # the store of start states (breachflow.cycle.start_state): the run takes its start from it when one of
         # its key is there (unless *take_start* is false), else writes its own there; None: the run solves its
         # start and keeps it to itself
@@ -334,7 +342,7 @@ class ClosureRun:
                 "control_y": yc if np.isfinite(yc) else None,
                 "solve_wall_time": self.initial_solve_time, "solve_cpu_time": initial_solve_cpu,
                 "window_calibration_cpu_time": window_cpu[0], "window_solve_is_start_solve": window_cpu[1],
-                "start_state": self._start_record(stored)},
+                "start_state": self._start_record(stored), "weir_calibration_from": self.weir_coefficient},
                 warnings=list(s.warnings))
         from .leakage import undesignable_seal
 
@@ -372,6 +380,7 @@ class ClosureRun:
         s = self.setup
         first, window_cpu = None, (None, None)
         if s.timeline is not None:  # the breach grows and the polder fills until the start of the closure
+            s.timeline.calibrate_from(self.weir_coefficient)
             s.timeline.begin()
             self._t_op = float(s.timeline.time)  # an erodible bed's first flow time: the first delivery
             # the closure window's weir, calibrated once on the open breach at its full size (the same for

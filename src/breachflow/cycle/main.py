@@ -120,7 +120,7 @@ class ClosureResult:
 
 def run_closure(scenario=None, out="runs/default", *, resume: bool = False, overwrite: bool = False,
                 progress=None, plots: bool = True, on_start=None, start_states=None,
-                take_start: bool = True) -> ClosureResult:
+                take_start: bool = True, weir_coefficient: float | None = None) -> ClosureResult:
     """Run the closure simulation of *scenario* (a TOML path, or None for the embedded default; with
     *resume* and no scenario, the ``scenario.toml`` stored in the run directory) in the run directory
     *out*; returns the :class:`ClosureResult`.
@@ -131,16 +131,19 @@ def run_closure(scenario=None, out="runs/default", *, resume: bool = False, over
     called with the :class:`~breachflow.cycle.driver.ClosureRun` once its directory is started or resumed, before any work.
     *start_states*: a directory of start states shared by runs that differ only in their placement seed
     (:mod:`breachflow.cycle.start_state`); with *take_start* false the run solves its start and only writes it
-    there."""
+    there. *weir_coefficient* (m^0.5/s): the weir calibrations of the closure in time begin from it instead of the
+    report's coefficient (the verdict check's finer grid: the coefficient the run calibrated; the run then
+    shares no start state)."""
     from ..io import RunDirectory
 
     with RunDirectory(out).lock():  # held from before the first check until the plots are drawn
         return _run_closure_locked(scenario, out, resume=resume, overwrite=overwrite, progress=progress,
-                                   plots=plots, on_start=on_start, start_states=start_states, take_start=take_start)
+                                   plots=plots, on_start=on_start, start_states=start_states, take_start=take_start,
+                                   weir_coefficient=weir_coefficient)
 
 
 def _run_closure_locked(scenario, out, *, resume, overwrite, progress, plots, on_start, start_states,
-                        take_start) -> ClosureResult:
+                        take_start, weir_coefficient) -> ClosureResult:
     from ..io import RunDirectory
 
     t0 = _time.perf_counter()
@@ -164,7 +167,8 @@ def _run_closure_locked(scenario, out, *, resume, overwrite, progress, plots, on
         source = str(path.resolve())
     setup = closure_setup(sc)
     run = ClosureRun(setup, out, text, resume=resume, overwrite=overwrite, progress=progress,
-                     metadata={"scenario_path": source}, start_states=start_states, take_start=take_start)
+                     metadata={"scenario_path": source}, start_states=start_states, take_start=take_start,
+                     weir_coefficient=weir_coefficient)
     if on_start is not None:
         on_start(run)
     run.run()

@@ -212,6 +212,17 @@ class Timeline:
         z, q, t, bal = self._open_breach(self.start, log=True)
         self.polder_level, self.discharge, self.time, self.balance_time = z, q, self.start, bal
 
+    def calibrate_from(self, coefficient: float | None) -> float | None:
+        """Let the weir calibrations (:meth:`calibrate_window`, :meth:`calibrate`) begin from *coefficient*
+        (m^0.5/s; the verdict check's finer grid: the coefficient the run calibrated on its own grid) instead of
+        the report's. Returns the coefficient taken, or None when there is nothing to calibrate (a fixed
+        pre-start discharge, ``calibrate_weir`` off: the weir's coefficient stays as given) or *coefficient* is
+        None."""
+        if coefficient is None or not self.calibrate_weir or self.prestart_discharge is not None:
+            return None
+        self.weir_coefficient = float(coefficient)
+        return self.weir_coefficient
+
     def calibrate(self, snapshot, solve, discharge_of):
         """Calibrate the weir's coefficient on the flow model's open breach at the start of the closure.
 

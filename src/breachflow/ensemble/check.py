@@ -18,7 +18,10 @@ The extra closures are the members of an ensemble (:mod:`breachflow.ensemble`, m
 ``closure``, design ``members``) in ``RUN/check/``: resumed member by member, run in parallel with
 ``workers > 1`` (dask), each in its own run directory; the extra seeds take the run's start state (the
 solves before cycle 1, which do not depend on the seed) from ``RUN/check/start_states/``
-(:mod:`breachflow.cycle.start_state`) instead of solving it again. The summary — P(closure) with its Wilson 95 %
+(:mod:`breachflow.cycle.start_state`) instead of solving it again; the finer grid's weir calibrations begin
+from the coefficient the run calibrated (so that the grids are compared at the same polder level when the finer
+grid's discharge is within the calibration's tolerance, with one solve where from the report's coefficient it
+takes several). The summary — P(closure) with its Wilson 95 %
 interval, the tonnage in place over seeds × grids, the open breach's flow on both grids — is written to
 ``RUN/check.nc`` and to the manifest's ``metadata.check``; the statement says "closed" only when every
 run closed and the grids agree on the flow within ``tolerance``, and names the disagreement otherwise
@@ -290,13 +293,18 @@ def run_check(run_dir, scenario_text: str, scenario_path=None, *, section: Check
     base = tomllib.loads(scenario_text)
     base.pop("check", None)
     half = 0.5 * res
+    weir = _run_weir_coefficient(man)
     for name, seeds, hyd in (("seeds", coarse, {}), ("grid", fine, grid)):
         if not seeds:
             continue
         table = {k: dict(v) for k, v in base.items()}
         table["hydro"] = {**table.get("hydro", {}), **hyd}
-        # the seeds share the run's start (its solves before cycle 1 do not depend on the seed)
-        options = {"start_states": f"../{START_STATES}"} if not hyd else {}
+        # the seeds share the run's start (its solves before cycle 1 do not depend on the seed); the finer
+        # grid's weir calibrations begin from the run's coefficient
+        if not hyd:
+            options = {"start_states": f"../{START_STATES}"}
+        else:
+            options = {"weir_coefficient": weir} if weir is not None else {}
         spec = EnsembleSpec.from_dict({"ensemble": {"name": f"verdict check ({name})", "runner": "closure",
                                                     "members": [{"closure": {"seed": s}} for s in seeds],
                                                     **({"options": options} if options else {})}, **table},
@@ -309,7 +317,7 @@ def run_check(run_dir, scenario_text: str, scenario_path=None, *, section: Check
                 runs.append(_member_run(rec, half if hyd else res, None, s))
     if section.refine and refine_allowed and section.refine_seeds == 0:
         runs.append(_open_breach_cached(out_dir / "grid" / f"open_breach_{section.grid}.json", scenario_text, sc,
-                                        scenario_path, res, section))
+                                        scenario_path, res, section, weir))
     result = judge(runs, section.tolerance, bed=bed_model(sc))
     result.wall_time, result.cpu_time = _time.perf_counter() - w0, _time.process_time() - c0
     write_check(result.dataset(), run_dir / "check.nc")
@@ -364,27 +372,36 @@ def _member_run(rec: dict, res: float, refine, seed: int) -> CheckRun:
     return _run_of(man, res, refine, seed, cpu=float(rec.get("cpu_time", math.nan)))
 
 
-def _open_breach_cached(path: Path, text: str, sc, scenario_path, res: float, section: CheckSection) -> CheckRun:
-    """:func:`_open_breach_on`, kept in *path* (JSON) for the same scenario text: a resumed check does not
-    solve it again."""
+def _run_weir_coefficient(man: dict) -> float | None:
+    """The weir coefficient the run calibrated at its start (the manifest's ``metadata.timeline_start``), or
+    None (no closure in time)."""
+    value = (man.get("metadata", {}).get("timeline_start") or {}).get("weir_coefficient")
+    return None if value is None else float(value)
+
+
+def _open_breach_cached(path: Path, text: str, sc, scenario_path, res: float, section: CheckSection,
+                        weir: float | None = None) -> CheckRun:
+    """:func:`_open_breach_on`, kept in *path* (JSON) for the same scenario text and weir coefficient: a
+    resumed check does not solve it again."""
     import dataclasses
     import hashlib
 
     from .io import read_json, write_record
 
-    key = hashlib.sha256(text.encode()).hexdigest()
+    key = hashlib.sha256((text + ("" if weir is None else f"\nweir_coefficient = {weir!r}")).encode()).hexdigest()
     rec = read_json(path)
     if rec and rec.get("scenario_sha256") == key:
         return CheckRun(**{k: math.nan if v is None and k != "closed" else v for k, v in rec["run"].items()})
-    run = _open_breach_on(sc, scenario_path, res, section)
+    run = _open_breach_on(sc, scenario_path, res, section, weir)
     path.parent.mkdir(parents=True, exist_ok=True)
     write_record(path, {"scenario_sha256": key, "run": {k: _f(v) if isinstance(v, float) else v
                                                              for k, v in dataclasses.asdict(run).items()}})
     return run
 
 
-def _open_breach_on(sc, scenario_path, res: float, section: CheckSection) -> CheckRun:
-    """The open breach solved on the finer grid (no closure): its discharge and gap speeds."""
+def _open_breach_on(sc, scenario_path, res: float, section: CheckSection, weir: float | None = None) -> CheckRun:
+    """The open breach solved on the finer grid (no closure): its discharge and gap speeds; the weir calibration
+    begins from *weir* (the run's coefficient), as the finer grid's closures do."""
     from ..cycle.config import closure_setup
     from ..cycle.criteria import control_speed, gap_section_speeds, section_discharge
 
@@ -400,6 +417,7 @@ def _open_breach_on(sc, scenario_path, res: float, section: CheckSection) -> Che
         setup = closure_setup(sc)
         tl = setup.timeline
         if tl is not None:  # the closure in time: the open breach at the start, as the run on the coarser grid
+            tl.calibrate_from(weir)
             tl.begin()
         snap = setup.solver.solve(setup.domain)
         if tl is not None:

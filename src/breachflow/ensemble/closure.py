@@ -19,8 +19,9 @@ from ..units import Q_
 class ClosureRunner:
     """Closure simulation + closure window of one member (options: ``plots`` = false by default;
     ``start_states``: a directory where members that differ only in their placement seed share the solves
-    before their first cycle, :mod:`breachflow.cycle.start_state`; a relative path is taken from the
-    ensemble's output directory)."""
+    before their first cycle, :mod:`breachflow.cycle.start_state`; a relative path is taken from the ensemble's
+    output directory; ``weir_coefficient``: the coefficient (m^0.5/s) the members' weir calibrations begin from,
+    the verdict check's finer grid: the run's own)."""
 
     sections = None
     #: the members' cycle files, whose per-cycle figures the ensemble result carries (breachflow.ensemble.cycles)
@@ -28,11 +29,18 @@ class ClosureRunner:
     outputs: ClassVar[dict[str, dict]] = {**ClosureWindowRunner.outputs, **CLOSURE_OUTPUTS}
     optional_outputs: ClassVar[frozenset[str]] = ClosureWindowRunner.optional_outputs
 
-    def __init__(self, plots: bool = False, start_states: str | None = None, **options):
+    def __init__(self, plots: bool = False, start_states: str | None = None, weir_coefficient: float | None = None,
+                 **options):
         if options:
-            raise InputError(f"member runner 'closure' takes only 'plots' and 'start_states', got {sorted(options)}")
+            raise InputError(f"member runner 'closure' takes only 'plots', 'start_states' and 'weir_coefficient', got "
+                             f"{sorted(options)}")
         self.plots = bool(plots)
         self.start_states = None if start_states is None else str(start_states)
+        try:
+            self.weir_coefficient = None if weir_coefficient is None else float(weir_coefficient)
+        except (TypeError, ValueError):
+            raise InputError(f"member runner 'closure': weir_coefficient must be a number (m^0.5/s), got "
+                             f"{weir_coefficient!r}") from None
 
     def check(self, member: MemberScenario) -> list[str]:
         """Refuse a member whose closure scenario cannot work (``InputError`` from
@@ -75,7 +83,8 @@ class ClosureRunner:
         store = None
         if self.start_states is not None:  # a member's directory is OUT/members/<key> (breachflow.ensemble.execute)
             store = Path(os.path.normpath(run_dir.parent.parent / self.start_states))
-        res = run_closure(path, out, resume=(out / "manifest.json").exists(), plots=self.plots, start_states=store)
+        res = run_closure(path, out, resume=(out / "manifest.json").exists(), plots=self.plots, start_states=store,
+                          weir_coefficient=self.weir_coefficient)
         scenario = member.scenario()
         results: dict[str, Any] = {}
         window = None
