@@ -229,6 +229,7 @@ class ClosureRun:
                 raise InputError(f"weir_coefficient: the coefficient the weir calibrations begin from must be a "
                                  f"positive number (m^0.5/s), got {weir_coefficient!r}")
             start_states = None
+        self._weir_taken = None  # the coefficient the start's calibration began from, when it was taken
         # the store of start states (breachflow.cycle.start_state): the run takes its start from it when one of
         # its key is there (unless *take_start* is false), else writes its own there; None: the run solves its
         # start and keeps it to itself
@@ -342,7 +343,7 @@ class ClosureRun:
                 "control_y": yc if np.isfinite(yc) else None,
                 "solve_wall_time": self.initial_solve_time, "solve_cpu_time": initial_solve_cpu,
                 "window_calibration_cpu_time": window_cpu[0], "window_solve_is_start_solve": window_cpu[1],
-                "start_state": self._start_record(stored), "weir_calibration_from": self.weir_coefficient},
+                "start_state": self._start_record(stored), "weir_calibration_from": self._weir_taken},
                 warnings=list(s.warnings))
         from .leakage import undesignable_seal
 
@@ -380,7 +381,7 @@ class ClosureRun:
         s = self.setup
         first, window_cpu = None, (None, None)
         if s.timeline is not None:  # the breach grows and the polder fills until the start of the closure
-            s.timeline.calibrate_from(self.weir_coefficient)
+            self._weir_taken = s.timeline.calibrate_from(self.weir_coefficient)
             s.timeline.begin()
             self._t_op = float(s.timeline.time)  # an erodible bed's first flow time: the first delivery
             # the closure window's weir, calibrated once on the open breach at its full size (the same for
