@@ -122,3 +122,76 @@ def test_the_summary_says_which_grid_differences_are_judged():
     assert rows["  grid difference of the open breach's control speed"] == "+0.30 % (tolerance 2 %)"
     for k, v in (("gap mean speed", "+10.00 %"), ("gap max speed", "+9.09 %")):
         assert rows[f"  grid difference of the open breach's {k}"].startswith(f"{v} (reported, not judged")
+
+
+def closed_after(label, size, seed, loads, *, lost=0.0, own=False):
+    """A closed run whose cycles placed *loads* (t each); *lost* carried away before its last load."""
+    r = run(label, size, seed, True, tonnage=float(sum(loads)), lost=lost, own=own)
+    r.in_place_before = float(sum(loads[:-1])) - lost
+    r.cycles = len(loads)
+    return r
+
+
+def test_a_finer_grid_that_needs_more_loads_makes_the_tonnage_grid_dependent():
+    # three seeds close after 11, 12 and 12 loads of 750 t at 4 m; the finer grid needs 15
+    coarse = [closed_after("4 m", 4, 1, [750.0] * 11, own=True), closed_after("4 m", 4, 2, [750.0] * 12),
+              closed_after("4 m", 4, 3, [750.0] * 12, lost=30.0)]
+    fine = closed_after("2 m", 2, 1, [750.0] * 15, lost=10.0)
+    r = judge(coarse + [fine], 0.02)
+    assert r.tonnage_grid_dependent and not r.robust
+    assert r.p_closure == 1.0  # every run closed: the verdict agrees, the amount does not
+    # needed at 4 m: from 10 loads (7,500 t) to 12 loads (9,000 t); at 2 m: 14 loads - 10 t to 15 loads - 10 t
+    assert r.statement == ("closed in every run, but unconfirmed; the tonnage depends on the grid (needed: "
+                           "7,500-9,000 t at 4 m, 10,490-11,240 t at 2 m; the ranges do not overlap)")
+    rows = dict(r.rows())
+    assert rows["  tonnage at 4 m"] == "8,250-9,000 t in place (3 seeds); needed 7,500-9,000 t"
+    assert rows["  tonnage at 2 m"] == "11,240 t in place (1 seed); needed 10,490-11,240 t"
+    assert rows["  tonnage needed on the grids"].startswith("ranges do not overlap")
+    s = r.summary()
+    assert s["tonnage_grid_dependent"] is True
+    assert s["tonnage_by_grid_t"]["2 m"] == {"in_place": [11_240.0, 11_240.0], "needed": [10_490.0, 11_240.0],
+                                             "closed_runs": 1}
+    assert r.dataset().attrs["tonnage_grid_dependent"] == 1
+
+
+def test_tonnage_known_to_one_load_overlaps_where_the_end_values_miss_by_a_tonne():
+    # 4 m ends at 8,167-8,907.5 t, the finer grid at 8,908.3 t after as many loads: the same tonnage to the load
+    coarse = [closed_after("4 m", 4, 1, [742.5] * 11, own=True), closed_after("4 m", 4, 2, [742.3] * 12)]
+    fine = closed_after("2 m nested", 2, 1, [742.36] * 12)
+    assert max(r.in_place for r in coarse) < fine.in_place  # the end values alone do not overlap
+    r = judge(coarse + [fine], 0.02)
+    assert not r.tonnage_grid_dependent and r.robust
+    assert r.statement.startswith("closed in all 3 runs")
+    assert dict(r.rows())["  tonnage needed on the grids"] == "ranges overlap"
+
+
+def test_a_flow_difference_and_a_tonnage_difference_are_both_named():
+    r = judge([closed_after("4 m", 4, 1, [500.0] * 4, own=True), closed_after("2 m", 2, 1, [500.0] * 7)], 0.02)
+    assert r.robust is False and r.tonnage_grid_dependent
+    r2 = judge([closed_after("4 m", 4, 1, [500.0] * 4, own=True),
+                run("2 m", 2, 1, True, q=1800 * 1.03, tonnage=3500.0)], 0.02)
+    assert "breach discharge +3.0 %" in r2.statement and "the tonnage depends on the grid" in r2.statement
+
+
+def test_one_grid_or_unclosed_runs_make_no_tonnage_comparison():
+    r = judge([closed_after("4 m", 4, 1, [500.0] * 4, own=True), closed_after("4 m", 4, 2, [500.0] * 9)], 0.02)
+    assert not r.tonnage_grid_dependent and r.robust and len(r.tonnage_by_grid) == 1
+    assert not any(k.startswith("  tonnage at") for k, _ in r.rows())
+    r = judge([closed_after("4 m", 4, 1, [500.0] * 4, own=True),
+               run("2 m", 2, 1, False, verdict="not closable: 9 lost")], 0.02)
+    assert not r.tonnage_grid_dependent and r.statement.startswith("grid-dependent")
+
+
+def test_a_run_read_from_its_manifest_knows_the_tonnage_before_its_last_load():
+    from breachflow.ensemble.check import _run_of
+
+    def cycle(k, tonnage, lost, closed=False):
+        return {"cycle": k, "summary": {"cycle": k, "tonnage": tonnage, "lost_tonnage": lost, "closed": closed}}
+
+    man = {"cycles": [cycle(1, 700.0, 0.0), cycle(2, 1400.0, 40.0), cycle(3, 2150.0, 55.0, closed=True)],
+           "final": {"verdict": "closed"}, "metadata": {"initial": {"breach_discharge": 100.0}}}
+    r = _run_of(man, 4.0, None, 1)
+    assert r.closed and r.in_place == 2150.0 - 55.0 and r.in_place_before == 1400.0 - 40.0
+    assert r.needed == (1360.0, 2095.0)
+    one = _run_of({"cycles": [cycle(1, 700.0, 0.0, closed=True)], "final": {}, "metadata": {}}, 4.0, None, 1)
+    assert one.needed == (0.0, 700.0)  # closed by its first load: it needed more than nothing

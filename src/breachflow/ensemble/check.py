@@ -22,10 +22,11 @@ solves before cycle 1, which do not depend on the seed) from ``RUN/check/start_s
 from the coefficient the run calibrated (so that the grids are compared at the same polder level when the finer
 grid's discharge is within the calibration's tolerance, with one solve where from the report's coefficient it
 takes several). The summary — P(closure) with its Wilson 95 %
-interval, the tonnage in place over seeds × grids, the open breach's flow on both grids — is written to
-``RUN/check.nc`` and to the manifest's ``metadata.check``; the statement says "closed" only when every
-run closed and the grids agree on the flow within ``tolerance``, and names the disagreement otherwise
-("grid-dependent: closed at 4 m, not closable at 2 m").
+interval, the tonnage in place over seeds × grids and per grid, the open breach's flow on both grids — is
+written to ``RUN/check.nc`` and to the manifest's ``metadata.check``; the statement says "closed" only when
+every run closed, the grids agree on the flow within ``tolerance`` and their tonnage ranges over the seeds
+overlap, and names the disagreement otherwise ("grid-dependent: closed at 4 m, not closable at 2 m"; "closed
+in every run, but unconfirmed; the tonnage depends on the grid (...)").
 """
 from __future__ import annotations
 
@@ -106,12 +107,22 @@ class CheckRun:
     #: open breach's mean speed at its control section (where the flow passes critical depth), m/s
     control_speed: float = math.nan
     cpu: float = math.nan            #: CPU s of the closure (or solve), NaN when unknown
+    #: tonnage in place after the cycle before the last (t; NaN: not known). A closure is judged after each load,
+    #: so a run that closed needed more than this and at most :attr:`in_place` (:attr:`needed`)
+    in_place_before: float = math.nan
     own: bool = False                #: the checked run itself
     error: str = ""
 
     @property
     def in_place(self) -> float:
         return self.tonnage - (self.lost_tonnage if np.isfinite(self.lost_tonnage) else 0.0)
+
+    @property
+    def needed(self) -> tuple[float, float]:
+        """``(low, high)`` (t): the tonnage in place the closure needed lies between the tonnage before its
+        last load and after it (the tonnage in place itself when the one before is not known)."""
+        before = self.in_place_before
+        return (float(before) if np.isfinite(before) else float(self.in_place), float(self.in_place))
 
     @property
     def outcome(self) -> str:
@@ -134,6 +145,10 @@ class CheckResult:
     p_closure: float = math.nan
     p_interval: tuple = (math.nan, math.nan)
     tonnage_range: tuple = (math.nan, math.nan)   #: tonnage in place over the closed runs (t)
+    #: per grid label, the tonnage of its closed runs (:class:`GridTonnage`)
+    tonnage_by_grid: dict = field(default_factory=dict)
+    #: the grids' ranges of the tonnage needed do not overlap (:func:`tonnage_overlap`): it depends on the cell size
+    tonnage_grid_dependent: bool = False
     flow_difference: dict = field(default_factory=dict)  #: relative difference fine vs coarse
     wall_time: float = 0.0
     cpu_time: float = 0.0
@@ -158,6 +173,11 @@ class CheckResult:
                         f"95 % interval {lo:.2f}-{hi:.2f})"))
         if np.isfinite(self.tonnage_range[0]):
             out.append(("tonnage in place over the closed runs", f"{self.tonnage_range[0]:,.0f}-{self.tonnage_range[1]:,.0f} t"))
+        if len(self.tonnage_by_grid) > 1:
+            for g, t in self.tonnage_by_grid.items():
+                out.append((f"  tonnage at {g}", t.words()))
+            out.append(("  tonnage needed on the grids", "ranges do not overlap: it depends on the cell size"
+                        if self.tonnage_grid_dependent else "ranges overlap"))
         for r in self.runs:
             what = r.outcome if not r.error else f"failed: {r.error}"
             extra = "" if r.closed is None else f", {r.cycles} cycles, {r.in_place:,.0f} t in place"
@@ -177,9 +197,13 @@ class CheckResult:
         return {"statement": self.statement, "robust": self.robust, "bed_model": self.bed, "p_closure": _f(self.p_closure),
                 "p_closure_interval": [_f(v) for v in self.p_interval],
                 "tonnage_in_place_range_t": [_f(v) for v in self.tonnage_range],
+                "tonnage_by_grid_t": {g: {"in_place": [_f(t.low), _f(t.high)], "needed": [_f(t.needed_low), _f(t.needed_high)],
+                                          "closed_runs": t.runs} for g, t in self.tonnage_by_grid.items()},
+                "tonnage_grid_dependent": self.tonnage_grid_dependent,
                 "flow_difference": {k: _f(v) for k, v in self.flow_difference.items()}, "tolerance": self.tolerance,
                 "runs": [{"label": r.label, "cell_size_m": r.cell_size, "seed": r.seed, "outcome": r.outcome,
                           "verdict": r.verdict, "tonnage_t": _f(r.tonnage), "lost_tonnage_t": _f(r.lost_tonnage),
+                          "in_place_before_last_load_t": _f(r.in_place_before),
                           "cycles": r.cycles, "open_breach_discharge_m3_s": _f(r.discharge),
                           "open_gap_mean_speed_m_s": _f(r.gap_mean_speed), "open_gap_max_speed_m_s": _f(r.gap_max_speed),
                           "open_control_speed_m_s": _f(r.control_speed),
@@ -207,6 +231,8 @@ class CheckResult:
                                   "flag_meanings": "not_run no yes"}),
             "tonnage": var([r.tonnage for r in rs], "t", "tonnage placed"),
             "lost_tonnage": var([r.lost_tonnage for r in rs], "t", "tonnage carried out of the breach area"),
+            "in_place_before_last_load": var([r.in_place_before for r in rs], "t",
+                                             "tonnage in place after the cycle before the last"),
             "cycles": var([r.cycles for r in rs], "1", "closure cycles run", np.int64),
             "open_breach_discharge": var([r.discharge for r in rs], "m3 s-1", "breach discharge of the open breach"),
             "open_gap_mean_speed": var([r.gap_mean_speed for r in rs], "m s-1",
@@ -220,6 +246,7 @@ class CheckResult:
         ds.attrs.update(title="breachflow verdict check", statement=self.statement, robust=int(self.robust),
                         p_closure=_f(self.p_closure), p_closure_interval=f"{self.p_interval[0]:.4f} {self.p_interval[1]:.4f}",
                         tonnage_in_place_range_t=f"{self.tonnage_range[0]:.1f} {self.tonnage_range[1]:.1f}",
+                        tonnage_grid_dependent=int(self.tonnage_grid_dependent),
                         tolerance=self.tolerance, Conventions="CF-1.8", bed_model=self.bed,
                         **{f"grid_difference_{k.replace(' ', '_')}": v for k, v in self.flow_difference.items()})
         ds.attrs = {k: v for k, v in ds.attrs.items() if v is not None}  # no P(closure) without a closure run
@@ -352,6 +379,9 @@ def _run_of(man: dict, res: float, refine, seed: int, *, own: bool = False, cpu:
     """A :class:`CheckRun` from a closure run's manifest."""
     cycles = man.get("cycles", [])
     last = cycles[-1]["summary"] if cycles else {}
+    before = cycles[-2]["summary"] if len(cycles) > 1 else {"tonnage": 0.0, "lost_tonnage": 0.0}
+    in_place_before = (float(before.get("tonnage", math.nan)) - float(before.get("lost_tonnage", 0.0))
+                       if cycles else math.nan)
     ini = man.get("metadata", {}).get("initial", {})
     verdict = str(man.get("final", {}).get("verdict", ""))
     return CheckRun(label=_label(res, refine), cell_size=float(refine or res), seed=seed, closed=bool(last.get("closed")),
@@ -361,7 +391,7 @@ def _run_of(man: dict, res: float, refine, seed: int, *, own: bool = False, cpu:
                     gap_mean_speed=float(ini.get("gap_mean_speed", math.nan)),
                     gap_max_speed=float(ini.get("gap_max_speed", math.nan)),
                     control_speed=float(ini.get("control_speed") if ini.get("control_speed") is not None else math.nan),
-                    cpu=cpu, own=own)
+                    cpu=cpu, own=own, in_place_before=in_place_before)
 
 
 def _member_run(rec: dict, res: float, refine, seed: int) -> CheckRun:
@@ -465,6 +495,10 @@ def judge(runs: list[CheckRun], tolerance: float, *, bed: str = "") -> CheckResu
     placed = [r.in_place for r in done if r.closed]
     if placed:
         out.tonnage_range = (float(min(placed)), float(max(placed)))
+    for r in done:
+        if r.closed:
+            out.tonnage_by_grid.setdefault(r.label, GridTonnage()).add(r)
+    out.tonnage_grid_dependent = not tonnage_overlap(out.tonnage_by_grid)
     coarse = runs[0]
     size = coarse.cell_size
     fine = [r for r in runs if r.cell_size < size and not r.error and np.isfinite(r.discharge)]
@@ -489,6 +523,11 @@ def judge(runs: list[CheckRun], tolerance: float, *, bed: str = "") -> CheckResu
             f"{k} {100 * v:+.1f} %" for k, v in flow_off.items()) + f" on the finer grid, tolerance {100 * tolerance:g} %)"
     if failed:
         grid_note += f"; {len(failed)} check run(s) failed"
+    tonnage_note = ""
+    if out.tonnage_grid_dependent:
+        tonnage_note = ("; the tonnage depends on the grid (needed: " + ", ".join(
+            f"{t.needed_low:,.0f}-{t.needed_high:,.0f} t at {g}" for g, t in out.tonnage_by_grid.items())
+            + "; the ranges do not overlap)")
     if len({w for w in words.values()}) > 1 and any(all(r.closed for r in rs) for rs in by_grid.values()) \
             and any(not any(r.closed for r in rs) for rs in by_grid.values()):
         out.verdict = "grid-dependent: " + ", ".join(f"{w} at {g}" for g, w in words.items()) + grid_note
@@ -496,8 +535,8 @@ def judge(runs: list[CheckRun], tolerance: float, *, bed: str = "") -> CheckResu
         out.verdict = (f"seed-dependent: closed in {k} of {n} runs (P(closure) = {k / n:.2f}; "
                          + ", ".join(f"{w} at {g}" for g, w in words.items()) + ")" + grid_note)
     elif n and k == n:
-        if flow_off or failed:
-            out.verdict = "closed in every run, but unconfirmed" + grid_note
+        if flow_off or failed or tonnage_note:
+            out.verdict = "closed in every run, but unconfirmed" + grid_note + tonnage_note
         else:
             grids = ", ".join(by_grid)
             out.verdict = f"closed in all {n} runs ({grids}; {len({r.seed for r in done})} seeds)" + grid_note
@@ -508,6 +547,44 @@ def judge(runs: list[CheckRun], tolerance: float, *, bed: str = "") -> CheckResu
     else:
         out.verdict = "no check run completed" + grid_note
     return out
+
+
+@dataclass
+class GridTonnage:
+    """The tonnage of one grid's closed runs (t): ``low``-``high`` in place at their end, and ``needed_low``-
+    ``needed_high`` the range of the tonnage they needed (:attr:`CheckRun.needed`: from the lowest tonnage before
+    a last load to the highest after it)."""
+
+    low: float = math.inf
+    high: float = -math.inf
+    needed_low: float = math.inf
+    needed_high: float = -math.inf
+    runs: int = 0
+
+    def add(self, run: CheckRun) -> None:
+        a, b = run.needed
+        self.low, self.high = min(self.low, float(run.in_place)), max(self.high, float(run.in_place))
+        self.needed_low, self.needed_high = min(self.needed_low, a), max(self.needed_high, b)
+        self.runs += 1
+
+    def words(self) -> str:
+        in_place = f"{self.low:,.0f} t" if self.low == self.high else f"{self.low:,.0f}-{self.high:,.0f} t"
+        return (f"{in_place} in place ({self.runs} seed{'s' if self.runs != 1 else ''}); "
+                f"needed {self.needed_low:,.0f}-{self.needed_high:,.0f} t")
+
+
+def tonnage_overlap(by_grid: dict) -> bool:
+    """Whether the grids' ranges of the tonnage needed (``{label: GridTonnage}``) share a value: the largest
+    lower end is at most the smallest upper end (one grid or none: True).
+
+    A closure is judged after each load, so a run that closed after its k-th load needed more than the tonnage in
+    place after load k-1 and at most that after load k; the grid's range runs from the lowest of its runs' lower
+    ends to the highest upper end. The tonnage is what an engineer orders: when the finer grid needs a tonnage
+    the coarse grid's seeds do not reach (or the other way round), the check says so (docs/verdict-check.md,
+    *The tonnage on both grids*)."""
+    if len(by_grid) < 2:
+        return True
+    return max(t.needed_low for t in by_grid.values()) <= min(t.needed_high for t in by_grid.values())
 
 
 def _grid_words(rs: list[CheckRun]) -> str:
