@@ -142,10 +142,10 @@ def test_a_finer_grid_that_needs_more_loads_makes_the_tonnage_grid_dependent():
     assert r.p_closure == 1.0  # every run closed: the verdict agrees, the amount does not
     # needed at 4 m: from 10 loads (7,500 t) to 12 loads (9,000 t); at 2 m: 14 loads - 10 t to 15 loads - 10 t
     assert r.statement == ("closed in every run, but unconfirmed; the tonnage depends on the grid (needed: "
-                           "7,500-9,000 t at 4 m, 10,490-11,240 t at 2 m; the ranges do not overlap)")
+                           "over 7,500 up to 9,000 t at 4 m, over 10,490 up to 11,240 t at 2 m; the ranges do not overlap)")
     rows = dict(r.rows())
-    assert rows["  tonnage at 4 m"] == "8,250-9,000 t in place (3 seeds); needed 7,500-9,000 t"
-    assert rows["  tonnage at 2 m"] == "11,240 t in place (1 seed); needed 10,490-11,240 t"
+    assert rows["  tonnage at 4 m"] == "8,250-9,000 t in place (3 seeds); needed over 7,500 up to 9,000 t"
+    assert rows["  tonnage at 2 m"] == "11,240 t in place (1 seed); needed over 10,490 up to 11,240 t"
     assert rows["  tonnage needed on the grids"].startswith("ranges do not overlap")
     s = r.summary()
     assert s["tonnage_grid_dependent"] is True
@@ -163,6 +163,20 @@ def test_tonnage_known_to_one_load_overlaps_where_the_end_values_miss_by_a_tonne
     assert not r.tonnage_grid_dependent and r.robust
     assert r.statement.startswith("closed in all 3 runs")
     assert dict(r.rows())["  tonnage needed on the grids"] == "ranges overlap"
+
+
+def test_the_same_units_that_close_one_grid_and_not_the_other_do_not_overlap():
+    # seed 1 places the same units on both grids: 1 m closes with the 7th load, 0.5 m is still open after it
+    loads = [58.8] * 8
+    coarse = [closed_after("1 m", 1, 1, loads[:7], own=True), closed_after("1 m", 1, 2, loads[:6])]
+    fine = closed_after("0.5 m", 0.5, 1, loads)
+    assert fine.in_place_before == coarse[0].in_place  # the ranges touch at one tonnage
+    r = judge(coarse + [fine], 0.02)
+    assert r.tonnage_grid_dependent and not r.robust
+    assert "needed: over 294 up to 412 t at 1 m, over 412 up to 470 t at 0.5 m" in r.statement
+    # a run recorded without the tonnage before its last load counts its end value as enough: touching overlaps
+    point = run("0.5 m", 0.5, 1, True, tonnage=sum(loads[:7]))
+    assert judge(coarse + [point], 0.02).robust
 
 
 def test_a_flow_difference_and_a_tonnage_difference_are_both_named():

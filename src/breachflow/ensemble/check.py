@@ -119,8 +119,9 @@ class CheckRun:
 
     @property
     def needed(self) -> tuple[float, float]:
-        """``(low, high)`` (t): the tonnage in place the closure needed lies between the tonnage before its
-        last load and after it (the tonnage in place itself when the one before is not known)."""
+        """``(low, high)`` (t): the closure needed more than the tonnage in place before its last load (*low*:
+        not enough) and at most the tonnage after it (*high*); without the one before, ``low = high`` = the tonnage
+        in place, which then counts as enough (:func:`tonnage_overlap`)."""
         before = self.in_place_before
         return (float(before) if np.isfinite(before) else float(self.in_place), float(self.in_place))
 
@@ -526,8 +527,7 @@ def judge(runs: list[CheckRun], tolerance: float, *, bed: str = "") -> CheckResu
     tonnage_note = ""
     if out.tonnage_grid_dependent:
         tonnage_note = ("; the tonnage depends on the grid (needed: " + ", ".join(
-            f"{t.needed_low:,.0f}-{t.needed_high:,.0f} t at {g}" for g, t in out.tonnage_by_grid.items())
-            + "; the ranges do not overlap)")
+            f"{t.needed_words()} at {g}" for g, t in out.tonnage_by_grid.items()) + "; the ranges do not overlap)")
     if len({w for w in words.values()}) > 1 and any(all(r.closed for r in rs) for rs in by_grid.values()) \
             and any(not any(r.closed for r in rs) for rs in by_grid.values()):
         out.verdict = "grid-dependent: " + ", ".join(f"{w} at {g}" for g, w in words.items()) + grid_note
@@ -560,31 +560,49 @@ class GridTonnage:
     needed_low: float = math.inf
     needed_high: float = -math.inf
     runs: int = 0
+    #: *needed_low* was not enough (a tonnage before a closing load), else it is a run's own end value
+    low_excluded: bool = False
 
     def add(self, run: CheckRun) -> None:
         a, b = run.needed
         self.low, self.high = min(self.low, float(run.in_place)), max(self.high, float(run.in_place))
+        if a < self.needed_low:
+            self.low_excluded = a < b
+        elif a == self.needed_low:  # excluded only if no run counts it as enough
+            self.low_excluded = self.low_excluded and a < b
         self.needed_low, self.needed_high = min(self.needed_low, a), max(self.needed_high, b)
         self.runs += 1
 
+    def needed_words(self) -> str:
+        """``"over 296 up to 412 t"`` (a lower end that was not enough), or ``"412 t"`` / ``"400-412 t"``."""
+        if self.low_excluded:
+            return f"over {self.needed_low:,.0f} up to {self.needed_high:,.0f} t"
+        if self.needed_low == self.needed_high:
+            return f"{self.needed_high:,.0f} t"
+        return f"{self.needed_low:,.0f}-{self.needed_high:,.0f} t"
+
     def words(self) -> str:
         in_place = f"{self.low:,.0f} t" if self.low == self.high else f"{self.low:,.0f}-{self.high:,.0f} t"
-        return (f"{in_place} in place ({self.runs} seed{'s' if self.runs != 1 else ''}); "
-                f"needed {self.needed_low:,.0f}-{self.needed_high:,.0f} t")
+        return f"{in_place} in place ({self.runs} seed{'s' if self.runs != 1 else ''}); needed {self.needed_words()}"
 
 
 def tonnage_overlap(by_grid: dict) -> bool:
-    """Whether the grids' ranges of the tonnage needed (``{label: GridTonnage}``) share a value: the largest
-    lower end is at most the smallest upper end (one grid or none: True).
+    """Whether the grids' ranges of the tonnage needed (``{label: GridTonnage}``) share a value (one grid or
+    none: True).
 
     A closure is judged after each load, so a run that closed after its k-th load needed more than the tonnage in
     place after load k-1 and at most that after load k; the grid's range runs from the lowest of its runs' lower
-    ends to the highest upper end. The tonnage is what an engineer orders: when the finer grid needs a tonnage
+    ends (excluded: not enough) to the highest upper end. The ranges share a value when the largest lower end is
+    below the smallest upper end; at equality only when that lower end is a run's own end value (a run recorded
+    without the tonnage before its last load). The same units placed by the same seed that close one grid at
+    tonnage T and leave the other open at T therefore do not overlap. The tonnage is what an engineer orders: when the finer grid needs a tonnage
     the coarse grid's seeds do not reach (or the other way round), the check says so (docs/verdict-check.md,
     *The tonnage on both grids*)."""
     if len(by_grid) < 2:
         return True
-    return max(t.needed_low for t in by_grid.values()) <= min(t.needed_high for t in by_grid.values())
+    low = max(t.needed_low for t in by_grid.values())
+    high = min(t.needed_high for t in by_grid.values())
+    return low < high or (low == high and not any(t.low_excluded for t in by_grid.values() if t.needed_low == low))
 
 
 def _grid_words(rs: list[CheckRun]) -> str:
