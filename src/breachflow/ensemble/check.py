@@ -493,12 +493,12 @@ def judge(runs: list[CheckRun], tolerance: float, *, bed: str = "") -> CheckResu
         out.p_closure = k / n
         lo, hi = wilson_interval(k, n)
         out.p_interval = (float(lo), float(hi))
-    placed = [r.in_place for r in done if r.closed]
-    if placed:
-        out.tonnage_range = (float(min(placed)), float(max(placed)))
     for r in done:
         if r.closed:
             out.tonnage_by_grid.setdefault(r.label, GridTonnage()).add(r)
+    if out.tonnage_by_grid:
+        out.tonnage_range = (min(t.low for t in out.tonnage_by_grid.values()),
+                             max(t.high for t in out.tonnage_by_grid.values()))
     out.tonnage_grid_dependent = not tonnage_overlap(out.tonnage_by_grid)
     coarse = runs[0]
     size = coarse.cell_size
