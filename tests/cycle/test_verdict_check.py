@@ -118,8 +118,8 @@ def test_the_summary_says_which_grid_differences_are_judged():
     r = judge(runs, 0.02)
     assert r.robust
     rows = dict(r.rows())
-    assert rows["  grid difference of the open breach's breach discharge"] == "+0.50 % (tolerance 2 %)"
-    assert rows["  grid difference of the open breach's control speed"] == "+0.30 % (tolerance 2 %)"
+    assert rows["  grid difference of the open breach's breach discharge"] == "+0.50 % (single states; tolerance 2 %)"
+    assert rows["  grid difference of the open breach's control speed"] == "+0.30 % (single states; tolerance 2 %)"
     for k, v in (("gap mean speed", "+10.00 %"), ("gap max speed", "+9.09 %")):
         assert rows[f"  grid difference of the open breach's {k}"].startswith(f"{v} (reported, not judged")
 

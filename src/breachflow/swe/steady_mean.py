@@ -77,13 +77,7 @@ class BatchMeans:
             return math.nan, math.nan
         n = sum(b["n"] for b in self.closed)
         mean = sum(b["q"] for b in self.closed) / n
-        m = self.batch_means()
-        if m.size < 2:
-            return mean, math.nan
-        se = float(np.std(m, ddof=1) / math.sqrt(m.size))
-        k = m.size // 2
-        drift = 0.5 * abs(m[:k].mean() - m[-k:].mean()) if k >= 2 else 0.0
-        return mean, math.hypot(se, drift)
+        return mean, batch_error(self.batch_means())
 
     def drifting(self) -> bool:
         """Do the first and the second half of the batches differ (t statistic above ``drift_t``)? Needs
@@ -114,6 +108,31 @@ class BatchMeans:
         """The fields' means over the closed batches."""
         n = sum(b["n"] for b in self.closed)
         return [sum(b["f"][i] for b in self.closed) / n for i in range(len(self.closed[0]["f"]))]
+
+
+def batch_error(batch_means) -> float:
+    """Error of the mean of consecutive batch means *m* (``BatchMeans.stats``): the standard error
+    ``sd(m) / sqrt(K)`` and, from 4 batches on, half the difference between the means of the first and the
+    second half of the batches, added in quadrature. NaN below 2 batches."""
+    m = np.asarray(batch_means, float)
+    if m.size < 2:
+        return math.nan
+    se = float(np.std(m, ddof=1) / math.sqrt(m.size))
+    k = m.size // 2
+    drift = 0.5 * abs(m[:k].mean() - m[-k:].mean()) if k >= 2 else 0.0
+    return math.hypot(se, drift)
+
+
+def series_mean(values, batches: int = 8) -> tuple[float, float]:
+    """Mean of an equally spaced record *values* and its error: the record cut into *batches* consecutive
+    batches of (nearly) equal length (fewer when it is shorter), the error that of :func:`batch_error` on
+    their means (Law & Kelton, *Simulation Modeling and Analysis*, §9.5.3). ``(nan, nan)`` for an empty
+    record; the error is NaN below 2 samples."""
+    v = np.asarray(values, float)
+    if v.size == 0:
+        return math.nan, math.nan
+    parts = np.array_split(v, min(int(batches), v.size))
+    return float(v.mean()), batch_error([p.mean() for p in parts])
 
 
 def _merge(a: dict, b: dict) -> dict:

@@ -299,9 +299,14 @@ class _WarmStartSWE:
         return self.region is None and type(self.cold) is type(self.warm)
 
     def solve(self, domain, obstacles=None, initial=None):
-        if initial is None:
-            return self.cold.solve(domain, obstacles=obstacles, initial=initial)
-        return (self.region or self.warm).solve(domain, obstacles=obstacles, initial=initial)
+        self._used = self.cold if initial is None else (self.region or self.warm)
+        return self._used.solve(domain, obstacles=obstacles, initial=initial)
+
+    @property
+    def last(self):
+        """The simulation of the last solve (:class:`~breachflow.swe.solver.SWESimulation`), None before one."""
+        used = self.__dict__.get("_used")
+        return None if used is None else used.last
 
 
 class _StageSolver:
@@ -321,6 +326,11 @@ class _StageSolver:
         d = replace(domain, boundaries=self.site.with_level(level).boundaries)
         _copy_spacing(domain, d)
         return self.inner.solve(d, obstacles=obstacles, initial=initial)
+
+    @property
+    def last(self):
+        """The simulation of the last solve, as the inner solver keeps it."""
+        return getattr(self.inner, "last", None)
 
 
 def _jsonable(obj):
