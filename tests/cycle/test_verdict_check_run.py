@@ -25,7 +25,7 @@ def short_scenario(tmp_path, **check):
 
 @pytest.mark.slow
 def test_run_reports_the_check_writes_check_nc_and_resumes(tmp_path):
-    scen = short_scenario(tmp_path)
+    scen = short_scenario(tmp_path, flow_mean_windows=0)  # the open breach's single accepted states
     out = tmp_path / "run"
     res = runner.invoke(app, ["run", str(scen), "--out", str(out), "--no-plots"], terminal_width=300)
     assert res.exit_code == 0, res.output
@@ -56,6 +56,31 @@ def test_run_reports_the_check_writes_check_nc_and_resumes(tmp_path):
     ds2 = xr.open_dataset(out / "check.nc")
     assert ds2.attrs["statement"] == ds.attrs["statement"]
     np.testing.assert_array_equal(ds2["open_breach_discharge"].values, ds["open_breach_discharge"].values)
+
+
+@pytest.mark.slow
+def test_the_check_compares_the_open_breach_as_time_means_by_default(tmp_path):
+    scen = short_scenario(tmp_path)
+    out = tmp_path / "run"
+    res = runner.invoke(app, ["run", str(scen), "--out", str(out), "--no-plots"], terminal_width=300)
+    assert res.exit_code == 0, res.output
+    ds = xr.open_dataset(out / "check.nc")
+    # the run itself, one more seed at 2 m, the open breach marched at 2 m and on the nested 1 m grid
+    assert list(ds["cell_size"].values) == [2.0, 2.0, 2.0, 1.0]
+    assert list(ds["closure_achieved"].values[2:]) == [-1, -1]
+    interval = ds["open_flow_mean_interval"].values
+    assert interval[0] == 0 and interval[2] > 0 and interval[3] > 0
+    assert np.all(ds["open_breach_discharge_error"].values[2:] > 0)
+    man = json.loads((out / "manifest.json").read_text())
+    check = man["metadata"]["check"]
+    coarse, fine = check["runs"][2], check["runs"][3]
+    d = fine["open_breach_discharge_m3_s"] / coarse["open_breach_discharge_m3_s"] - 1
+    assert check["flow_difference"]["breach discharge"] == pytest.approx(d)
+    assert check["flow_difference_error"]["breach discharge"] > 0
+    assert check["flow_mean_interval_s"] == [coarse["open_flow_mean_interval_s"], fine["open_flow_mean_interval_s"]]
+    judged = abs(d) + 2 * check["flow_difference_error"]["breach discharge"] > check["tolerance"]
+    assert ("breach discharge" in check["statement"].split("grid-converged")[-1]) == judged
+    assert "time means over" in res.output
 
 
 @pytest.mark.slow

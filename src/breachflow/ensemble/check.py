@@ -215,8 +215,8 @@ class CheckResult:
             if r.mean_interval > 0:
                 what = f"open breach, time mean over {r.mean_interval:.0f} s"
             out.append((f"  {who}{' (this run)' if r.own else ''}",
-                        f"{what}{extra}; open breach {r.discharge:,.0f}{_pm(r.discharge_error, '{:,.0f}')} m³/s, "
-                        f"control speed {r.control_speed:.2f}{_pm(r.control_speed_error, '{:.2f}')} m/s, "
+                        f"{what}{extra}; open breach {_value_error(r.discharge, r.discharge_error, 0)} m³/s, "
+                        f"control speed {_value_error(r.control_speed, r.control_speed_error, 2)} m/s, "
                         f"gap speed {r.gap_mean_speed:.2f} mean / {r.gap_max_speed:.2f} max m/s"))
         judged = judged_flow(self.flow_difference)
         marched = all(t > 0 for t in self.flow_mean_intervals)
@@ -318,6 +318,15 @@ def write_check(ds, path) -> Path:
 
 def _f(v):
     return None if v is None or not np.isfinite(v) else float(v)
+
+
+def _value_error(value: float, err: float, decimals: int) -> str:
+    """*value* with *decimals* decimals, or ``value ± err`` to the error's second significant digit (at least
+    *decimals*) when the error is known."""
+    if not (np.isfinite(err) and err > 0 and np.isfinite(value)):
+        return f"{value:,.{decimals}f}"
+    d = max(decimals, 1 - int(math.floor(math.log10(err))))
+    return f"{value:,.{d}f} ± {err:,.{d}f}"
 
 
 def _pm(err: float, fmt: str) -> str:
