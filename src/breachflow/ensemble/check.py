@@ -560,7 +560,7 @@ def _flow_figures(snap, setup) -> dict:
 def open_breach_mean(sim, setup, windows: int, batches: int = FLOW_MEAN_BATCHES) -> tuple[dict, float]:
     """March the accepted open breach *sim* (:class:`~breachflow.swe.solver.SWESimulation`) on for *windows*
     steady windows (its ``history.window``, else one long-wave crossing of the domain) and read the flow
-    figures of *setup* (:func:`_flow_figures`) :data:`FLOW_MEAN_SAMPLES` times per check interval of its steady
+    figures of *setup* (``_flow_figures``: :data:`FLOW_FIGURES`) :data:`FLOW_MEAN_SAMPLES` times per check interval of its steady
     test; the first half of the march is left out
     as the transient a steady test may accept too early (Law & Kelton's rule of the discarded warm-up), the second
     half gives each figure's time mean and its error (:func:`~breachflow.swe.steady_mean.series_mean`: batch
@@ -625,10 +625,8 @@ def judge(runs: list[CheckRun], tolerance: float, *, bed: str = "") -> CheckResu
                           ("gap mean speed", "gap_mean_speed"), ("gap max speed", "gap_max_speed")):
             a, b = getattr(coarse, key), getattr(f, key)
             if np.isfinite(a) and np.isfinite(b) and a != 0:
-                out.flow_difference[name] = (b - a) / abs(a)
-                ea, eb = getattr(coarse, f"{key}_error"), getattr(f, f"{key}_error")
-                # d = b/a - 1: its error from both means' errors (first order, independent)
-                out.flow_difference_error[name] = math.hypot(eb / abs(a), abs(b) * ea / (a * a))
+                out.flow_difference[name], out.flow_difference_error[name] = relative_difference(
+                    a, getattr(coarse, f"{key}_error"), b, getattr(f, f"{key}_error"))
         out.flow_mean_intervals = (coarse.mean_interval, f.mean_interval)
     by_grid: dict[str, list[CheckRun]] = {}
     for r in done:
@@ -671,6 +669,12 @@ def judge(runs: list[CheckRun], tolerance: float, *, bed: str = "") -> CheckResu
     else:
         out.verdict = "no check run completed" + grid_note
     return out
+
+
+def relative_difference(a: float, a_error: float, b: float, b_error: float) -> tuple[float, float]:
+    """``(d, u)``: the relative difference ``d = (b - a) / |a|`` of *b* from *a* and its error from both values'
+    errors (first order, independent: ``u = sqrt((e_b / a)² + (b e_a / a²)²)``; NaN when either is NaN)."""
+    return (b - a) / abs(a), math.hypot(b_error / abs(a), abs(b) * a_error / (a * a))
 
 
 def flow_pair(runs: list[CheckRun]) -> tuple[CheckRun, CheckRun | None]:
