@@ -151,12 +151,16 @@ def test_the_finer_grid_calibrates_from_the_runs_weir_coefficient(tmp_path, monk
     specs, solved = [], []
     monkeypatch.setattr(check_mod, "_execute", lambda spec, out, workers, console: specs.append(spec) or
                         [{"status": "error", "error_type": "Skipped", "error_message": "not run"}] * len(spec.member_values))
+    # the open breach (both grids, marched for the flow's time means): each solve from the run's coefficient
+    monkeypatch.setattr(check_mod, "_open_breach_on", lambda sc, path, res, section, w=None, fine=True, windows=0:
+                        solved.append((w, fine, windows)) or
+                        check_mod.CheckRun(label="1 m", cell_size=1.0, seed=-1, closed=None))
     run_check(tmp_path / "coarse", coarse, section=CheckSection(seeds=2, refine_seeds=1, grid="uniform"))
     assert [s.options for s in specs] == [{"start_states": f"../{START_STATES}"}, {"weir_coefficient": weir}]
-    monkeypatch.setattr(check_mod, "_open_breach_on", lambda sc, path, res, section, w=None: solved.append(w) or
-                        check_mod.CheckRun(label="1 m", cell_size=1.0, seed=-1, closed=None))
-    run_check(tmp_path / "coarse", coarse, section=CheckSection(seeds=1, refine_seeds=0, grid="nested"))
-    assert solved == [weir]
+    assert solved == [(weir, False, 4), (weir, True, 4)]
+    run_check(tmp_path / "coarse", coarse, section=CheckSection(seeds=1, refine_seeds=0, grid="nested",
+                                                                 flow_mean_windows=0))
+    assert solved[2:] == [(weir, True, 0)]
 
 
 @pytest.mark.parametrize("bad", [0.0, -1.37, float("nan")])
